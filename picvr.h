@@ -1,0 +1,323 @@
+/* picvr.h - progressive Monte-Carlo volume rendering with a GPU irradiance cache.
+ *
+ * picvr renders volumes (CT and MRI scans, simulations, clouds) with Monte-Carlo
+ * single scattering (Exposure Render, Kroes et al. 2012) on Vulkan, progressively:
+ * every call to picvr_step() adds samples to a running average per pixel and keeps
+ * the per-pixel sample variance, so the image and its error estimate (Eq. 5 of
+ * Khlebnikov et al., "Parallel Irradiance Caching for Interactive Monte-Carlo Direct
+ * Volume Rendering", EuroVis 2014) improve while you watch.  The irradiance cache
+ * and the three-procedure scheduler of that paper are built on top of this API.
+ *
+ * One header (this file), one implementation file (picvr_vk.c) and the SPIR-V of its
+ * compute kernels (picvr_shaders.h, generated from shaders/ and committed), MIT
+ * licensed.  Link with -lvulkan -lm.  No global state: everything lives in a
+ * picvr_context.  Every function returns a picvr_status; picvr_status_string()
+ * names it.  All config structs mean "the documented default" when zeroed.
+ *
+ * ---------------------------------------------------------------------------------
+ * EXAMPLE
+ *
+ *     picvr_context *ctx;
+ *     picvr_config cfg = {0};                        // defaults: best device, seed 0
+ *     if (picvr_create(&cfg, &ctx) != PICVR_OK) return 1;
+ *
+ *     picvr_volume_desc vol = {0};
+ *     vol.dims[0] = 256; vol.dims[1] = 256; vol.dims[2] = 256;
+ *     vol.type = PICVR_VOXEL_UINT8;                  // spacing 0 means 1,1,1
+ *     vol.data = voxels;
+ *     picvr_upload_volume(ctx, &vol);
+ *
+ *     picvr_tf_point tf[] = {                        // value, albedo rgb, opacity
+ *         {0.00f, {1, 1, 1}, 0.0f}, {0.20f, {0.9f, 0.6f, 0.4f}, 0.0f},
+ *         {0.35f, {0.9f, 0.6f, 0.4f}, 0.5f}, {1.00f, {1, 1, 1}, 1.0f}};
+ *     picvr_set_transfer_function(ctx, tf, 4, 1.0f);  // D = 1 per world unit
+ *
+ *     picvr_light sun = {0};
+ *     sun.type = PICVR_LIGHT_DIRECTIONAL;
+ *     sun.direction[0] = 1; sun.direction[1] = 1; sun.direction[2] = 1; // toward the sun
+ *     sun.angular_diameter = 0.0093f;                // radians (the real sun)
+ *     sun.color[0] = sun.color[1] = sun.color[2] = 1; sun.intensity = 3;
+ *     picvr_background sky = {{0.5f, 0.6f, 0.8f}, 0.5f};
+ *     picvr_set_lights(ctx, &sun, 1, &sky);
+ *
+ *     picvr_camera cam = {0};
+ *     cam.position[2] = 500;                         // target 0,0,0; up 0,1,0 by default
+ *     cam.width = 512; cam.height = 512;             // fov_y 0 means 40 degrees
+ *     picvr_set_camera(ctx, &cam);
+ *
+ *     for (int i = 0; i < 20; i++) picvr_step(ctx, 100.0);   // about 2 s of rendering
+ *     picvr_stats st; picvr_get_stats(ctx, &st);
+ *     printf("%u iterations, relative error %.3f\n", st.iterations, st.est_rel_error);
+ *     uint8_t *rgba = malloc(512 * 512 * 4);
+ *     picvr_read_rgba8(ctx, rgba, 512 * 512 * 4, 1.0f);
+ *     picvr_destroy(ctx);
+ *
+ * ---------------------------------------------------------------------------------
+ * CONVENTIONS
+ *
+ * World space.  The volume's box is centred at the origin; its size along axis i is
+ *   dims[i] * spacing[i] world units, so anisotropic spacing renders undistorted.
+ *   Voxel (0,0,0) is at the -x,-y,-z corner; x varies fastest in memory.
+ *   picvr_volume_box() returns the box.
+ * Sampling.  A world point x has voxel coordinates p = (x - box_min) / spacing in
+ *   [0, dims]; voxel i's centre is at p = i + 0.5; values are interpolated
+ *   trilinearly with clamp-to-edge (a 3D texture with a linear sampler).
+ * Camera.  f = normalize(target - position), r = normalize(cross(f, up)),
+ *   u = cross(r, f), h = tan(fov_y / 2), a = width / height.  Pixel (x, y), y = 0
+ *   the top row, shoots from `position` along normalize(f + (2 (x + jx) / width - 1)
+ *   h a r + (1 - 2 (y + jy) / height) h u), with the jitter jx, jy uniform in [0,1).
+ * Extinction.  sigma_t(x) = D * opacity(v(x)) per world unit, where v is the
+ *   trilinearly interpolated data value normalized to [0,1], opacity() the
+ *   transfer function and D the density factor (paper Fig. 9).  With spacing 1 the
+ *   optical thickness of one voxel is D * opacity.  sigma_s = albedo * sigma_t.
+ * Rendering.  Per pixel and iteration: one jittered primary ray, free-flight
+ *   sampling by delta tracking against a per-brick majorant grid, at the scatter
+ *   event direct light from one light chosen by power (shadow ray by ratio tracking),
+ *   isotropic phase function, multiple importance sampling (power heuristic) between
+ *   light and phase sampling for area lights, a sun with angular size and the
+ *   background.  A ray that leaves the volume sees the background (and area lights).
+ *   Single scattering only, as in Exposure Render.
+ * Units of lights (colour * intensity):  sphere and rectangle: emitted radiance;
+ *   directional: irradiance on a plane facing the light; point: radiant intensity
+ *   (W/sr); background: radiance from every direction.
+ * Random numbers are a hash of (pixel, iteration, dimension, seed): the same seed
+ *   and the same number of iterations give a bit-identical image on one device.
+ * Accumulation restarts (iterations back to 0) whenever the camera, volume,
+ *   transfer function or lights change, and on picvr_reset().
+ * Threading: a context is not thread-safe; use one per thread or lock around it.
+ *
+ * ENVIRONMENT
+ *   PICVR_DEVICE=<substring>  pick the Vulkan device whose name contains it
+ *                             (config.device_name wins over it).  Default: a
+ *                             discrete GPU, else an integrated one, else lavapipe.
+ *   PICVR_VALIDATION=1        enable the Khronos validation layer (as config.validation)
+ *   PICVR_VALIDATION=0        disable it even when config.validation asks for it.
+ */
+#ifndef PICVR_H
+#define PICVR_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define PICVR_VERSION_MAJOR 0
+#define PICVR_VERSION_MINOR 1
+
+/* Limits checked by the API (a device may impose smaller ones; they are checked too). */
+#define PICVR_MAX_LIGHTS 32          /* lights per picvr_set_lights() call */
+#define PICVR_MAX_TF_POINTS 256      /* transfer-function control points */
+#define PICVR_MAX_IMAGE_SIZE 16384   /* pixels per side */
+
+typedef enum picvr_status {
+    PICVR_OK = 0,
+    PICVR_ERROR_NULL_POINTER,          /* a required pointer argument was NULL */
+    PICVR_ERROR_INVALID_ARGUMENT,      /* an argument is out of its documented range */
+    PICVR_ERROR_NON_FINITE,            /* a NaN or infinity in the input (voxels, parameters) */
+    PICVR_ERROR_INVALID_DIMENSIONS,    /* a zero volume or image dimension */
+    PICVR_ERROR_SIZE_OVERFLOW,         /* a byte size overflows size_t or a device limit */
+    PICVR_ERROR_UNSUPPORTED_TYPE,      /* unknown voxel type, or not supported by the device */
+    PICVR_ERROR_INVALID_TRANSFER_FUNCTION, /* empty, unsorted, out-of-range points */
+    PICVR_ERROR_INVALID_LIGHT,         /* unknown type, negative intensity, degenerate shape */
+    PICVR_ERROR_TOO_MANY_LIGHTS,       /* more than PICVR_MAX_LIGHTS */
+    PICVR_ERROR_INVALID_CAMERA,        /* position == target, up parallel to view, bad fov */
+    PICVR_ERROR_BUFFER_TOO_SMALL,      /* the output buffer cannot hold the image */
+    PICVR_ERROR_NOT_READY,             /* picvr_step() before a volume and a camera were set */
+    PICVR_ERROR_NO_DEVICE,             /* no Vulkan device (or none matching the name) */
+    PICVR_ERROR_VULKAN,                /* a Vulkan call failed (see the log) */
+    PICVR_ERROR_OUT_OF_HOST_MEMORY,
+    PICVR_ERROR_OUT_OF_DEVICE_MEMORY,
+    PICVR_ERROR_DEVICE_LOST,           /* the context must be destroyed */
+    PICVR_STATUS_COUNT
+} picvr_status;
+
+/* A static English name for the status ("PICVR_OK", ...); never NULL. */
+const char *picvr_status_string(picvr_status status);
+
+typedef enum picvr_log_level {
+    PICVR_LOG_DEBUG = 0, PICVR_LOG_INFO, PICVR_LOG_WARNING, PICVR_LOG_ERROR
+} picvr_log_level;
+
+typedef void (*picvr_log_fn)(picvr_log_level level, const char *message, void *user);
+
+/* Host allocation hooks: all three functions or none (then malloc/realloc/free). */
+typedef struct picvr_allocator {
+    void *(*alloc)(size_t size, void *user);
+    void *(*realloc)(void *ptr, size_t size, void *user);
+    void (*free)(void *ptr, void *user);
+    void *user;
+} picvr_allocator;
+
+typedef struct picvr_config {
+    const char *device_name;  /* substring of the device name; NULL: PICVR_DEVICE or auto */
+    int validation;           /* 1: enable the Khronos validation layer (+sync validation);
+                                 0: only if PICVR_VALIDATION=1.  Messages go to the log at
+                                 PICVR_LOG_ERROR and are counted in stats.validation_messages */
+    uint32_t seed;            /* random seed (0 is a valid seed) */
+    picvr_log_fn log;         /* NULL: warnings and errors go to stderr */
+    void *log_user;
+    picvr_log_level log_level;/* least severe level passed to log; 0 means PICVR_LOG_WARNING */
+    picvr_allocator allocator;
+
+    /* Optional: the application's own Vulkan objects (all of instance, physical device,
+       device and queue, or none).  picvr then creates no instance or device and never
+       destroys these.  The queue must support compute; the device must have been created
+       with the features listed in README.md ("Using your own VkDevice"). */
+    void *vk_instance;        /* VkInstance */
+    void *vk_physical_device; /* VkPhysicalDevice */
+    void *vk_device;          /* VkDevice */
+    void *vk_queue;           /* VkQueue */
+    uint32_t vk_queue_family; /* family index of vk_queue */
+} picvr_config;
+
+typedef struct picvr_context picvr_context;
+
+/* Creates a context on the chosen device.  cfg may be NULL (all defaults).
+   On failure *out is NULL and nothing leaks. */
+picvr_status picvr_create(const picvr_config *cfg, picvr_context **out);
+
+/* Waits for the device, frees everything.  NULL is allowed. */
+void picvr_destroy(picvr_context *ctx);
+
+/* ---- volume ------------------------------------------------------------------ */
+
+typedef enum picvr_voxel_type {
+    PICVR_VOXEL_UINT8 = 1,
+    PICVR_VOXEL_UINT16 = 2,
+    PICVR_VOXEL_FLOAT32 = 3
+} picvr_voxel_type;
+
+typedef struct picvr_volume_desc {
+    uint32_t dims[3];         /* voxels along x, y, z; each >= 1 and <= the device's
+                                 maxImageDimension3D */
+    picvr_voxel_type type;
+    float spacing[3];         /* world size of a voxel; 0 means 1; must be finite and > 0 */
+    const void *data;         /* dims[0]*dims[1]*dims[2] voxels, x fastest; copied */
+    float value_min, value_max; /* data values that map to 0 and 1 for the transfer
+                                 function.  Both 0: 0..255 for uint8, 0..65535 for uint16,
+                                 the data's own min..max for float32.  (Use 0..4095 for
+                                 12-bit data stored in uint16.)  Values outside clamp. */
+} picvr_volume_desc;
+
+/* Copies the voxels to a 3D image on the device and builds the majorant grid.
+   float32 data must be finite (PICVR_ERROR_NON_FINITE otherwise).  On error the
+   previous volume, if any, is kept.  Resets accumulation. */
+picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *desc);
+
+/* The world-space box of the current volume (centred at the origin). */
+picvr_status picvr_volume_box(const picvr_context *ctx, float box_min[3], float box_max[3]);
+
+/* ---- transfer function --------------------------------------------------------- */
+
+typedef struct picvr_tf_point {
+    float value;      /* normalized data value in [0,1]; points sorted by value
+                         (equal values allowed: a step) */
+    float albedo[3];  /* single-scattering albedo per channel, in [0,1] */
+    float opacity;    /* extinction before the density factor, >= 0 (usually <= 1) */
+} picvr_tf_point;
+
+/* Piecewise-linear transfer function over the normalized data value; constant
+   beyond the first and last points.  density is the global density factor D >= 0
+   (0 makes the volume transparent).  Default before any call: opacity = value,
+   albedo 1, D = 1.  Resets accumulation. */
+picvr_status picvr_set_transfer_function(picvr_context *ctx, const picvr_tf_point *points,
+                                         uint32_t count, float density);
+
+/* ---- lights -------------------------------------------------------------------- */
+
+typedef enum picvr_light_type {
+    PICVR_LIGHT_SPHERE = 1,      /* position, radius > 0; emits radiance from its surface */
+    PICVR_LIGHT_RECT = 2,        /* position = centre, edge_u/edge_v full edge vectors
+                                    (not parallel); emits radiance on the side that
+                                    cross(edge_u, edge_v) points to */
+    PICVR_LIGHT_DIRECTIONAL = 3, /* direction (toward the light, any length > 0),
+                                    angular_diameter in [0, pi) radians (0: a delta light) */
+    PICVR_LIGHT_POINT = 4        /* position */
+} picvr_light_type;
+
+typedef struct picvr_light {
+    picvr_light_type type;
+    float color[3];          /* >= 0 */
+    float intensity;         /* >= 0; see "Units of lights" above */
+    float position[3];
+    float radius;
+    float direction[3];
+    float angular_diameter;
+    float edge_u[3];
+    float edge_v[3];
+} picvr_light;
+
+typedef struct picvr_background {
+    float color[3];          /* >= 0 */
+    float intensity;         /* >= 0; radiance = color * intensity from every direction */
+} picvr_background;
+
+/* Replaces all lights.  count may be 0; background may be NULL (black).  Default
+   before any call: no lights, black background (a black image).  On error the
+   previous lights are kept.  Resets accumulation. */
+picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uint32_t count,
+                              const picvr_background *background);
+
+/* ---- camera -------------------------------------------------------------------- */
+
+typedef struct picvr_camera {
+    float position[3];
+    float target[3];         /* must differ from position */
+    float up[3];             /* zero: 0,1,0; must not be parallel to target - position */
+    float fov_y_degrees;     /* vertical field of view in (0, 179]; 0 means 40 */
+    uint32_t width, height;  /* image size, 1..PICVR_MAX_IMAGE_SIZE each */
+} picvr_camera;
+
+/* Sets the pinhole camera and image size.  Resets accumulation unless the camera is
+   identical to the current one. */
+picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera);
+
+/* ---- rendering ------------------------------------------------------------------- */
+
+/* Renders progressive iterations (one sample per pixel each) for about `milliseconds`
+   of wall time, at least one iteration, then returns.  Needs a volume and a camera. */
+picvr_status picvr_step(picvr_context *ctx, double milliseconds);
+
+/* Renders exactly `iterations` progressive iterations (deterministic; for tests and
+   offline rendering). */
+picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations);
+
+/* Discards the accumulated image (iterations back to 0). */
+picvr_status picvr_reset(picvr_context *ctx);
+
+/* Reads the image, rows top to bottom, 4 bytes per pixel: colour tone-mapped as
+   1 - exp(-exposure * radiance) then sRGB-encoded; alpha = fraction of samples that
+   scattered in the volume (coverage, for compositing).  exposure <= 0 means 1.
+   size must be >= width*height*4.  Before any iteration the image is all zero. */
+picvr_status picvr_read_rgba8(picvr_context *ctx, uint8_t *pixels, size_t size, float exposure);
+
+/* Reads the linear radiance (RGB) and coverage (A), 4 floats per pixel, rows top to
+   bottom; size is in bytes and must be >= width*height*16. */
+picvr_status picvr_read_rgba32f(picvr_context *ctx, float *pixels, size_t size);
+
+typedef struct picvr_stats {
+    uint32_t iterations;         /* progressive iterations since the last reset */
+    uint32_t iterations_min;     /* fewest samples of any pixel */
+    double iterations_mean;      /* mean samples per pixel */
+    double elapsed_ms;           /* wall time spent in picvr_step* since the last reset */
+    double samples_per_second;   /* pixel samples / elapsed time */
+    double est_error;            /* image mean of 1.96*sqrt(S^2/N) of pixel luminance
+                                    (left side of Eq. 5); pixels with N < 2 are excluded */
+    double est_rel_error;        /* image mean of est_error_p / (L_p + 0.01 * mean L) */
+    double mean_luminance;       /* image mean of the pixel luminance (Rec. 709) */
+    uint64_t truncated_paths;    /* samples whose tracking loop hit its iteration bound
+                                    (biased; should stay 0 outside extreme media) */
+    uint32_t validation_messages;/* Khronos validation messages seen by this context */
+    uint32_t width, height;
+    char device_name[256];
+} picvr_stats;
+
+/* Fills *stats (reduces the per-pixel statistics on the device). */
+picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *stats);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PICVR_H */

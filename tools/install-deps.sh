@@ -1,0 +1,19 @@
+#!/bin/sh
+# Installs the Debian packages picvr needs, only those that are missing.
+# Uses apt-get as root, or through sudo when not root.  Safe to run repeatedly.
+set -e
+PKGS="gcc make pkg-config mesa-vulkan-drivers libvulkan-dev glslang-tools \
+vulkan-validationlayers vulkan-tools libstb-dev libcmocka-dev zlib1g-dev"
+missing=""
+for p in $PKGS; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing="$missing $p"
+  fi
+done
+[ -z "$missing" ] && exit 0
+echo "install-deps: installing$missing"
+SUDO=""
+[ "$(id -u)" -ne 0 ] && SUDO="sudo"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends $missing >/dev/null
