@@ -310,6 +310,7 @@ typedef struct picvr_stats {
     uint64_t truncated_paths;    /* samples whose tracking loop hit its iteration bound
                                     (biased; should stay 0 outside extreme media) */
     uint32_t validation_messages;/* Khronos validation messages seen by this context */
+    uint32_t validation_enabled; /* 1 when the validation layer is active */
     uint32_t width, height;
     char device_name[256];
 } picvr_stats;

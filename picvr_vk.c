@@ -1,0 +1,1489 @@
+/* picvr_vk.c - the Vulkan implementation of picvr.h.  See ARCHITECTURE.md for the
+ * data flow (upload -> majorant grid -> render dispatches -> accumulation buffers ->
+ * stats reduction / image readback).  One file, no global state. */
+#include "picvr.h"
+#include "picvr_shaders.h"
+
+#include <vulkan/vulkan.h>
+
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define TF_SIZE 4096               /* entries of the transfer-function table (shaders: TF_SIZE) */
+#define MAX_GRID 64                /* majorant grid cells per axis at most */
+#define STAGING_CHUNK (32u << 20)  /* bytes per volume upload slab */
+#define BATCH_TARGET_MS 100.0      /* one submission at most this long: no GPU watchdog trips */
+#define MAX_BATCH 1024u
+#define PICVR_PI 3.14159265358979323846
+
+/* ---- host mirror of the std140 uniform block in shaders/common.glsl ---- */
+typedef struct gpu_light { float p0[4], p1[4], p2[4], p3[4], p4[4]; } gpu_light;
+typedef struct gpu_scene {
+    float cam_pos[4], cam_fwd[4], cam_right[4], cam_up[4];
+    float box_min[4], box_size[4], cell_size[4];
+    uint32_t grid[4], image[4];
+    float background[4];
+    float value_map[4];
+    gpu_light lights[PICVR_MAX_LIGHTS];
+} gpu_scene;
+
+typedef struct gpu_partial { float sums[4]; uint32_t counts[4]; } gpu_partial;
+
+typedef struct buffer {
+    VkBuffer buf;
+    VkDeviceMemory mem;
+    VkDeviceSize size;
+    void *mapped;      /* non-NULL when host visible */
+    int coherent;
+} buffer;
+
+typedef struct image {
+    VkImage img;
+    VkDeviceMemory mem;
+    VkImageView view;
+} image;
+
+struct picvr_context {
+    picvr_allocator alloc;
+    picvr_log_fn log;
+    void *log_user;
+    picvr_log_level log_level;
+    uint32_t seed;
+
+    int external;                    /* instance/device belong to the application */
+    VkInstance instance;
+    VkDebugUtilsMessengerEXT messenger;
+    VkPhysicalDevice phys;
+    VkDevice device;
+    VkQueue queue;
+    uint32_t queue_family;
+    VkPhysicalDeviceProperties props;
+    VkPhysicalDeviceMemoryProperties mem_props;
+    uint32_t validation_messages;
+    int validation_enabled;
+    int device_lost;
+
+    VkCommandPool cmd_pool;
+    VkCommandBuffer cmd;
+    VkFence fence;
+    VkDescriptorSetLayout set_layout;
+    VkPipelineLayout render_layout, stats_layout;
+    VkDescriptorPool desc_pool;
+    VkDescriptorSet set;
+    VkShaderModule render_module, stats_module;
+    VkPipeline render_pipe[2];       /* [USE_PHASE_MIS] */
+    VkPipeline stats_pipe;
+    VkSampler linear_sampler;
+    VkFormat float_volume_format;    /* R32_SFLOAT, or R16_UNORM where it cannot filter */
+
+    buffer scene_ubo;                /* persistently mapped gpu_scene */
+    image tf_image;
+    buffer tf_staging;
+    image volume;
+    buffer majorant;
+    buffer accum[3];                 /* mean rgba, Kahan terms, (lum mean, M2, n, bad) */
+    buffer readback;
+    buffer partials;
+    int descriptors_dirty;
+
+    /* host state */
+    gpu_scene scene;
+    int has_volume, has_camera;
+    uint32_t dims[3];
+    float spacing[3];
+    uint32_t brick, grid[3];
+    float *brick_min, *brick_max;    /* normalized data range per brick, with apron */
+    float tf_table[TF_SIZE * 4];
+    float density;
+    int use_phase_mis;
+    picvr_camera camera;
+
+    uint32_t iterations;
+    double elapsed_ms;
+    double ms_per_iteration;         /* running estimate used to size submissions */
+    int stats_valid;
+    picvr_stats stats;
+};
+
+/* ---------------------------------------------------------------------------------- */
+/* small utilities                                                                     */
+
+const char *picvr_status_string(picvr_status s) {
+    static const char *names[PICVR_STATUS_COUNT] = {
+        "PICVR_OK", "PICVR_ERROR_NULL_POINTER", "PICVR_ERROR_INVALID_ARGUMENT",
+        "PICVR_ERROR_NON_FINITE", "PICVR_ERROR_INVALID_DIMENSIONS", "PICVR_ERROR_SIZE_OVERFLOW",
+        "PICVR_ERROR_UNSUPPORTED_TYPE", "PICVR_ERROR_INVALID_TRANSFER_FUNCTION",
+        "PICVR_ERROR_INVALID_LIGHT", "PICVR_ERROR_TOO_MANY_LIGHTS", "PICVR_ERROR_INVALID_CAMERA",
+        "PICVR_ERROR_BUFFER_TOO_SMALL", "PICVR_ERROR_NOT_READY", "PICVR_ERROR_NO_DEVICE",
+        "PICVR_ERROR_VULKAN", "PICVR_ERROR_OUT_OF_HOST_MEMORY", "PICVR_ERROR_OUT_OF_DEVICE_MEMORY",
+        "PICVR_ERROR_DEVICE_LOST"};
+    if ((unsigned)s >= PICVR_STATUS_COUNT) return "PICVR_UNKNOWN_STATUS";
+    return names[s];
+}
+
+static double now_ms(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+static void logf_(picvr_context *ctx, picvr_log_level level, const char *fmt, ...) {
+    if (level < ctx->log_level) return;
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    if (ctx->log) ctx->log(level, msg, ctx->log_user);
+    else fprintf(stderr, "picvr: %s\n", msg);
+}
+
+static void *mem_alloc(const picvr_allocator *a, size_t n) {
+    if (n == 0) n = 1;
+    return a->alloc ? a->alloc(n, a->user) : malloc(n);
+}
+static void mem_free(const picvr_allocator *a, void *p) {
+    if (!p) return;
+    if (a->free) a->free(p, a->user); else free(p);
+}
+
+static int finite3(const float v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
+static void cross3(const float a[3], const float b[3], float r[3]) {
+    r[0] = a[1] * b[2] - a[2] * b[1];
+    r[1] = a[2] * b[0] - a[0] * b[2];
+    r[2] = a[0] * b[1] - a[1] * b[0];
+}
+static double len3(const float a[3]) { return sqrt((double)a[0] * a[0] + (double)a[1] * a[1] + (double)a[2] * a[2]); }
+static void set4(float d[4], const float s[3], float w) { d[0] = s[0]; d[1] = s[1]; d[2] = s[2]; d[3] = w; }
+static double luminance(const float c[3]) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
+
+/* Maps a VkResult to a status; logs the call that failed. */
+static picvr_status vk_status(picvr_context *ctx, VkResult r, const char *what) {
+    if (r == VK_SUCCESS) return PICVR_OK;
+    logf_(ctx, PICVR_LOG_ERROR, "%s failed: VkResult %d", what, (int)r);
+    switch (r) {
+    case VK_ERROR_OUT_OF_HOST_MEMORY: return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    case VK_ERROR_OUT_OF_DEVICE_MEMORY: return PICVR_ERROR_OUT_OF_DEVICE_MEMORY;
+    case VK_ERROR_DEVICE_LOST: ctx->device_lost = 1; return PICVR_ERROR_DEVICE_LOST;
+    default: return PICVR_ERROR_VULKAN;
+    }
+}
+#define VK_TRY(ctx, call) do { picvr_status s_ = vk_status((ctx), (call), #call); if (s_) return s_; } while (0)
+
+/* ---------------------------------------------------------------------------------- */
+/* memory                                                                              */
+
+static int find_memory(picvr_context *ctx, uint32_t bits, VkMemoryPropertyFlags need,
+                       VkMemoryPropertyFlags want) {
+    int fallback = -1;
+    for (uint32_t i = 0; i < ctx->mem_props.memoryTypeCount; i++) {
+        VkMemoryPropertyFlags f = ctx->mem_props.memoryTypes[i].propertyFlags;
+        if (!(bits & (1u << i)) || (f & need) != need) continue;
+        if ((f & want) == want) return (int)i;
+        if (fallback < 0) fallback = (int)i;
+    }
+    return fallback;
+}
+
+static picvr_status alloc_memory(picvr_context *ctx, VkMemoryRequirements req,
+                                 VkMemoryPropertyFlags need, VkMemoryPropertyFlags want,
+                                 VkDeviceMemory *out, VkMemoryPropertyFlags *got) {
+    int type = find_memory(ctx, req.memoryTypeBits, need, want);
+    if (type < 0) return PICVR_ERROR_OUT_OF_DEVICE_MEMORY;
+    VkMemoryAllocateInfo ai = {VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO, NULL, req.size, (uint32_t)type};
+    VkResult r = vkAllocateMemory(ctx->device, &ai, NULL, out);
+    if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY) {
+        logf_(ctx, PICVR_LOG_WARNING, "device allocation of %llu bytes failed", (unsigned long long)req.size);
+        return r == VK_ERROR_OUT_OF_HOST_MEMORY ? PICVR_ERROR_OUT_OF_HOST_MEMORY : PICVR_ERROR_OUT_OF_DEVICE_MEMORY;
+    }
+    if (got) *got = ctx->mem_props.memoryTypes[type].propertyFlags;
+    return vk_status(ctx, r, "vkAllocateMemory");
+}
+
+static void buffer_destroy(picvr_context *ctx, buffer *b) {
+    if (b->mapped) vkUnmapMemory(ctx->device, b->mem);
+    if (b->buf) vkDestroyBuffer(ctx->device, b->buf, NULL);
+    if (b->mem) vkFreeMemory(ctx->device, b->mem, NULL);
+    memset(b, 0, sizeof *b);
+}
+
+/* host: 1 = host visible and mapped (for uniforms, staging, readback). */
+static picvr_status buffer_create(picvr_context *ctx, buffer *b, VkDeviceSize size,
+                                  VkBufferUsageFlags usage, int host) {
+    memset(b, 0, sizeof *b);
+    VkBufferCreateInfo bi = {VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+    bi.size = size;
+    bi.usage = usage;
+    bi.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    VK_TRY(ctx, vkCreateBuffer(ctx->device, &bi, NULL, &b->buf));
+    VkMemoryRequirements req;
+    vkGetBufferMemoryRequirements(ctx->device, b->buf, &req);
+    VkMemoryPropertyFlags got = 0;
+    picvr_status s = host
+        ? alloc_memory(ctx, req, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
+                       VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT, &b->mem, &got)
+        : alloc_memory(ctx, req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, &b->mem, &got);
+    if (s) { buffer_destroy(ctx, b); return s; }
+    b->size = size;
+    s = vk_status(ctx, vkBindBufferMemory(ctx->device, b->buf, b->mem, 0), "vkBindBufferMemory");
+    if (!s && host) {
+        s = vk_status(ctx, vkMapMemory(ctx->device, b->mem, 0, VK_WHOLE_SIZE, 0, &b->mapped), "vkMapMemory");
+        b->coherent = (got & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT) != 0;
+    }
+    if (s) buffer_destroy(ctx, b);
+    return s;
+}
+
+static void buffer_invalidate(picvr_context *ctx, buffer *b) {
+    if (b->coherent) return;
+    VkMappedMemoryRange r = {VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE, NULL, b->mem, 0, VK_WHOLE_SIZE};
+    vkInvalidateMappedMemoryRanges(ctx->device, 1, &r);
+}
+static void buffer_flush(picvr_context *ctx, buffer *b) {
+    if (b->coherent) return;
+    VkMappedMemoryRange r = {VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE, NULL, b->mem, 0, VK_WHOLE_SIZE};
+    vkFlushMappedMemoryRanges(ctx->device, 1, &r);
+}
+
+static void image_destroy(picvr_context *ctx, image *im) {
+    if (im->view) vkDestroyImageView(ctx->device, im->view, NULL);
+    if (im->img) vkDestroyImage(ctx->device, im->img, NULL);
+    if (im->mem) vkFreeMemory(ctx->device, im->mem, NULL);
+    memset(im, 0, sizeof *im);
+}
+
+static picvr_status image_create(picvr_context *ctx, image *im, VkImageType type, VkFormat fmt,
+                                 uint32_t w, uint32_t h, uint32_t d) {
+    memset(im, 0, sizeof *im);
+    VkImageCreateInfo ii = {VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ii.imageType = type;
+    ii.format = fmt;
+    ii.extent = (VkExtent3D){w, h, d};
+    ii.mipLevels = 1;
+    ii.arrayLayers = 1;
+    ii.samples = VK_SAMPLE_COUNT_1_BIT;
+    ii.tiling = VK_IMAGE_TILING_OPTIMAL;
+    ii.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    ii.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    VkResult r = vkCreateImage(ctx->device, &ii, NULL, &im->img);
+    if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY) return PICVR_ERROR_OUT_OF_DEVICE_MEMORY;
+    VK_TRY(ctx, r);
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(ctx->device, im->img, &req);
+    picvr_status s = alloc_memory(ctx, req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, &im->mem, NULL);
+    if (!s) s = vk_status(ctx, vkBindImageMemory(ctx->device, im->img, im->mem, 0), "vkBindImageMemory");
+    if (!s) {
+        VkImageViewCreateInfo vi = {VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+        vi.image = im->img;
+        vi.viewType = type == VK_IMAGE_TYPE_3D ? VK_IMAGE_VIEW_TYPE_3D : VK_IMAGE_VIEW_TYPE_1D;
+        vi.format = fmt;
+        vi.subresourceRange = (VkImageSubresourceRange){VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        s = vk_status(ctx, vkCreateImageView(ctx->device, &vi, NULL, &im->view), "vkCreateImageView");
+    }
+    if (s) image_destroy(ctx, im);
+    return s;
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* command submission: everything is synchronous (record, submit, wait)                */
+
+static picvr_status cmd_begin(picvr_context *ctx) {
+    if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
+    VK_TRY(ctx, vkResetCommandBuffer(ctx->cmd, 0));
+    VkCommandBufferBeginInfo bi = {VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    VK_TRY(ctx, vkBeginCommandBuffer(ctx->cmd, &bi));
+    return PICVR_OK;
+}
+
+/* A full compute/transfer memory barrier: earlier writes visible to later accesses. */
+static void barrier_all(picvr_context *ctx) {
+    VkMemoryBarrier mb = {VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
+    mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
+                       VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT | VK_ACCESS_UNIFORM_READ_BIT;
+    VkPipelineStageFlags stages = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT |
+                                  VK_PIPELINE_STAGE_HOST_BIT;
+    vkCmdPipelineBarrier(ctx->cmd, stages, stages, 0, 1, &mb, 0, NULL, 0, NULL);
+}
+
+static picvr_status cmd_submit_wait(picvr_context *ctx) {
+    VK_TRY(ctx, vkEndCommandBuffer(ctx->cmd));
+    VK_TRY(ctx, vkResetFences(ctx->device, 1, &ctx->fence));
+    VkSubmitInfo si = {VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &ctx->cmd;
+    VK_TRY(ctx, vkQueueSubmit(ctx->queue, 1, &si, ctx->fence));
+    VK_TRY(ctx, vkWaitForFences(ctx->device, 1, &ctx->fence, VK_TRUE, UINT64_MAX));
+    return PICVR_OK;
+}
+
+static void image_barrier(picvr_context *ctx, VkImage img, VkImageLayout from, VkImageLayout to) {
+    VkImageMemoryBarrier b = {VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+    b.srcAccessMask = from == VK_IMAGE_LAYOUT_UNDEFINED ? 0 : VK_ACCESS_TRANSFER_WRITE_BIT;
+    b.dstAccessMask = to == VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL ? VK_ACCESS_TRANSFER_WRITE_BIT : VK_ACCESS_SHADER_READ_BIT;
+    b.oldLayout = from;
+    b.newLayout = to;
+    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = img;
+    b.subresourceRange = (VkImageSubresourceRange){VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    VkPipelineStageFlags src = from == VK_IMAGE_LAYOUT_UNDEFINED ? VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT : VK_PIPELINE_STAGE_TRANSFER_BIT;
+    VkPipelineStageFlags dst = to == VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL ? VK_PIPELINE_STAGE_TRANSFER_BIT : VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
+    vkCmdPipelineBarrier(ctx->cmd, src, dst, 0, 0, NULL, 0, NULL, 1, &b);
+}
+
+/* Copies host bytes into a device-local buffer through a temporary staging buffer. */
+static picvr_status upload_buffer(picvr_context *ctx, buffer *dst, const void *data, size_t size) {
+    buffer staging;
+    picvr_status s = buffer_create(ctx, &staging, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1);
+    if (s) return s;
+    memcpy(staging.mapped, data, size);
+    buffer_flush(ctx, &staging);
+    s = cmd_begin(ctx);
+    if (!s) {
+        barrier_all(ctx);
+        VkBufferCopy region = {0, 0, size};
+        vkCmdCopyBuffer(ctx->cmd, staging.buf, dst->buf, 1, &region);
+        barrier_all(ctx);
+        s = cmd_submit_wait(ctx);
+    }
+    buffer_destroy(ctx, &staging);
+    return s;
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* instance, device, pipelines                                                         */
+
+static VKAPI_ATTR VkBool32 VKAPI_CALL debug_callback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                     VkDebugUtilsMessageTypeFlagsEXT type,
+                                                     const VkDebugUtilsMessengerCallbackDataEXT *data,
+                                                     void *user) {
+    picvr_context *ctx = user;
+    if (severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) {
+        ctx->validation_messages++;
+        logf_(ctx, PICVR_LOG_ERROR, "validation: %s", data && data->pMessage ? data->pMessage : "?");
+    }
+    (void)type;
+    return VK_FALSE;
+}
+
+static int has_layer(const char *name) {
+    uint32_t n = 0;
+    vkEnumerateInstanceLayerProperties(&n, NULL);
+    VkLayerProperties props[64];
+    if (n > 64) n = 64;
+    vkEnumerateInstanceLayerProperties(&n, props);
+    for (uint32_t i = 0; i < n; i++)
+        if (!strcmp(props[i].layerName, name)) return 1;
+    return 0;
+}
+
+static int want_validation(const picvr_config *cfg) {
+    const char *env = getenv("PICVR_VALIDATION");
+    if (env && env[0] == '0') return 0;
+    if (env && env[0] == '1') return 1;
+    return cfg->validation == 1;
+}
+
+static picvr_status create_instance(picvr_context *ctx, int validation) {
+    VkApplicationInfo app = {VK_STRUCTURE_TYPE_APPLICATION_INFO};
+    app.pApplicationName = "picvr";
+    app.pEngineName = "picvr";
+    app.apiVersion = VK_API_VERSION_1_1;
+    VkInstanceCreateInfo ci = {VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+    ci.pApplicationInfo = &app;
+    const char *layer = "VK_LAYER_KHRONOS_validation";
+    const char *exts[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+    VkValidationFeatureEnableEXT enables[] = {VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT};
+    VkValidationFeaturesEXT features = {VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+    features.enabledValidationFeatureCount = 1;
+    features.pEnabledValidationFeatures = enables;
+    if (validation && !has_layer(layer)) {
+        logf_(ctx, PICVR_LOG_WARNING, "validation requested but %s is not installed", layer);
+        validation = 0;
+    }
+    if (validation) {
+        ci.enabledLayerCount = 1;
+        ci.ppEnabledLayerNames = &layer;
+        ci.enabledExtensionCount = 1;
+        ci.ppEnabledExtensionNames = exts;
+        ci.pNext = &features;
+    }
+    VkResult r = vkCreateInstance(&ci, NULL, &ctx->instance);
+    if (r == VK_ERROR_INCOMPATIBLE_DRIVER) return PICVR_ERROR_NO_DEVICE;
+    VK_TRY(ctx, r);
+    if (validation) {
+        PFN_vkCreateDebugUtilsMessengerEXT create = (PFN_vkCreateDebugUtilsMessengerEXT)
+            vkGetInstanceProcAddr(ctx->instance, "vkCreateDebugUtilsMessengerEXT");
+        VkDebugUtilsMessengerCreateInfoEXT mi = {VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+        mi.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+        mi.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                         VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+        mi.pfnUserCallback = debug_callback;
+        mi.pUserData = ctx;
+        if (create) VK_TRY(ctx, create(ctx->instance, &mi, NULL, &ctx->messenger));
+        ctx->validation_enabled = 1;
+    }
+    return PICVR_OK;
+}
+
+static int device_rank(VkPhysicalDeviceType t) {
+    switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
+    default: return 0;
+    }
+}
+
+static int compute_family(VkPhysicalDevice pd, uint32_t *family) {
+    uint32_t n = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &n, NULL);
+    VkQueueFamilyProperties props[32];
+    if (n > 32) n = 32;
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &n, props);
+    for (uint32_t i = 0; i < n; i++)
+        if (props[i].queueFlags & VK_QUEUE_COMPUTE_BIT) { *family = i; return 1; }
+    return 0;
+}
+
+/* Best device by type (discrete > integrated > virtual > CPU), or the first whose
+   name contains `want`. */
+static picvr_status pick_device(picvr_context *ctx, const char *want) {
+    uint32_t n = 0;
+    VK_TRY(ctx, vkEnumeratePhysicalDevices(ctx->instance, &n, NULL));
+    VkPhysicalDevice devs[16];
+    if (n > 16) n = 16;
+    VkResult r = vkEnumeratePhysicalDevices(ctx->instance, &n, devs);
+    if (r != VK_SUCCESS && r != VK_INCOMPLETE) return vk_status(ctx, r, "vkEnumeratePhysicalDevices");
+    int best = -1, best_rank = -1;
+    for (uint32_t i = 0; i < n; i++) {
+        VkPhysicalDeviceProperties p;
+        vkGetPhysicalDeviceProperties(devs[i], &p);
+        uint32_t fam;
+        if (p.apiVersion < VK_API_VERSION_1_1 || !compute_family(devs[i], &fam)) continue;
+        if (want && *want && !strstr(p.deviceName, want)) continue;
+        if (device_rank(p.deviceType) > best_rank) { best = (int)i; best_rank = device_rank(p.deviceType); }
+    }
+    if (best < 0) {
+        logf_(ctx, PICVR_LOG_ERROR, "no Vulkan 1.1 compute device%s%s", want && *want ? " matching " : "", want ? want : "");
+        return PICVR_ERROR_NO_DEVICE;
+    }
+    ctx->phys = devs[best];
+    compute_family(ctx->phys, &ctx->queue_family);
+    return PICVR_OK;
+}
+
+static picvr_status create_device(picvr_context *ctx) {
+    float prio = 1.0f;
+    VkDeviceQueueCreateInfo qi = {VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+    qi.queueFamilyIndex = ctx->queue_family;
+    qi.queueCount = 1;
+    qi.pQueuePriorities = &prio;
+    VkDeviceCreateInfo di = {VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+    di.queueCreateInfoCount = 1;
+    di.pQueueCreateInfos = &qi;
+    VK_TRY(ctx, vkCreateDevice(ctx->phys, &di, NULL, &ctx->device));
+    vkGetDeviceQueue(ctx->device, ctx->queue_family, 0, &ctx->queue);
+    return PICVR_OK;
+}
+
+static int format_filters(picvr_context *ctx, VkFormat f) {
+    VkFormatProperties p;
+    vkGetPhysicalDeviceFormatProperties(ctx->phys, f, &p);
+    VkFormatFeatureFlags need = VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
+                                VK_FORMAT_FEATURE_TRANSFER_DST_BIT;
+    return (p.optimalTilingFeatures & need) == need;
+}
+
+static picvr_status create_shader(picvr_context *ctx, const uint32_t *code, size_t size, VkShaderModule *out) {
+    VkShaderModuleCreateInfo ci = {VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    ci.codeSize = size;
+    ci.pCode = code;
+    VK_TRY(ctx, vkCreateShaderModule(ctx->device, &ci, NULL, out));
+    return PICVR_OK;
+}
+
+static picvr_status create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPipelineLayout layout,
+                                    const VkSpecializationInfo *spec, VkPipeline *out) {
+    VkComputePipelineCreateInfo ci = {VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = mod;
+    ci.stage.pName = "main";
+    ci.stage.pSpecializationInfo = spec;
+    ci.layout = layout;
+    VK_TRY(ctx, vkCreateComputePipelines(ctx->device, VK_NULL_HANDLE, 1, &ci, NULL, out));
+    return PICVR_OK;
+}
+
+static picvr_status create_pipelines(picvr_context *ctx) {
+    VkDescriptorSetLayoutBinding b[8];
+    memset(b, 0, sizeof b);
+    VkDescriptorType types[8] = {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                                 VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                 VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                 VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER};
+    for (uint32_t i = 0; i < 8; i++) {
+        b[i].binding = i;
+        b[i].descriptorType = types[i];
+        b[i].descriptorCount = 1;
+        b[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+    }
+    VkDescriptorSetLayoutCreateInfo li = {VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+    li.bindingCount = 8;
+    li.pBindings = b;
+    VK_TRY(ctx, vkCreateDescriptorSetLayout(ctx->device, &li, NULL, &ctx->set_layout));
+
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 8};
+    VkPipelineLayoutCreateInfo pl = {VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    pl.setLayoutCount = 1;
+    pl.pSetLayouts = &ctx->set_layout;
+    pl.pushConstantRangeCount = 1;
+    pl.pPushConstantRanges = &pcr;
+    VK_TRY(ctx, vkCreatePipelineLayout(ctx->device, &pl, NULL, &ctx->render_layout));
+    VK_TRY(ctx, vkCreatePipelineLayout(ctx->device, &pl, NULL, &ctx->stats_layout));
+
+    VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
+                                     {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5}};
+    VkDescriptorPoolCreateInfo pi = {VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    pi.maxSets = 1;
+    pi.poolSizeCount = 3;
+    pi.pPoolSizes = sizes;
+    VK_TRY(ctx, vkCreateDescriptorPool(ctx->device, &pi, NULL, &ctx->desc_pool));
+    VkDescriptorSetAllocateInfo ai = {VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    ai.descriptorPool = ctx->desc_pool;
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &ctx->set_layout;
+    VK_TRY(ctx, vkAllocateDescriptorSets(ctx->device, &ai, &ctx->set));
+
+    picvr_status s = create_shader(ctx, picvr_spv_render, sizeof picvr_spv_render, &ctx->render_module);
+    if (!s) s = create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->stats_module);
+    if (s) return s;
+    /* Two variants of the rendering procedure: with and without phase-sampled MIS rays
+       (left out for scenes lit only by delta lights). */
+    for (uint32_t v = 0; v < 2; v++) {
+        VkBool32 value = v;
+        VkSpecializationMapEntry entry = {0, 0, sizeof value};
+        VkSpecializationInfo spec = {1, &entry, sizeof value, &value};
+        s = create_pipeline(ctx, ctx->render_module, ctx->render_layout, &spec, &ctx->render_pipe[v]);
+        if (s) return s;
+    }
+    return create_pipeline(ctx, ctx->stats_module, ctx->stats_layout, NULL, &ctx->stats_pipe);
+}
+
+static picvr_status create_sampler(picvr_context *ctx) {
+    VkSamplerCreateInfo si = {VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    si.magFilter = si.minFilter = VK_FILTER_LINEAR;
+    si.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    si.addressModeU = si.addressModeV = si.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    si.maxLod = 0.0f;
+    VK_TRY(ctx, vkCreateSampler(ctx->device, &si, NULL, &ctx->linear_sampler));
+    return PICVR_OK;
+}
+
+static picvr_status set_default_transfer_function(picvr_context *ctx);
+
+static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
+    picvr_status s;
+    if (cfg->vk_device) {
+        ctx->external = 1;
+        ctx->instance = (VkInstance)cfg->vk_instance;
+        ctx->phys = (VkPhysicalDevice)cfg->vk_physical_device;
+        ctx->device = (VkDevice)cfg->vk_device;
+        ctx->queue = (VkQueue)cfg->vk_queue;
+        ctx->queue_family = cfg->vk_queue_family;
+    } else {
+        const char *want = cfg->device_name ? cfg->device_name : getenv("PICVR_DEVICE");
+        if ((s = create_instance(ctx, want_validation(cfg)))) return s;
+        if ((s = pick_device(ctx, want))) return s;
+        if ((s = create_device(ctx))) return s;
+    }
+    vkGetPhysicalDeviceProperties(ctx->phys, &ctx->props);
+    vkGetPhysicalDeviceMemoryProperties(ctx->phys, &ctx->mem_props);
+    logf_(ctx, PICVR_LOG_INFO, "device: %s", ctx->props.deviceName);
+
+    if (!format_filters(ctx, VK_FORMAT_R8_UNORM) || !format_filters(ctx, VK_FORMAT_R16_UNORM) ||
+        !format_filters(ctx, VK_FORMAT_R32G32B32A32_SFLOAT)) {
+        logf_(ctx, PICVR_LOG_ERROR, "device cannot filter R8/R16 volumes or RGBA32F tables");
+        return PICVR_ERROR_UNSUPPORTED_TYPE;
+    }
+    ctx->float_volume_format = format_filters(ctx, VK_FORMAT_R32_SFLOAT) ? VK_FORMAT_R32_SFLOAT : VK_FORMAT_R16_UNORM;
+
+    VkCommandPoolCreateInfo pi = {VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pi.queueFamilyIndex = ctx->queue_family;
+    VK_TRY(ctx, vkCreateCommandPool(ctx->device, &pi, NULL, &ctx->cmd_pool));
+    VkCommandBufferAllocateInfo ai = {VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    ai.commandPool = ctx->cmd_pool;
+    ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    ai.commandBufferCount = 1;
+    VK_TRY(ctx, vkAllocateCommandBuffers(ctx->device, &ai, &ctx->cmd));
+    VkFenceCreateInfo fi = {VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    VK_TRY(ctx, vkCreateFence(ctx->device, &fi, NULL, &ctx->fence));
+
+    if ((s = create_pipelines(ctx)) || (s = create_sampler(ctx))) return s;
+    if ((s = buffer_create(ctx, &ctx->scene_ubo, sizeof(gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
+    if ((s = image_create(ctx, &ctx->tf_image, VK_IMAGE_TYPE_1D, VK_FORMAT_R32G32B32A32_SFLOAT, TF_SIZE, 1, 1))) return s;
+    if ((s = buffer_create(ctx, &ctx->tf_staging, sizeof ctx->tf_table, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1))) return s;
+    return set_default_transfer_function(ctx);
+}
+
+picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
+    if (!out) return PICVR_ERROR_NULL_POINTER;
+    *out = NULL;
+    picvr_config cfg;
+    if (cfg_in) cfg = *cfg_in; else memset(&cfg, 0, sizeof cfg);
+    int hooks = (cfg.allocator.alloc != NULL) + (cfg.allocator.realloc != NULL) + (cfg.allocator.free != NULL);
+    if (hooks != 0 && hooks != 3) return PICVR_ERROR_INVALID_ARGUMENT;
+    int ext = (cfg.vk_instance != NULL) + (cfg.vk_physical_device != NULL) + (cfg.vk_device != NULL) + (cfg.vk_queue != NULL);
+    if (ext != 0 && ext != 4) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)cfg.log_level > PICVR_LOG_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
+
+    picvr_context *ctx = mem_alloc(&cfg.allocator, sizeof *ctx);
+    if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    memset(ctx, 0, sizeof *ctx);
+    ctx->alloc = cfg.allocator;
+    ctx->log = cfg.log;
+    ctx->log_user = cfg.log_user;
+    ctx->log_level = cfg.log_level ? cfg.log_level : PICVR_LOG_WARNING;
+    ctx->seed = cfg.seed;
+    picvr_status s = context_init(ctx, &cfg);
+    if (s) { picvr_destroy(ctx); return s; }
+    *out = ctx;
+    return PICVR_OK;
+}
+
+void picvr_destroy(picvr_context *ctx) {
+    if (!ctx) return;
+    if (ctx->device) {
+        vkDeviceWaitIdle(ctx->device);
+        buffer_destroy(ctx, &ctx->scene_ubo);
+        buffer_destroy(ctx, &ctx->tf_staging);
+        buffer_destroy(ctx, &ctx->majorant);
+        buffer_destroy(ctx, &ctx->readback);
+        buffer_destroy(ctx, &ctx->partials);
+        for (int i = 0; i < 3; i++) buffer_destroy(ctx, &ctx->accum[i]);
+        image_destroy(ctx, &ctx->tf_image);
+        image_destroy(ctx, &ctx->volume);
+        VkDevice d = ctx->device;
+        if (ctx->linear_sampler) vkDestroySampler(d, ctx->linear_sampler, NULL);
+        for (int i = 0; i < 2; i++) if (ctx->render_pipe[i]) vkDestroyPipeline(d, ctx->render_pipe[i], NULL);
+        if (ctx->stats_pipe) vkDestroyPipeline(d, ctx->stats_pipe, NULL);
+        if (ctx->render_module) vkDestroyShaderModule(d, ctx->render_module, NULL);
+        if (ctx->stats_module) vkDestroyShaderModule(d, ctx->stats_module, NULL);
+        if (ctx->desc_pool) vkDestroyDescriptorPool(d, ctx->desc_pool, NULL);
+        if (ctx->render_layout) vkDestroyPipelineLayout(d, ctx->render_layout, NULL);
+        if (ctx->stats_layout) vkDestroyPipelineLayout(d, ctx->stats_layout, NULL);
+        if (ctx->set_layout) vkDestroyDescriptorSetLayout(d, ctx->set_layout, NULL);
+        if (ctx->fence) vkDestroyFence(d, ctx->fence, NULL);
+        if (ctx->cmd_pool) vkDestroyCommandPool(d, ctx->cmd_pool, NULL);
+        if (!ctx->external) vkDestroyDevice(d, NULL);
+    }
+    if (!ctx->external && ctx->instance) {
+        if (ctx->messenger) {
+            PFN_vkDestroyDebugUtilsMessengerEXT destroy = (PFN_vkDestroyDebugUtilsMessengerEXT)
+                vkGetInstanceProcAddr(ctx->instance, "vkDestroyDebugUtilsMessengerEXT");
+            if (destroy) destroy(ctx->instance, ctx->messenger, NULL);
+        }
+        vkDestroyInstance(ctx->instance, NULL);
+    }
+    mem_free(&ctx->alloc, ctx->brick_min);
+    mem_free(&ctx->alloc, ctx->brick_max);
+    picvr_allocator a = ctx->alloc;
+    mem_free(&a, ctx);
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* accumulation                                                                        */
+
+static void invalidate_accumulation(picvr_context *ctx) {
+    ctx->iterations = 0;
+    ctx->elapsed_ms = 0.0;
+    ctx->stats_valid = 0;
+}
+
+static picvr_status clear_accumulation(picvr_context *ctx) {
+    invalidate_accumulation(ctx);
+    if (!ctx->accum[0].buf) return PICVR_OK;
+    picvr_status s = cmd_begin(ctx);
+    if (s) return s;
+    barrier_all(ctx);
+    for (int i = 0; i < 3; i++) vkCmdFillBuffer(ctx->cmd, ctx->accum[i].buf, 0, VK_WHOLE_SIZE, 0);
+    barrier_all(ctx);
+    return cmd_submit_wait(ctx);
+}
+
+picvr_status picvr_reset(picvr_context *ctx) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    return clear_accumulation(ctx);
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* transfer function and majorant grid                                                 */
+
+/* Piecewise-linear evaluation at v, constant beyond the end points; at a step
+   (equal values) the later point wins. */
+static void tf_eval(const picvr_tf_point *p, uint32_t n, float v, float out[4]) {
+    uint32_t i = 0;
+    while (i < n && p[i].value <= v) i++;
+    const picvr_tf_point *a = &p[i == 0 ? 0 : i - 1], *b = &p[i == n ? n - 1 : i];
+    float span = b->value - a->value;
+    float f = span > 0.0f ? (v - a->value) / span : 0.0f;   /* rule: no division by a zero span */
+    for (int c = 0; c < 3; c++) out[c] = a->albedo[c] + f * (b->albedo[c] - a->albedo[c]);
+    out[3] = a->opacity + f * (b->opacity - a->opacity);
+}
+
+/* Maximum opacity table entry over [lo, hi] by a sparse table (O(1) per query). */
+typedef struct range_max { float level[13][TF_SIZE]; } range_max;
+
+static void range_max_build(range_max *rm, const float *table) {
+    for (int i = 0; i < TF_SIZE; i++) rm->level[0][i] = table[i * 4 + 3];
+    for (int k = 1; k < 13; k++)
+        for (int i = 0; i + (1 << k) <= TF_SIZE; i++)
+            rm->level[k][i] = fmaxf(rm->level[k - 1][i], rm->level[k - 1][i + (1 << (k - 1))]);
+}
+
+static float range_max_query(const range_max *rm, int lo, int hi) {
+    int k = 0;
+    while ((2 << k) <= hi - lo + 1) k++;
+    return fmaxf(rm->level[k][lo], rm->level[k][hi - (1 << k) + 1]);
+}
+
+/* Majorant per brick: D times the largest table opacity over the brick's value range
+   (one table entry of margin each side because filtering blends neighbours), times
+   1 + 1e-3 against float rounding of the filtered lookups. */
+static picvr_status update_majorant(picvr_context *ctx) {
+    if (!ctx->has_volume) return PICVR_OK;
+    size_t cells = (size_t)ctx->grid[0] * ctx->grid[1] * ctx->grid[2];
+    float *maj = mem_alloc(&ctx->alloc, cells * sizeof(float));
+    range_max *rm = mem_alloc(&ctx->alloc, sizeof *rm);
+    if (!maj || !rm) { mem_free(&ctx->alloc, maj); mem_free(&ctx->alloc, rm); return PICVR_ERROR_OUT_OF_HOST_MEMORY; }
+    range_max_build(rm, ctx->tf_table);
+    for (size_t c = 0; c < cells; c++) {
+        int lo = (int)floorf(ctx->brick_min[c] * (TF_SIZE - 1)) - 1;
+        int hi = (int)ceilf(ctx->brick_max[c] * (TF_SIZE - 1)) + 1;
+        lo = lo < 0 ? 0 : lo;
+        hi = hi > TF_SIZE - 1 ? TF_SIZE - 1 : hi;
+        double m = (double)ctx->density * range_max_query(rm, lo, hi) * (1.0 + 1e-3);
+        maj[c] = m > FLT_MAX ? FLT_MAX : (float)m;
+    }
+    picvr_status s = upload_buffer(ctx, &ctx->majorant, maj, cells * sizeof(float));
+    mem_free(&ctx->alloc, maj);
+    mem_free(&ctx->alloc, rm);
+    return s;
+}
+
+static picvr_status upload_tf_table(picvr_context *ctx) {
+    memcpy(ctx->tf_staging.mapped, ctx->tf_table, sizeof ctx->tf_table);
+    buffer_flush(ctx, &ctx->tf_staging);
+    picvr_status s = cmd_begin(ctx);
+    if (s) return s;
+    image_barrier(ctx, ctx->tf_image.img, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    VkBufferImageCopy region = {0};
+    region.imageSubresource = (VkImageSubresourceLayers){VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = (VkExtent3D){TF_SIZE, 1, 1};
+    vkCmdCopyBufferToImage(ctx->cmd, ctx->tf_staging.buf, ctx->tf_image.img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    image_barrier(ctx, ctx->tf_image.img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    s = cmd_submit_wait(ctx);
+    ctx->descriptors_dirty = 1;
+    return s;
+}
+
+static picvr_status validate_tf(const picvr_tf_point *p, uint32_t n, float density) {
+    if (!p) return PICVR_ERROR_NULL_POINTER;
+    if (n == 0 || n > PICVR_MAX_TF_POINTS) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
+    if (!isfinite(density)) return PICVR_ERROR_NON_FINITE;
+    if (density < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+    for (uint32_t i = 0; i < n; i++) {
+        if (!isfinite(p[i].value) || !finite3(p[i].albedo) || !isfinite(p[i].opacity)) return PICVR_ERROR_NON_FINITE;
+        if (p[i].value < 0.0f || p[i].value > 1.0f || p[i].opacity < 0.0f) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
+        for (int c = 0; c < 3; c++)
+            if (p[i].albedo[c] < 0.0f || p[i].albedo[c] > 1.0f) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
+        if (i > 0 && p[i].value < p[i - 1].value) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
+    }
+    return PICVR_OK;
+}
+
+static picvr_status apply_tf(picvr_context *ctx, const picvr_tf_point *p, uint32_t n, float density) {
+    for (int i = 0; i < TF_SIZE; i++) tf_eval(p, n, (float)i / (TF_SIZE - 1), &ctx->tf_table[i * 4]);
+    ctx->density = density;
+    ctx->scene.box_min[3] = density;
+    picvr_status s = upload_tf_table(ctx);
+    if (!s) s = update_majorant(ctx);
+    if (!s) s = clear_accumulation(ctx);
+    return s;
+}
+
+static picvr_status set_default_transfer_function(picvr_context *ctx) {
+    picvr_tf_point ramp[2] = {{0.0f, {1, 1, 1}, 0.0f}, {1.0f, {1, 1, 1}, 1.0f}};
+    return apply_tf(ctx, ramp, 2, 1.0f);
+}
+
+picvr_status picvr_set_transfer_function(picvr_context *ctx, const picvr_tf_point *points,
+                                         uint32_t count, float density) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    picvr_status s = validate_tf(points, count, density);
+    if (s) return s;
+    return apply_tf(ctx, points, count, density);
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* volume                                                                              */
+
+static size_t voxel_bytes(picvr_voxel_type t) {
+    return t == PICVR_VOXEL_UINT8 ? 1 : t == PICVR_VOXEL_UINT16 ? 2 : t == PICVR_VOXEL_FLOAT32 ? 4 : 0;
+}
+
+/* Reads voxel i as a double. */
+static double voxel_at(const picvr_volume_desc *d, size_t i) {
+    switch (d->type) {
+    case PICVR_VOXEL_UINT8: return ((const uint8_t *)d->data)[i];
+    case PICVR_VOXEL_UINT16: return ((const uint16_t *)d->data)[i];
+    default: return ((const float *)d->data)[i];
+    }
+}
+
+/* The normalization v' = clamp(v * scale + offset, 0, 1) applied to raw voxel values;
+   the shader applies the same to the texture's value (UNORM formats read v / max). */
+typedef struct value_map { double lo, hi; } value_map;
+
+static double normalize_value(value_map m, double v) {
+    /* Rule: a degenerate range (constant float data) maps v to clamp(v, 0, 1). */
+    double x = m.hi > m.lo ? (v - m.lo) / (m.hi - m.lo) : v;
+    return x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
+}
+
+static picvr_status validate_volume(picvr_context *ctx, const picvr_volume_desc *d, size_t *bytes) {
+    if (!d || !d->data) return PICVR_ERROR_NULL_POINTER;
+    if (d->dims[0] == 0 || d->dims[1] == 0 || d->dims[2] == 0) return PICVR_ERROR_INVALID_DIMENSIONS;
+    size_t bpv = voxel_bytes(d->type);
+    if (!bpv) return PICVR_ERROR_UNSUPPORTED_TYPE;
+    if (!finite3(d->spacing) || !isfinite(d->value_min) || !isfinite(d->value_max)) return PICVR_ERROR_NON_FINITE;
+    for (int i = 0; i < 3; i++)
+        if (d->spacing[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (d->value_max < d->value_min) return PICVR_ERROR_INVALID_ARGUMENT;
+    uint64_t n = d->dims[0];
+    for (int i = 1; i < 3; i++) {
+        if (n > UINT64_MAX / d->dims[i]) return PICVR_ERROR_SIZE_OVERFLOW;
+        n *= d->dims[i];
+    }
+    if (n > (uint64_t)SIZE_MAX / bpv) return PICVR_ERROR_SIZE_OVERFLOW;
+    uint32_t lim = ctx->props.limits.maxImageDimension3D;
+    if (d->dims[0] > lim || d->dims[1] > lim || d->dims[2] > lim) {
+        logf_(ctx, PICVR_LOG_WARNING, "volume exceeds maxImageDimension3D = %u", lim);
+        return PICVR_ERROR_SIZE_OVERFLOW;
+    }
+    *bytes = (size_t)n * bpv;
+    return PICVR_OK;
+}
+
+/* Data range for normalization, and (float32) the finiteness check. */
+static picvr_status volume_range(const picvr_volume_desc *d, size_t n, value_map *m) {
+    if (d->value_min != 0.0f || d->value_max != 0.0f) {
+        m->lo = d->value_min; m->hi = d->value_max;
+        return PICVR_OK;
+    }
+    if (d->type == PICVR_VOXEL_UINT8) { m->lo = 0; m->hi = 255; return PICVR_OK; }
+    if (d->type == PICVR_VOXEL_UINT16) { m->lo = 0; m->hi = 65535; return PICVR_OK; }
+    const float *f = d->data;
+    double lo = INFINITY, hi = -INFINITY;
+    for (size_t i = 0; i < n; i++) {
+        if (!isfinite(f[i])) return PICVR_ERROR_NON_FINITE;
+        if (f[i] < lo) lo = f[i];
+        if (f[i] > hi) hi = f[i];
+    }
+    m->lo = lo; m->hi = hi;
+    return PICVR_OK;
+}
+
+/* Bricks of `brick` voxels, at most MAX_GRID per axis; min/max of the normalized
+   value over each brick plus a one-voxel apron (trilinear filtering reaches it). */
+static picvr_status build_bricks(picvr_context *ctx, const picvr_volume_desc *d, value_map m,
+                                 uint32_t brick, const uint32_t grid[3], float **bmin_out, float **bmax_out) {
+    size_t cells = (size_t)grid[0] * grid[1] * grid[2];
+    float *bmin = mem_alloc(&ctx->alloc, cells * sizeof(float));
+    float *bmax = mem_alloc(&ctx->alloc, cells * sizeof(float));
+    if (!bmin || !bmax) { mem_free(&ctx->alloc, bmin); mem_free(&ctx->alloc, bmax); return PICVR_ERROR_OUT_OF_HOST_MEMORY; }
+    const uint32_t *dim = d->dims;
+    for (uint32_t cz = 0; cz < grid[2]; cz++)
+        for (uint32_t cy = 0; cy < grid[1]; cy++)
+            for (uint32_t cx = 0; cx < grid[0]; cx++) {
+                uint32_t c[3] = {cx, cy, cz}, lo[3], hi[3];
+                for (int a = 0; a < 3; a++) {
+                    uint32_t l = c[a] * brick, h = l + brick;   /* [l, h] with the apron */
+                    lo[a] = l > 0 ? l - 1 : 0;
+                    hi[a] = h < dim[a] - 1 ? h : dim[a] - 1;
+                    if (lo[a] > hi[a]) lo[a] = hi[a];
+                }
+                double vmin = INFINITY, vmax = -INFINITY;
+                for (uint32_t z = lo[2]; z <= hi[2]; z++)
+                    for (uint32_t y = lo[1]; y <= hi[1]; y++)
+                        for (uint32_t x = lo[0]; x <= hi[0]; x++) {
+                            double v = voxel_at(d, x + (size_t)dim[0] * (y + (size_t)dim[1] * z));
+                            if (v < vmin) vmin = v;
+                            if (v > vmax) vmax = v;
+                        }
+                size_t i = cx + (size_t)grid[0] * (cy + (size_t)grid[1] * cz);
+                bmin[i] = (float)normalize_value(m, vmin);
+                bmax[i] = (float)normalize_value(m, vmax);
+            }
+    *bmin_out = bmin;
+    *bmax_out = bmax;
+    return PICVR_OK;
+}
+
+/* Copies voxels into the 3D image in z-slabs of at most STAGING_CHUNK bytes, converting
+   float data to R16_UNORM where the device cannot filter R32_SFLOAT. */
+static picvr_status upload_voxels(picvr_context *ctx, image *im, const picvr_volume_desc *d,
+                                  VkFormat fmt, value_map m) {
+    size_t in_bpv = voxel_bytes(d->type);
+    size_t out_bpv = fmt == VK_FORMAT_R16_UNORM ? 2 : in_bpv;
+    size_t slice_in = (size_t)d->dims[0] * d->dims[1] * in_bpv;
+    size_t slice_out = (size_t)d->dims[0] * d->dims[1] * out_bpv;
+    uint32_t slab = (uint32_t)(STAGING_CHUNK / slice_out);
+    if (slab == 0) slab = 1;
+    if (slab > d->dims[2]) slab = d->dims[2];
+    buffer staging;
+    picvr_status s = buffer_create(ctx, &staging, (VkDeviceSize)slab * slice_out, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1);
+    if (s) return s;
+    int convert = d->type == PICVR_VOXEL_FLOAT32 && fmt == VK_FORMAT_R16_UNORM;
+    for (uint32_t z0 = 0; z0 < d->dims[2] && !s; z0 += slab) {
+        uint32_t nz = d->dims[2] - z0 < slab ? d->dims[2] - z0 : slab;
+        const uint8_t *src = (const uint8_t *)d->data + (size_t)z0 * slice_in;
+        if (convert) {
+            uint16_t *dst = staging.mapped;
+            const float *f = (const float *)src;
+            size_t cnt = (size_t)nz * d->dims[0] * d->dims[1];
+            for (size_t i = 0; i < cnt; i++) dst[i] = (uint16_t)lrint(normalize_value(m, f[i]) * 65535.0);
+        } else {
+            memcpy(staging.mapped, src, (size_t)nz * slice_in);
+        }
+        buffer_flush(ctx, &staging);
+        if ((s = cmd_begin(ctx))) break;
+        image_barrier(ctx, im->img, z0 == 0 ? VK_IMAGE_LAYOUT_UNDEFINED : VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        VkBufferImageCopy region = {0};
+        region.imageSubresource = (VkImageSubresourceLayers){VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageOffset = (VkOffset3D){0, 0, (int32_t)z0};
+        region.imageExtent = (VkExtent3D){d->dims[0], d->dims[1], nz};
+        vkCmdCopyBufferToImage(ctx->cmd, staging.buf, im->img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+        if (z0 + nz >= d->dims[2])
+            image_barrier(ctx, im->img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+        s = cmd_submit_wait(ctx);
+    }
+    buffer_destroy(ctx, &staging);
+    return s;
+}
+
+/* scale/offset so that clamp(tex * scale + offset, 0, 1) is the normalized value. */
+static void shader_value_map(picvr_context *ctx, const picvr_volume_desc *d, VkFormat fmt, value_map m) {
+    double unit = fmt == VK_FORMAT_R8_UNORM ? 255.0 : fmt == VK_FORMAT_R16_UNORM ? 65535.0 : 1.0;
+    double scale = 1.0, offset = 0.0;
+    if (!(d->type == PICVR_VOXEL_FLOAT32 && fmt == VK_FORMAT_R16_UNORM) && m.hi > m.lo) {
+        scale = unit / (m.hi - m.lo);
+        offset = -m.lo / (m.hi - m.lo);
+    }
+    ctx->scene.value_map[0] = (float)scale;
+    ctx->scene.value_map[1] = (float)offset;
+}
+
+picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *desc) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    size_t bytes;
+    picvr_status s = validate_volume(ctx, desc, &bytes);
+    if (s) return s;
+    value_map m;
+    if ((s = volume_range(desc, bytes / voxel_bytes(desc->type), &m))) return s;
+
+    uint32_t maxdim = desc->dims[0];
+    for (int i = 1; i < 3; i++) if (desc->dims[i] > maxdim) maxdim = desc->dims[i];
+    uint32_t brick = 4;
+    while ((maxdim + brick - 1) / brick > MAX_GRID) brick *= 2;
+    uint32_t grid[3];
+    for (int i = 0; i < 3; i++) grid[i] = (desc->dims[i] + brick - 1) / brick;
+
+    VkFormat fmt = desc->type == PICVR_VOXEL_UINT8 ? VK_FORMAT_R8_UNORM
+                 : desc->type == PICVR_VOXEL_UINT16 ? VK_FORMAT_R16_UNORM : ctx->float_volume_format;
+    /* Build the new volume beside the old one; swap only when everything succeeded. */
+    image vol;
+    buffer maj;
+    float *bmin = NULL, *bmax = NULL;
+    size_t cells = (size_t)grid[0] * grid[1] * grid[2];
+    if ((s = image_create(ctx, &vol, VK_IMAGE_TYPE_3D, fmt, desc->dims[0], desc->dims[1], desc->dims[2]))) return s;
+    if ((s = buffer_create(ctx, &maj, cells * sizeof(float),
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) {
+        image_destroy(ctx, &vol);
+        return s;
+    }
+    s = upload_voxels(ctx, &vol, desc, fmt, m);
+    if (!s) s = build_bricks(ctx, desc, m, brick, grid, &bmin, &bmax);
+    if (s) { image_destroy(ctx, &vol); buffer_destroy(ctx, &maj); return s; }
+
+    image_destroy(ctx, &ctx->volume);
+    buffer_destroy(ctx, &ctx->majorant);
+    mem_free(&ctx->alloc, ctx->brick_min);
+    mem_free(&ctx->alloc, ctx->brick_max);
+    ctx->volume = vol;
+    ctx->majorant = maj;
+    ctx->brick_min = bmin;
+    ctx->brick_max = bmax;
+    ctx->brick = brick;
+    float min_spacing = FLT_MAX;
+    for (int i = 0; i < 3; i++) {
+        ctx->dims[i] = desc->dims[i];
+        ctx->spacing[i] = desc->spacing[i] > 0.0f ? desc->spacing[i] : 1.0f;
+        ctx->grid[i] = grid[i];
+        float size = ctx->dims[i] * ctx->spacing[i];
+        ctx->scene.box_min[i] = -0.5f * size;
+        ctx->scene.box_size[i] = size;
+        ctx->scene.cell_size[i] = brick * ctx->spacing[i];
+        ctx->scene.grid[i] = grid[i];
+        if (ctx->spacing[i] < min_spacing) min_spacing = ctx->spacing[i];
+    }
+    ctx->scene.cell_size[3] = min_spacing;
+    ctx->scene.box_size[3] = 0.5f * (float)len3(ctx->scene.box_size);
+    shader_value_map(ctx, desc, fmt, m);
+    ctx->has_volume = 1;
+    ctx->descriptors_dirty = 1;
+    s = update_majorant(ctx);
+    if (!s) s = clear_accumulation(ctx);
+    return s;
+}
+
+picvr_status picvr_volume_box(const picvr_context *ctx, float box_min[3], float box_max[3]) {
+    if (!ctx || !box_min || !box_max) return PICVR_ERROR_NULL_POINTER;
+    if (!ctx->has_volume) return PICVR_ERROR_NOT_READY;
+    for (int i = 0; i < 3; i++) {
+        box_min[i] = ctx->scene.box_min[i];
+        box_max[i] = ctx->scene.box_min[i] + ctx->scene.box_size[i];
+    }
+    return PICVR_OK;
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* lights                                                                              */
+
+static picvr_status validate_light(const picvr_light *l) {
+    if (l->type < PICVR_LIGHT_SPHERE || l->type > PICVR_LIGHT_POINT) return PICVR_ERROR_INVALID_LIGHT;
+    if (!finite3(l->color) || !isfinite(l->intensity) || !finite3(l->position) || !isfinite(l->radius) ||
+        !finite3(l->direction) || !isfinite(l->angular_diameter) || !finite3(l->edge_u) || !finite3(l->edge_v))
+        return PICVR_ERROR_NON_FINITE;
+    if (l->intensity < 0.0f || l->color[0] < 0.0f || l->color[1] < 0.0f || l->color[2] < 0.0f)
+        return PICVR_ERROR_INVALID_LIGHT;
+    for (int c = 0; c < 3; c++)   /* colour * intensity must stay a finite float */
+        if ((double)l->color[c] * l->intensity > FLT_MAX) return PICVR_ERROR_INVALID_LIGHT;
+    if (l->type == PICVR_LIGHT_SPHERE && !(l->radius > 0.0f)) return PICVR_ERROR_INVALID_LIGHT;
+    if (l->type == PICVR_LIGHT_RECT) {
+        float n[3];
+        cross3(l->edge_u, l->edge_v, n);
+        double lu = len3(l->edge_u), lv = len3(l->edge_v), ln = len3(n);
+        if (!(lu > 0.0) || !(lv > 0.0) || !(ln > 1e-6 * lu * lv) || !isfinite(ln)) return PICVR_ERROR_INVALID_LIGHT;
+    }
+    if (l->type == PICVR_LIGHT_DIRECTIONAL &&
+        (!(len3(l->direction) > 0.0) || l->angular_diameter < 0.0f || l->angular_diameter >= (float)PICVR_PI))
+        return PICVR_ERROR_INVALID_LIGHT;
+    return PICVR_OK;
+}
+
+/* Emitted power used to choose a light (proportional sampling), in double. */
+static double light_power(const picvr_light *l, double scene_radius) {
+    double lum = luminance(l->color) * l->intensity;
+    switch (l->type) {
+    case PICVR_LIGHT_SPHERE: return lum * PICVR_PI * 4.0 * PICVR_PI * (double)l->radius * l->radius;
+    case PICVR_LIGHT_RECT: { float n[3]; cross3(l->edge_u, l->edge_v, n); return lum * PICVR_PI * len3(n); }
+    case PICVR_LIGHT_DIRECTIONAL: return lum * PICVR_PI * scene_radius * scene_radius;
+    default: return lum * 4.0 * PICVR_PI;
+    }
+}
+
+static void pack_light(const picvr_light *l, gpu_light *g) {
+    memset(g, 0, sizeof *g);
+    float rad[3];
+    for (int c = 0; c < 3; c++) rad[c] = l->color[c] * l->intensity;
+    set4(g->p0, l->position, (float)l->type);
+    set4(g->p1, rad, 0.0f);
+    if (l->type == PICVR_LIGHT_SPHERE) g->p2[3] = l->radius;
+    if (l->type == PICVR_LIGHT_RECT) {
+        float n[3];
+        cross3(l->edge_u, l->edge_v, n);
+        set4(g->p2, l->edge_u, 0.0f);
+        set4(g->p3, l->edge_v, (float)len3(n));
+    }
+    if (l->type == PICVR_LIGHT_DIRECTIONAL) {
+        double inv = 1.0 / len3(l->direction);
+        float dir[3] = {(float)(l->direction[0] * inv), (float)(l->direction[1] * inv), (float)(l->direction[2] * inv)};
+        set4(g->p0, dir, (float)l->type);
+        /* 1 - cos(half angle) = 2 sin^2(half angle / 2), without cancellation.  Rule:
+           cones below 1e-12 sr/(2 pi) are delta lights (their radiance would overflow). */
+        double s = sin(0.25 * l->angular_diameter), omc = 2.0 * s * s;
+        if (omc < 1e-12) omc = 0.0;
+        g->p2[3] = (float)omc;
+        if (omc > 0.0)
+            for (int c = 0; c < 3; c++) g->p1[c] = (float)(rad[c] / (2.0 * PICVR_PI * omc));
+    }
+}
+
+static int light_is_delta(const gpu_light *g) {
+    int type = (int)g->p0[3];
+    return type == PICVR_LIGHT_POINT || (type == PICVR_LIGHT_DIRECTIONAL && g->p2[3] == 0.0f);
+}
+
+picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uint32_t count,
+                              const picvr_background *bg) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (count > PICVR_MAX_LIGHTS) return PICVR_ERROR_TOO_MANY_LIGHTS;
+    if (count > 0 && !lights) return PICVR_ERROR_NULL_POINTER;
+    for (uint32_t i = 0; i < count; i++) {
+        picvr_status s = validate_light(&lights[i]);
+        if (s) return s;
+    }
+    if (bg) {
+        if (!finite3(bg->color) || !isfinite(bg->intensity)) return PICVR_ERROR_NON_FINITE;
+        if (bg->intensity < 0.0f || bg->color[0] < 0.0f || bg->color[1] < 0.0f || bg->color[2] < 0.0f)
+            return PICVR_ERROR_INVALID_LIGHT;
+        for (int c = 0; c < 3; c++)
+            if ((double)bg->color[c] * bg->intensity > FLT_MAX) return PICVR_ERROR_INVALID_LIGHT;
+    }
+    /* Scene radius for the power of lights at infinity: the volume's bounding sphere
+       (1 before a volume is uploaded; only the ratios matter). */
+    double R = ctx->has_volume ? ctx->scene.box_size[3] : 1.0;
+    double power[PICVR_MAX_LIGHTS + 1], total = 0.0;
+    for (uint32_t i = 0; i < count; i++) total += power[i] = light_power(&lights[i], R);
+    double bg_power = bg ? luminance(bg->color) * bg->intensity * 4.0 * PICVR_PI * PICVR_PI * R * R : 0.0;
+    total += bg_power;
+
+    int mis = 0;
+    double cdf = 0.0;
+    for (uint32_t i = 0; i < count; i++) {
+        gpu_light *g = &ctx->scene.lights[i];
+        pack_light(&lights[i], g);
+        /* Rule: with zero total power every probability is 0 and nothing is sampled. */
+        double pmf = total > 0.0 ? power[i] / total : 0.0;
+        cdf += pmf;
+        g->p1[3] = (float)pmf;
+        g->p4[0] = (float)cdf;
+        if (!light_is_delta(g) && pmf > 0.0) mis = 1;
+    }
+    float bgr[3] = {0, 0, 0};
+    if (bg) for (int c = 0; c < 3; c++) bgr[c] = bg->color[c] * bg->intensity;
+    set4(ctx->scene.background, bgr, total > 0.0 ? (float)(bg_power / total) : 0.0f);
+    if (bg_power > 0.0) mis = 1;
+    ctx->scene.grid[3] = count;
+    ctx->use_phase_mis = mis;
+    return clear_accumulation(ctx);
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* camera and image buffers                                                            */
+
+static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_t h) {
+    VkDeviceSize pixels = (VkDeviceSize)w * h;
+    VkDeviceSize plane = pixels * 16;
+    if (plane > ctx->props.limits.maxStorageBufferRange) {
+        logf_(ctx, PICVR_LOG_WARNING, "image of %ux%u exceeds maxStorageBufferRange", w, h);
+        return PICVR_ERROR_SIZE_OVERFLOW;
+    }
+    VkDeviceSize groups = (pixels + 255) / 256;
+    buffer acc[3], rb, part;
+    memset(acc, 0, sizeof acc);
+    memset(&rb, 0, sizeof rb);
+    memset(&part, 0, sizeof part);
+    picvr_status s = PICVR_OK;
+    for (int i = 0; i < 3 && !s; i++)
+        s = buffer_create(ctx, &acc[i], plane, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                              VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 0);
+    if (!s) s = buffer_create(ctx, &rb, plane, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1);
+    if (!s) s = buffer_create(ctx, &part, groups * sizeof(gpu_partial), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, 1);
+    if (s) {
+        for (int i = 0; i < 3; i++) buffer_destroy(ctx, &acc[i]);
+        buffer_destroy(ctx, &rb);
+        buffer_destroy(ctx, &part);
+        return s;
+    }
+    for (int i = 0; i < 3; i++) { buffer_destroy(ctx, &ctx->accum[i]); ctx->accum[i] = acc[i]; }
+    buffer_destroy(ctx, &ctx->readback);
+    buffer_destroy(ctx, &ctx->partials);
+    ctx->readback = rb;
+    ctx->partials = part;
+    ctx->descriptors_dirty = 1;
+    return PICVR_OK;
+}
+
+static picvr_status validate_camera(const picvr_camera *c, picvr_camera *out) {
+    if (!c) return PICVR_ERROR_NULL_POINTER;
+    *out = *c;
+    if (!finite3(c->position) || !finite3(c->target) || !finite3(c->up) || !isfinite(c->fov_y_degrees))
+        return PICVR_ERROR_NON_FINITE;
+    if (c->width == 0 || c->height == 0) return PICVR_ERROR_INVALID_DIMENSIONS;
+    if (c->width > PICVR_MAX_IMAGE_SIZE || c->height > PICVR_MAX_IMAGE_SIZE) return PICVR_ERROR_SIZE_OVERFLOW;
+    if (out->up[0] == 0.0f && out->up[1] == 0.0f && out->up[2] == 0.0f) out->up[1] = 1.0f;
+    if (out->fov_y_degrees == 0.0f) out->fov_y_degrees = 40.0f;
+    if (!(out->fov_y_degrees > 0.0f && out->fov_y_degrees <= 179.0f)) return PICVR_ERROR_INVALID_CAMERA;
+    float f[3] = {c->target[0] - c->position[0], c->target[1] - c->position[1], c->target[2] - c->position[2]};
+    double lf = len3(f);
+    if (!(lf > 0.0) || !isfinite(lf)) return PICVR_ERROR_INVALID_CAMERA;
+    float r[3];
+    cross3(f, out->up, r);
+    if (!(len3(r) > 1e-6 * lf * len3(out->up))) return PICVR_ERROR_INVALID_CAMERA;
+    return PICVR_OK;
+}
+
+static void normalize3(float v[3]) {
+    double l = len3(v);
+    for (int i = 0; i < 3; i++) v[i] = (float)(v[i] / l);
+}
+
+picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    picvr_camera c;
+    picvr_status s = validate_camera(camera, &c);
+    if (s) return s;
+    if (ctx->has_camera && !memcmp(&c, &ctx->camera, sizeof c)) return PICVR_OK;
+    if (!ctx->has_camera || c.width != ctx->camera.width || c.height != ctx->camera.height)
+        if ((s = create_image_buffers(ctx, c.width, c.height))) return s;
+    float f[3] = {c.target[0] - c.position[0], c.target[1] - c.position[1], c.target[2] - c.position[2]}, r[3], u[3];
+    normalize3(f);
+    cross3(f, c.up, r);
+    normalize3(r);
+    cross3(r, f, u);
+    gpu_scene *g = &ctx->scene;
+    set4(g->cam_pos, c.position, (float)tan(0.5 * c.fov_y_degrees * PICVR_PI / 180.0));
+    set4(g->cam_fwd, f, (float)c.width / (float)c.height);
+    set4(g->cam_right, r, 0.0f);
+    set4(g->cam_up, u, 0.0f);
+    g->image[0] = c.width;
+    g->image[1] = c.height;
+    ctx->camera = c;
+    ctx->has_camera = 1;
+    return clear_accumulation(ctx);
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* rendering                                                                           */
+
+static void update_descriptors(picvr_context *ctx) {
+    if (!ctx->descriptors_dirty) return;
+    VkDescriptorBufferInfo ubo = {ctx->scene_ubo.buf, 0, VK_WHOLE_SIZE};
+    VkDescriptorImageInfo vol = {ctx->linear_sampler, ctx->volume.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkDescriptorImageInfo tf = {ctx->linear_sampler, ctx->tf_image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkDescriptorBufferInfo bufs[5] = {{ctx->majorant.buf, 0, VK_WHOLE_SIZE}, {ctx->accum[0].buf, 0, VK_WHOLE_SIZE},
+                                      {ctx->accum[1].buf, 0, VK_WHOLE_SIZE}, {ctx->accum[2].buf, 0, VK_WHOLE_SIZE},
+                                      {ctx->partials.buf, 0, VK_WHOLE_SIZE}};
+    VkWriteDescriptorSet w[8];
+    memset(w, 0, sizeof w);
+    for (uint32_t i = 0; i < 8; i++) {
+        w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        w[i].dstSet = ctx->set;
+        w[i].dstBinding = i;
+        w[i].descriptorCount = 1;
+        w[i].descriptorType = i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+                            : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    }
+    w[0].pBufferInfo = &ubo;
+    w[1].pImageInfo = &vol;
+    w[2].pImageInfo = &tf;
+    for (int i = 0; i < 5; i++) w[3 + i].pBufferInfo = &bufs[i];
+    vkUpdateDescriptorSets(ctx->device, 8, w, 0, NULL);
+    ctx->descriptors_dirty = 0;
+}
+
+static picvr_status prepare_render(picvr_context *ctx) {
+    if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
+    if (!ctx->has_volume || !ctx->has_camera) return PICVR_ERROR_NOT_READY;
+    memcpy(ctx->scene_ubo.mapped, &ctx->scene, sizeof ctx->scene);
+    buffer_flush(ctx, &ctx->scene_ubo);
+    update_descriptors(ctx);
+    return PICVR_OK;
+}
+
+/* One submission of k progressive iterations (dependent dispatches on the
+   accumulation buffers, a barrier between each). */
+static picvr_status render_batch(picvr_context *ctx, uint32_t k) {
+    picvr_status s = cmd_begin(ctx);
+    if (s) return s;
+    barrier_all(ctx);
+    vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->render_pipe[ctx->use_phase_mis ? 1 : 0]);
+    vkCmdBindDescriptorSets(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->render_layout, 0, 1, &ctx->set, 0, NULL);
+    uint32_t gx = (ctx->camera.width + 15) / 16, gy = (ctx->camera.height + 7) / 8;
+    for (uint32_t i = 0; i < k; i++) {
+        uint32_t push[2] = {ctx->iterations + i, ctx->seed};
+        vkCmdPushConstants(ctx->cmd, ctx->render_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, push);
+        vkCmdDispatch(ctx->cmd, gx, gy, 1);
+        barrier_all(ctx);
+    }
+    s = cmd_submit_wait(ctx);
+    if (!s) { ctx->iterations += k; ctx->stats_valid = 0; }
+    return s;
+}
+
+/* Renders iterations in submissions of about BATCH_TARGET_MS each, until `budget_ms`
+   of wall time has passed (at least one iteration) or `max_iterations` are done. */
+static picvr_status render_loop(picvr_context *ctx, double budget_ms, uint32_t max_iterations) {
+    picvr_status s = prepare_render(ctx);
+    if (s) return s;
+    double start = now_ms();
+    uint32_t done = 0;
+    while (done < max_iterations) {
+        double elapsed = now_ms() - start;
+        if (done > 0 && elapsed >= budget_ms) break;
+        double target = budget_ms - elapsed;
+        if (target > BATCH_TARGET_MS) target = BATCH_TARGET_MS;
+        uint32_t k = 1;
+        if (ctx->ms_per_iteration > 0.0 && done > 0) {
+            double fit = target / ctx->ms_per_iteration;
+            k = fit < 1.0 ? 1u : fit > MAX_BATCH ? MAX_BATCH : (uint32_t)fit;
+        }
+        if (k > max_iterations - done) k = max_iterations - done;
+        double t0 = now_ms();
+        if ((s = render_batch(ctx, k))) return s;
+        double per = (now_ms() - t0) / k;
+        /* Running estimate; the first batch includes shader compilation, so a new
+           measurement replaces a larger old one at once. */
+        ctx->ms_per_iteration = ctx->ms_per_iteration <= 0.0 || per < ctx->ms_per_iteration
+                              ? per : 0.7 * ctx->ms_per_iteration + 0.3 * per;
+        done += k;
+    }
+    ctx->elapsed_ms += now_ms() - start;
+    return PICVR_OK;
+}
+
+picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (!isfinite(milliseconds) || milliseconds < 0.0) return PICVR_ERROR_INVALID_ARGUMENT;
+    return render_loop(ctx, milliseconds, UINT32_MAX);
+}
+
+picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (iterations == 0) return PICVR_OK;
+    return render_loop(ctx, INFINITY, iterations);
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* reading results                                                                     */
+
+static picvr_status read_mean(picvr_context *ctx) {
+    if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
+    picvr_status s = cmd_begin(ctx);
+    if (s) return s;
+    barrier_all(ctx);
+    VkBufferCopy region = {0, 0, ctx->readback.size};
+    vkCmdCopyBuffer(ctx->cmd, ctx->accum[0].buf, ctx->readback.buf, 1, &region);
+    barrier_all(ctx);
+    if ((s = cmd_submit_wait(ctx))) return s;
+    buffer_invalidate(ctx, &ctx->readback);
+    return PICVR_OK;
+}
+
+static picvr_status check_image_read(picvr_context *ctx, const void *dst, size_t size, size_t bpp) {
+    if (!ctx || !dst) return PICVR_ERROR_NULL_POINTER;
+    if (!ctx->has_camera) return PICVR_ERROR_NOT_READY;
+    if (size / bpp < (size_t)ctx->camera.width * ctx->camera.height) return PICVR_ERROR_BUFFER_TOO_SMALL;
+    return PICVR_OK;
+}
+
+picvr_status picvr_read_rgba32f(picvr_context *ctx, float *pixels, size_t size) {
+    picvr_status s = check_image_read(ctx, pixels, size, 16);
+    if (!s) s = read_mean(ctx);
+    if (!s) memcpy(pixels, ctx->readback.mapped, (size_t)ctx->camera.width * ctx->camera.height * 16);
+    return s;
+}
+
+static uint8_t to_srgb8(double x) {
+    /* Rule: NaN (never produced, but never trusted) maps to 0. */
+    if (!(x > 0.0)) return 0;
+    if (x >= 1.0) return 255;
+    double s = x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
+    return (uint8_t)lrint(s * 255.0);
+}
+
+picvr_status picvr_read_rgba8(picvr_context *ctx, uint8_t *pixels, size_t size, float exposure) {
+    picvr_status s = check_image_read(ctx, pixels, size, 4);
+    if (!s) s = read_mean(ctx);
+    if (s) return s;
+    double e = (isfinite(exposure) && exposure > 0.0f) ? exposure : 1.0;
+    const float *src = ctx->readback.mapped;
+    size_t n = (size_t)ctx->camera.width * ctx->camera.height;
+    for (size_t i = 0; i < n; i++) {
+        for (int c = 0; c < 3; c++) pixels[i * 4 + c] = to_srgb8(1.0 - exp(-e * src[i * 4 + c]));
+        double a = src[i * 4 + 3];
+        pixels[i * 4 + 3] = (uint8_t)lrint((a > 0.0 ? (a < 1.0 ? a : 1.0) : 0.0) * 255.0);
+    }
+    return PICVR_OK;
+}
+
+/* One stats reduction pass with the given relative-error floor; sums the partials
+   in double.  Output: sums[0..3] (lum, err, rel, valid), counts[0..3]. */
+static picvr_status stats_pass(picvr_context *ctx, float rel_floor, double sums[4], uint64_t counts[4]) {
+    uint32_t pixels = ctx->camera.width * ctx->camera.height;
+    uint32_t groups = (pixels + 255) / 256;
+    picvr_status s = cmd_begin(ctx);
+    if (s) return s;
+    barrier_all(ctx);
+    vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->stats_pipe);
+    vkCmdBindDescriptorSets(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->stats_layout, 0, 1, &ctx->set, 0, NULL);
+    union { uint32_t u; float f; } push[2];
+    push[0].u = pixels;
+    push[1].f = rel_floor;
+    vkCmdPushConstants(ctx->cmd, ctx->stats_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, push);
+    uint32_t gx = groups < 65535 ? groups : 65535, gy = (groups + gx - 1) / gx;
+    vkCmdDispatch(ctx->cmd, gx, gy, 1);
+    barrier_all(ctx);
+    if ((s = cmd_submit_wait(ctx))) return s;
+    buffer_invalidate(ctx, &ctx->partials);
+    const gpu_partial *p = ctx->partials.mapped;
+    for (int i = 0; i < 4; i++) { sums[i] = 0.0; counts[i] = 0; }
+    counts[0] = UINT32_MAX;
+    for (uint32_t g = 0; g < groups; g++) {
+        for (int i = 0; i < 4; i++) sums[i] += p[g].sums[i];
+        if (p[g].counts[0] < counts[0]) counts[0] = p[g].counts[0];
+        for (int i = 1; i < 4; i++) counts[i] += p[g].counts[i];
+    }
+    return PICVR_OK;
+}
+
+picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
+    if (!ctx || !out) return PICVR_ERROR_NULL_POINTER;
+    if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
+    if (!ctx->stats_valid) {
+        picvr_stats st;
+        memset(&st, 0, sizeof st);
+        if (ctx->has_volume && ctx->has_camera && ctx->iterations > 0) {
+            picvr_status s = prepare_render(ctx);
+            double sums[4];
+            uint64_t counts[4];
+            if (!s) s = stats_pass(ctx, 0.0f, sums, counts);
+            double pixels = (double)counts[3];
+            double mean_lum = pixels > 0 ? sums[0] / pixels : 0.0;
+            if (!s) s = stats_pass(ctx, (float)(0.01 * mean_lum), sums, counts);
+            if (s) return s;
+            st.mean_luminance = mean_lum;
+            st.iterations_min = (uint32_t)counts[0];
+            st.iterations_mean = pixels > 0 ? (double)counts[1] / pixels : 0.0;
+            st.truncated_paths = counts[2];
+            st.est_error = sums[3] > 0 ? sums[1] / sums[3] : 0.0;
+            st.est_rel_error = sums[3] > 0 ? sums[2] / sums[3] : 0.0;
+        }
+        st.iterations = ctx->iterations;
+        st.elapsed_ms = ctx->elapsed_ms;
+        double samples = (double)ctx->iterations * ctx->camera.width * ctx->camera.height;
+        st.samples_per_second = ctx->elapsed_ms > 0.0 ? samples / (ctx->elapsed_ms * 1e-3) : 0.0;
+        ctx->stats = st;
+        ctx->stats_valid = 1;
+    }
+    *out = ctx->stats;
+    out->validation_messages = ctx->validation_messages;
+    out->validation_enabled = (uint32_t)ctx->validation_enabled;
+    out->width = ctx->has_camera ? ctx->camera.width : 0;
+    out->height = ctx->has_camera ? ctx->camera.height : 0;
+    snprintf(out->device_name, sizeof out->device_name, "%s", ctx->props.deviceName);
+    return PICVR_OK;
+}

@@ -1,0 +1,321 @@
+// common.glsl - shared code of the picvr kernels: scene layout, random numbers,
+// volume and transfer-function lookups, majorant-grid traversal, delta and ratio
+// tracking (paper Eq. 1-3), light sampling with MIS.  One procedure per .comp file
+// includes this.  Names follow the paper: sigma_t (extinction), tau (optical depth).
+//
+// Loop bounds: llvmpipe silently truncates loops past 65535 total iterations per
+// invocation (../shared/LAVAPIPE.md), so every tracking loop runs at most
+// MAX_TRACK_STEPS iterations; a loop that hits the bound sets `truncated` and the
+// sample is counted in the stats.  A render invocation runs at most three tracking
+// loops (primary, light sample, phase sample): 3 * 4096 << 65535.
+
+#define PI 3.14159265358979
+#define INV_4PI 0.0795774715459477
+#define MAX_TRACK_STEPS 4096u
+#define TF_SIZE 4096.0
+#define MAX_LIGHTS 32
+#define PDF_CAP 1e18   // a light whose solid-angle pdf exceeds this acts as a delta light
+
+#define LIGHT_SPHERE 1
+#define LIGHT_RECT 2
+#define LIGHT_DIRECTIONAL 3
+#define LIGHT_POINT 4
+
+// One light, packed by picvr_vk.c (pack_light):
+//   p0.xyz position (sphere/rect centre, point) or unit direction toward the light
+//          (directional); p0.w type
+//   p1.xyz radiance (area, directional: E / cone solid angle), irradiance
+//          (delta directional) or intensity (point); p1.w selection probability
+//   p2.xyz rect edge_u; p2.w sphere radius, or 1 - cos(half angle) for directional
+//   p3.xyz rect edge_v; p3.w rect area
+//   p4.x   cumulative selection probability (upper end of this light's interval)
+struct Light { vec4 p0; vec4 p1; vec4 p2; vec4 p3; vec4 p4; };
+
+layout(set = 0, binding = 0, std140) uniform Scene {
+    vec4 cam_pos;      // xyz, w = tan(fov_y / 2)
+    vec4 cam_fwd;      // xyz, w = aspect
+    vec4 cam_right;
+    vec4 cam_up;
+    vec4 box_min;      // xyz world box min, w = density factor D
+    vec4 box_size;     // xyz world box size, w = radius of the bounding sphere
+    vec4 cell_size;    // xyz world size of one majorant cell, w = smallest spacing
+    uvec4 grid;        // xyz majorant grid dims, w = number of lights
+    uvec4 image;       // x width, y height
+    vec4 background;   // rgb radiance, w = selection probability
+    vec4 value_map;    // x scale, y offset: normalized value = clamp(texel * x + y, 0, 1)
+    Light lights[MAX_LIGHTS];
+} scene;
+
+layout(set = 0, binding = 1) uniform sampler3D volume_tex;   // normalized data value
+layout(set = 0, binding = 2) uniform sampler1D tf_tex;       // rgb albedo, a opacity
+layout(set = 0, binding = 3, std430) readonly buffer Majorant { float majorant[]; };
+
+// ---- random numbers: a counter-based hash of (pixel, iteration, dimension, seed) ----
+uint pcg_hash(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+struct Rng { uint key; uint counter; };
+
+Rng rng_init(uint pixel, uint iteration, uint seed) {
+    Rng r;
+    r.key = pcg_hash(pixel ^ pcg_hash(iteration ^ pcg_hash(seed + 0x9e3779b9u)));
+    r.counter = 0u;
+    return r;
+}
+
+// Uniform in [0,1): 24 random bits, so 1 - u is never 0.
+float rnd(inout Rng r) {
+    uint h = pcg_hash(r.key ^ pcg_hash(r.counter * 0x68bc21ebu + 0x02e5be93u));
+    r.counter++;
+    return float(h >> 8u) * (1.0 / 16777216.0);
+}
+
+// ---- geometry helpers ----
+vec3 uniform_sphere(float u1, float u2) {
+    float z = 1.0 - 2.0 * u1;
+    float r = sqrt(max(0.0, 1.0 - z * z));
+    float phi = 2.0 * PI * u2;
+    return vec3(r * cos(phi), r * sin(phi), z);
+}
+
+// Orthonormal basis around unit n (Duff et al. 2017, branchless).
+void basis(vec3 n, out vec3 t, out vec3 b) {
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float c = n.x * n.y * a;
+    t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
+    b = vec3(c, s + n.y * n.y * a, -n.y);
+}
+
+// Uniform direction in the cone of solid angle 2 pi omc around unit axis, where
+// omc = 1 - cos(half angle) is passed directly so tiny cones keep their precision:
+// sin^2 = (1 - cos)(1 + cos) = u omc (2 - u omc).
+vec3 sample_cone(vec3 axis, float omc, float u1, float u2) {
+    float one_minus_cos = u1 * omc;
+    float cos_t = 1.0 - one_minus_cos;
+    float sin_t = sqrt(max(0.0, one_minus_cos * (2.0 - one_minus_cos)));
+    float phi = 2.0 * PI * u2;
+    vec3 t, b;
+    basis(axis, t, b);
+    return normalize(cos_t * axis + sin_t * (cos(phi) * t + sin(phi) * b));
+}
+
+// 1 / d with |d| >= 1e-30 (keeps slab tests finite for axis-parallel rays).
+vec3 safe_inverse(vec3 d) {
+    vec3 s = mix(vec3(-1.0), vec3(1.0), greaterThanEqual(d, vec3(0.0)));
+    return 1.0 / (s * max(abs(d), vec3(1e-30)));
+}
+
+// Ray / volume box: [t0, t1] clipped to t >= 0; false when missed.
+bool box_interval(vec3 ro, vec3 rd, out float t0, out float t1) {
+    vec3 inv = safe_inverse(rd);
+    vec3 a = (scene.box_min.xyz - ro) * inv;
+    vec3 b = (scene.box_min.xyz + scene.box_size.xyz - ro) * inv;
+    vec3 lo = min(a, b), hi = max(a, b);
+    t0 = max(max(lo.x, lo.y), max(lo.z, 0.0));
+    t1 = min(min(hi.x, hi.y), hi.z);
+    return t1 > t0;
+}
+
+// ---- medium: sigma_t(x) = D * opacity(v(x)) per world unit ----
+vec4 transfer(float v) {
+    return texture(tf_tex, (clamp(v, 0.0, 1.0) * (TF_SIZE - 1.0) + 0.5) / TF_SIZE);
+}
+
+float data_value(vec3 x) {
+    float texel = texture(volume_tex, (x - scene.box_min.xyz) / scene.box_size.xyz).r;
+    return clamp(texel * scene.value_map.x + scene.value_map.y, 0.0, 1.0);
+}
+
+float sigma_t(vec3 x) { return scene.box_min.w * transfer(data_value(x)).a; }
+
+vec3 albedo_at(vec3 x) { return transfer(data_value(x)).rgb; }
+
+// ---- majorant grid traversal (3D DDA over bricks of voxels) ----
+struct Dda {
+    ivec3 cell;
+    ivec3 stp;
+    vec3 t_next;    // ray parameter of the next boundary per axis
+    vec3 t_delta;   // ray parameter across one cell per axis
+};
+
+Dda dda_start(vec3 ro, vec3 rd, float t) {
+    Dda d;
+    vec3 cs = scene.cell_size.xyz;
+    vec3 p = (ro + rd * t - scene.box_min.xyz) / cs;
+    ivec3 g = ivec3(scene.grid.xyz);
+    d.cell = clamp(ivec3(floor(p)), ivec3(0), g - 1);
+    d.stp = ivec3(mix(vec3(-1.0), vec3(1.0), greaterThanEqual(rd, vec3(0.0))));
+    vec3 inv = safe_inverse(rd);
+    vec3 boundary = (vec3(d.cell) + vec3(greaterThan(d.stp, ivec3(0)))) * cs + scene.box_min.xyz;
+    d.t_next = max((boundary - ro) * inv, vec3(t));
+    d.t_delta = abs(cs * inv);
+    return d;
+}
+
+float cell_majorant(Dda d) {
+    uvec3 c = uvec3(d.cell);
+    return majorant[c.x + scene.grid.x * (c.y + scene.grid.y * c.z)];
+}
+
+float dda_exit(Dda d) { return min(d.t_next.x, min(d.t_next.y, d.t_next.z)); }
+
+// Moves to the next cell; false when the ray leaves the grid.
+bool dda_advance(inout Dda d) {
+    if (d.t_next.x <= d.t_next.y && d.t_next.x <= d.t_next.z) {
+        d.cell.x += d.stp.x; d.t_next.x += d.t_delta.x;
+    } else if (d.t_next.y <= d.t_next.z) {
+        d.cell.y += d.stp.y; d.t_next.y += d.t_delta.y;
+    } else {
+        d.cell.z += d.stp.z; d.t_next.z += d.t_delta.z;
+    }
+    return all(greaterThanEqual(d.cell, ivec3(0))) && all(lessThan(d.cell, ivec3(scene.grid.xyz)));
+}
+
+// Delta (Woodcock) tracking in [t0, t1]: the distance of a real collision, or -1 when
+// the ray passes.  Free flights restart at cell boundaries (the exponential
+// distribution is memoryless), so each cell uses its own majorant.
+float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    Dda d = dda_start(ro, rd, t0);
+    float t = t0;
+    float maj = cell_majorant(d);
+    for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
+        float t_cell = min(dda_exit(d), t1);
+        if (maj > 0.0) {
+            // -log(1 - u) is finite because u < 1 (rnd has 24 bits).
+            float t_try = t - log(1.0 - rnd(rng)) / maj;
+            if (t_try < t_cell) {
+                t = t_try;
+                if (rnd(rng) * maj < sigma_t(ro + rd * t)) return t;
+                continue;
+            }
+        }
+        t = t_cell;
+        if (t >= t1 || !dda_advance(d)) return -1.0;
+        maj = cell_majorant(d);
+    }
+    truncated = true;   // bound reached: treated as escaping (biased, counted)
+    return -1.0;
+}
+
+// Ratio tracking in [t0, t1]: an unbiased transmittance estimate (Eq. 2).  Russian
+// roulette below 0.1 ends long, dark paths early without bias.
+float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    Dda d = dda_start(ro, rd, t0);
+    float t = t0;
+    float T = 1.0;
+    float maj = cell_majorant(d);
+    for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
+        float t_cell = min(dda_exit(d), t1);
+        if (maj > 0.0) {
+            float t_try = t - log(1.0 - rnd(rng)) / maj;
+            if (t_try < t_cell) {
+                t = t_try;
+                // sigma_t <= maj by construction; the clamp keeps T >= 0 under rounding
+                T *= clamp(1.0 - sigma_t(ro + rd * t) / maj, 0.0, 1.0);
+                if (T < 0.1) {
+                    if (T <= 0.0 || rnd(rng) >= T * 10.0) return 0.0;
+                    T = 0.1;
+                }
+                continue;
+            }
+        }
+        t = t_cell;
+        if (t >= t1 || !dda_advance(d)) return T;
+        maj = cell_majorant(d);
+    }
+    truncated = true;
+    return T;
+}
+
+// Transmittance from x along unit w over distance dist (only the part inside the box).
+float transmittance(vec3 x, vec3 w, float dist, inout Rng rng, inout bool truncated) {
+    float t0, t1;
+    if (!box_interval(x, w, t0, t1)) return 1.0;
+    t1 = min(t1, dist);
+    if (t1 <= t0) return 1.0;
+    return ratio_track(x, w, t0, t1, rng, truncated);
+}
+
+// ---- lights ----
+int light_type(uint i) { return int(scene.lights[i].p0.w); }
+
+// Nearest hit of the ray with any sphere or rect light in (0, tmax): the light's
+// index or -1; *t_hit is its distance.  Area lights are opaque emitters.
+int nearest_area_light(vec3 x, vec3 w, float tmax, out float t_hit) {
+    int hit = -1;
+    t_hit = tmax;
+    for (uint i = 0u; i < scene.grid.w; i++) {
+        Light l = scene.lights[i];
+        int type = int(l.p0.w);
+        if (type == LIGHT_SPHERE) {
+            vec3 oc = x - l.p0.xyz;
+            float b = dot(oc, w);
+            float c = dot(oc, oc) - l.p2.w * l.p2.w;
+            float disc = b * b - c;
+            if (disc < 0.0) continue;
+            float s = sqrt(disc);
+            float t = (c > 0.0) ? -b - s : -b + s;   // outside: near hit; inside: exit
+            if (t > 0.0 && t < t_hit) { t_hit = t; hit = int(i); }
+        } else if (type == LIGHT_RECT) {
+            vec3 n = cross(l.p2.xyz, l.p3.xyz);
+            float denom = dot(n, w);
+            if (abs(denom) < 1e-30) continue;
+            float t = dot(l.p0.xyz - x, n) / denom;
+            if (t <= 0.0 || t >= t_hit) continue;
+            vec3 q = x + w * t - l.p0.xyz;
+            float su = dot(q, l.p2.xyz) / dot(l.p2.xyz, l.p2.xyz);
+            float sv = dot(q, l.p3.xyz) / dot(l.p3.xyz, l.p3.xyz);
+            if (abs(su) <= 0.5 && abs(sv) <= 0.5) { t_hit = t; hit = int(i); }
+        }
+    }
+    return hit;
+}
+
+// Radiance leaving area light i toward -w at its hit point (rects are one-sided).
+vec3 area_light_radiance(uint i, vec3 w) {
+    Light l = scene.lights[i];
+    if (int(l.p0.w) == LIGHT_RECT && dot(cross(l.p2.xyz, l.p3.xyz), w) >= 0.0) return vec3(0.0);
+    return l.p1.xyz;
+}
+
+// Solid-angle pdf of light i's sampling strategy for direction w from x, with the
+// hit distance t (sphere, rect).  Capped at PDF_CAP.
+float light_pdf(uint i, vec3 x, vec3 w, float t) {
+    Light l = scene.lights[i];
+    int type = int(l.p0.w);
+    if (type == LIGHT_SPHERE) {
+        vec3 oc = l.p0.xyz - x;
+        float d2 = dot(oc, oc), r2 = l.p2.w * l.p2.w;
+        if (d2 <= r2) return INV_4PI;                 // inside: uniform sphere sampling
+        float sin2 = r2 / d2;
+        float omc = sin2 / (1.0 + sqrt(max(0.0, 1.0 - sin2)));  // 1 - cos, no cancellation
+        return min(1.0 / (2.0 * PI * max(omc, 1e-30)), PDF_CAP);
+    }
+    if (type == LIGHT_RECT) {
+        vec3 n = normalize(cross(l.p2.xyz, l.p3.xyz));
+        float cos_l = abs(dot(n, w));
+        return min(t * t / max(l.p3.w * cos_l, 1e-30), PDF_CAP);
+    }
+    if (type == LIGHT_DIRECTIONAL) return min(1.0 / (2.0 * PI * max(l.p2.w, 1e-30)), PDF_CAP);
+    return 0.0;
+}
+
+// Power-heuristic MIS weight of a strategy with pdf a against one with pdf b, written
+// as a / (a^2 + b^2) * a so that neither huge nor tiny pdfs overflow.
+float power_weight(float a, float b) {
+    if (a <= 0.0) return 0.0;
+    float r = b / a;
+    return 1.0 / (1.0 + r * r);
+}
+
+// Picks one light (or the background, index MAX_LIGHTS) by the precomputed
+// power-proportional probabilities.
+uint select_light(float u) {
+    for (uint i = 0u; i < scene.grid.w; i++)
+        if (u < scene.lights[i].p4.x) return i;
+    return uint(MAX_LIGHTS);
+}
