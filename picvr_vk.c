@@ -757,13 +757,41 @@ static float range_max_query(const range_max *rm, int lo, int hi) {
     return fmaxf(rm->level[k][lo], rm->level[k][hi - (1 << k) + 1]);
 }
 
+/* Chebyshev distance (in cells, capped at 255) from each cell to the nearest cell
+   with a non-zero majorant: 0 for non-empty cells.  Exact for the Chebyshev metric
+   with two chamfer passes over the 26-neighbourhood.  The shader's empty_skip()
+   uses it to jump over empty space. */
+static void empty_distance(const uint32_t g[3], const float *maj, float *dist) {
+    long nx = g[0], ny = g[1], nz = g[2];
+    for (long i = 0; i < nx * ny * nz; i++) dist[i] = maj[i] > 0.0f ? 0.0f : 255.0f;
+    for (int pass = 0; pass < 2; pass++) {
+        int dir = pass == 0 ? 1 : -1;
+        for (long zz = 0; zz < nz; zz++)
+            for (long yy = 0; yy < ny; yy++)
+                for (long xx = 0; xx < nx; xx++) {
+                    long x = dir > 0 ? xx : nx - 1 - xx, y = dir > 0 ? yy : ny - 1 - yy, z = dir > 0 ? zz : nz - 1 - zz;
+                    float *c = &dist[x + nx * (y + ny * z)];
+                    /* neighbours already visited in this pass: 13 of the 26 */
+                    for (int dz = -1; dz <= 0; dz++)
+                        for (int dy = -1; dy <= 1; dy++)
+                            for (int dx = -1; dx <= 1; dx++) {
+                                if (dz == 0 && (dy > 0 || (dy == 0 && dx >= 0))) continue;
+                                long qx = x + dir * dx, qy = y + dir * dy, qz = z + dir * dz;
+                                if (qx < 0 || qy < 0 || qz < 0 || qx >= nx || qy >= ny || qz >= nz) continue;
+                                float v = dist[qx + nx * (qy + ny * qz)] + 1.0f;
+                                if (v < *c) *c = v;
+                            }
+                }
+    }
+}
+
 /* Majorant per brick: D times the largest table opacity over the brick's value range
    (one table entry of margin each side because filtering blends neighbours), times
    1 + 1e-3 against float rounding of the filtered lookups. */
 static picvr_status update_majorant(picvr_context *ctx) {
     if (!ctx->has_volume) return PICVR_OK;
     size_t cells = (size_t)ctx->grid[0] * ctx->grid[1] * ctx->grid[2];
-    float *maj = mem_alloc(&ctx->alloc, cells * sizeof(float));
+    float *maj = mem_alloc(&ctx->alloc, 2 * cells * sizeof(float));
     range_max *rm = mem_alloc(&ctx->alloc, sizeof *rm);
     if (!maj || !rm) { mem_free(&ctx->alloc, maj); mem_free(&ctx->alloc, rm); return PICVR_ERROR_OUT_OF_HOST_MEMORY; }
     range_max_build(rm, ctx->tf_table);
@@ -775,7 +803,8 @@ static picvr_status update_majorant(picvr_context *ctx) {
         double m = (double)ctx->density * range_max_query(rm, lo, hi) * (1.0 + 1e-3);
         maj[c] = m > FLT_MAX ? FLT_MAX : (float)m;
     }
-    picvr_status s = upload_buffer(ctx, &ctx->majorant, maj, cells * sizeof(float));
+    empty_distance(ctx->grid, maj, maj + cells);
+    picvr_status s = upload_buffer(ctx, &ctx->majorant, maj, 2 * cells * sizeof(float));
     mem_free(&ctx->alloc, maj);
     mem_free(&ctx->alloc, rm);
     return s;
@@ -1005,7 +1034,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
 
     uint32_t maxdim = desc->dims[0];
     for (int i = 1; i < 3; i++) if (desc->dims[i] > maxdim) maxdim = desc->dims[i];
-    uint32_t brick = 4;
+    uint32_t brick = 8;   /* measured on bonsai: 8 beats 4 (DDA steps) and 16 (null collisions) */
     while ((maxdim + brick - 1) / brick > MAX_GRID) brick *= 2;
     uint32_t grid[3];
     for (int i = 0; i < 3; i++) grid[i] = (desc->dims[i] + brick - 1) / brick;
@@ -1018,7 +1047,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     float *bmin = NULL, *bmax = NULL;
     size_t cells = (size_t)grid[0] * grid[1] * grid[2];
     if ((s = image_create(ctx, &vol, VK_IMAGE_TYPE_3D, fmt, desc->dims[0], desc->dims[1], desc->dims[2]))) return s;
-    if ((s = buffer_create(ctx, &maj, cells * sizeof(float),
+    if ((s = buffer_create(ctx, &maj, 2 * cells * sizeof(float),
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) {
         image_destroy(ctx, &vol);
         return s;

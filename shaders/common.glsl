@@ -156,9 +156,25 @@ Dda dda_start(vec3 ro, vec3 rd, float t) {
     return d;
 }
 
-float cell_majorant(Dda d) {
+uint cell_index(Dda d) {
     uvec3 c = uvec3(d.cell);
-    return majorant[c.x + scene.grid.x * (c.y + scene.grid.y * c.z)];
+    return c.x + scene.grid.x * (c.y + scene.grid.y * c.z);
+}
+
+float cell_majorant(Dda d) { return majorant[cell_index(d)]; }
+
+// Empty-space skipping.  The second half of the majorant buffer holds, per empty
+// cell, the Chebyshev distance k (in cells) to the nearest non-empty cell.  From any
+// point p of cell c, a move of less than m = k - 1 cells along every axis stays in
+// cells within distance m of c, all empty; so the ray may jump by
+// t = m / max_i(|rd_i| / cell_size_i) and restart the DDA there.  Returns 0 when
+// no jump is possible (k < 2).
+float empty_skip(Dda d, vec3 rd) {
+    uint cells = scene.grid.x * scene.grid.y * scene.grid.z;
+    float m = majorant[cells + cell_index(d)] - 1.0;
+    if (m < 1.0) return 0.0;
+    vec3 speed = abs(rd) / scene.cell_size.xyz;     // cells per unit of t, per axis
+    return m / max(max(speed.x, speed.y), max(speed.z, 1e-30));
 }
 
 float dda_exit(Dda d) { return min(d.t_next.x, min(d.t_next.y, d.t_next.z)); }
@@ -192,6 +208,15 @@ float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout boo
                 if (rnd(rng) * maj < sigma_t(ro + rd * t)) return t;
                 continue;
             }
+        } else {
+            float jump = empty_skip(d, rd);
+            if (jump > 0.0) {
+                t += jump;
+                if (t >= t1) return -1.0;
+                d = dda_start(ro, rd, t);
+                maj = cell_majorant(d);
+                continue;
+            }
         }
         t = t_cell;
         if (t >= t1 || !dda_advance(d)) return -1.0;
@@ -220,6 +245,15 @@ float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout boo
                     if (T <= 0.0 || rnd(rng) >= T * 10.0) return 0.0;
                     T = 0.1;
                 }
+                continue;
+            }
+        } else {
+            float jump = empty_skip(d, rd);
+            if (jump > 0.0) {
+                t += jump;
+                if (t >= t1) return T;
+                d = dda_start(ro, rd, t);
+                maj = cell_majorant(d);
                 continue;
             }
         }

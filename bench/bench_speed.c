@@ -1,0 +1,419 @@
+/* bench_speed.c - picvr-bench-speed: samples/s of the Vulkan kernel against the
+ * C/OpenMP reference (tests/cpu_reference.c), side by side on one scene.
+ *
+ *   picvr-bench-speed --volume bonsai_256x256x256_uint8.raw.gz [--size 512]
+ *                     [--iterations-gpu N] [--iterations-cpu N] [--json FILE] [--quick]
+ *
+ * Scene (fixed, so runs compare): the volume, a transfer function with opacity 0
+ * below 0.15 ramping to 1 at 0.4, albedo 0.8, density 1; one sphere area light plus
+ * a sky background; a square image seen from a fixed 3/4 view.
+ *
+ * GPU: the public picvr API; a warm-up (shader compilation, first-touch costs), a
+ * calibration that picks N for about 4 s (unless --iterations-gpu), then the timed
+ * picvr_step_iterations(ctx, N) (it returns when the device is done).
+ * CPU: cref_render() on omp_get_max_threads() threads, timed with CLOCK_MONOTONIC.
+ *
+ * Sanity check: both images' mean luminance must agree within 3 % plus 4 standard
+ * errors (the standard error from the CPU's per-pixel sample variance).  Exit status:
+ * 0 ok, 1 runtime error, 2 usage error, 3 the two renderers disagree.
+ */
+#include <math.h>
+#include <omp.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "picvr.h"
+#include "tests/cpu_reference.h"
+#include "volume_io.h"
+
+#define PROGRAM "picvr-bench-speed"
+#define EXIT_USAGE 2
+#define EXIT_MISMATCH 3
+#define GPU_TARGET_S 4.0         /* timed GPU run length when N is chosen here */
+#define GPU_TARGET_QUICK_S 0.5
+#define REL_TOLERANCE 0.03       /* systematic allowance between the two renderers */
+
+typedef struct options {
+    const char *volume_path, *json_path, *device;
+    uint32_t width, height;
+    uint32_t iterations_gpu;     /* 0: calibrate */
+    uint32_t iterations_cpu;
+    uint32_t seed;
+    int quick;
+} options;
+
+typedef struct result {
+    uint32_t iterations;
+    double seconds, ms_per_iteration, msamples_per_s, mean_luminance, mean_alpha;
+    uint64_t truncated;
+} result;
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: " PROGRAM " --volume FILE [options]\n"
+            "  --volume FILE          NAME_XxYxZ_TYPE.raw[.gz] (bonsai_256x256x256_uint8.raw.gz)\n"
+            "  --size N | WxH         image size (default 512)\n"
+            "  --iterations-gpu N     timed GPU iterations (default: about %.0f s worth)\n"
+            "  --iterations-cpu N     timed CPU iterations (default 4, at least 2)\n"
+            "  --seed N               random seed (default 1)\n"
+            "  --device NAME          Vulkan device name substring\n"
+            "  --json FILE            write the figures as JSON\n"
+            "  --quick                smoke run: 128x128, ~%.1f s GPU, 2 CPU iterations\n",
+            GPU_TARGET_S, GPU_TARGET_QUICK_S);
+}
+
+/* Strict unsigned parse: digits only, 1..max. */
+static int parse_u32(const char *s, uint32_t max, uint32_t *out)
+{
+    char *end;
+    if (!s || *s < '0' || *s > '9') return 0;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (*end || v < 1 || v > max) return 0;
+    *out = (uint32_t)v;
+    return 1;
+}
+
+static int parse_size(const char *s, uint32_t *w, uint32_t *h)
+{
+    char buf[64];
+    if (!s || strlen(s) >= sizeof buf) return 0;
+    strcpy(buf, s);
+    char *x = strchr(buf, 'x');
+    if (!x) return parse_u32(buf, PICVR_MAX_IMAGE_SIZE, w) && (*h = *w, 1);
+    *x = '\0';
+    return parse_u32(buf, PICVR_MAX_IMAGE_SIZE, w) && parse_u32(x + 1, PICVR_MAX_IMAGE_SIZE, h);
+}
+
+static int parse_args(int argc, char **argv, options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->width = o->height = 512;
+    o->iterations_cpu = 4;
+    o->seed = 1;
+    int have_size = 0, have_cpu = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        int ok = 1, takes = 1;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { usage(stdout); exit(0); }
+        else if (!strcmp(a, "--quick")) { o->quick = 1; takes = 0; }
+        else if (!strcmp(a, "--volume")) ok = (o->volume_path = v) != NULL;
+        else if (!strcmp(a, "--json")) ok = (o->json_path = v) != NULL;
+        else if (!strcmp(a, "--device")) ok = (o->device = v) != NULL;
+        else if (!strcmp(a, "--size")) ok = have_size = parse_size(v, &o->width, &o->height);
+        else if (!strcmp(a, "--iterations-gpu")) ok = parse_u32(v, 1000000, &o->iterations_gpu);
+        else if (!strcmp(a, "--iterations-cpu")) ok = have_cpu = parse_u32(v, 1000000, &o->iterations_cpu);
+        else if (!strcmp(a, "--seed")) { ok = v != NULL; if (ok) o->seed = (uint32_t)strtoul(v, NULL, 10); }
+        else { fprintf(stderr, PROGRAM ": unknown option '%s'\n", a); return 0; }
+        if (!ok) { fprintf(stderr, PROGRAM ": bad or missing value for %s\n", a); return 0; }
+        i += takes;
+    }
+    if (!o->volume_path) { fprintf(stderr, PROGRAM ": --volume is required\n"); return 0; }
+    if (o->quick && !have_size) o->width = o->height = 128;
+    if (o->quick && !have_cpu) o->iterations_cpu = 2;
+    if (o->iterations_cpu < 2) o->iterations_cpu = 2;   /* a sample variance needs 2 */
+    return 1;
+}
+
+/* ---- the fixed scene ------------------------------------------------------------- */
+
+static const picvr_tf_point bench_tf[] = {
+    {0.00f, {0.8f, 0.8f, 0.8f}, 0.0f},
+    {0.15f, {0.8f, 0.8f, 0.8f}, 0.0f},
+    {0.40f, {0.8f, 0.8f, 0.8f}, 1.0f},
+    {1.00f, {0.8f, 0.8f, 0.8f}, 1.0f},
+};
+#define BENCH_TF_COUNT 4u
+#define BENCH_DENSITY 1.0f
+
+/* Positions scale with the box's half-diagonal so any volume is framed alike
+   (for bonsai, R = 221.7: the light sits ~1.8 R from the centre, the camera ~2.9 R). */
+static void bench_lights(float R, picvr_light *sphere, picvr_background *sky)
+{
+    memset(sphere, 0, sizeof *sphere);
+    sphere->type = PICVR_LIGHT_SPHERE;
+    sphere->position[0] = 1.0f * R; sphere->position[1] = 1.3f * R; sphere->position[2] = 0.7f * R;
+    sphere->radius = 0.25f * R;
+    sphere->color[0] = 1.0f; sphere->color[1] = 0.92f; sphere->color[2] = 0.8f;
+    sphere->intensity = 60.0f;   /* irradiance at the centre ~ 60 pi (0.25/1.8)^2 = 3.6 */
+    sky->color[0] = 0.35f; sky->color[1] = 0.45f; sky->color[2] = 0.6f;
+    sky->intensity = 0.6f;
+}
+
+static void bench_camera(float R, uint32_t w, uint32_t h, picvr_camera *cam)
+{
+    memset(cam, 0, sizeof *cam);
+    cam->position[0] = 1.7f * R; cam->position[1] = 1.1f * R; cam->position[2] = 2.0f * R;
+    cam->up[1] = 1.0f;
+    cam->fov_y_degrees = 40.0f;
+    cam->width = w; cam->height = h;
+}
+
+/* ---- statistics ----------------------------------------------------------------- */
+
+static double luminance_f(const float *p)
+{
+    return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+}
+
+static void image_means(const float *rgba, size_t n, double *lum, double *alpha)
+{
+    double s = 0.0, a = 0.0;
+    for (size_t i = 0; i < n; i++) { s += luminance_f(rgba + 4 * i); a += rgba[4 * i + 3]; }
+    *lum = n ? s / (double)n : 0.0;
+    *alpha = n ? a / (double)n : 0.0;
+}
+
+/* Variance of the image-mean luminance with k samples per pixel, from the CPU's
+   per-pixel M2 over n_cpu samples: sum_p S_p^2 / (k P^2). */
+static double mean_variance(const double *m2, size_t n, uint32_t n_cpu, uint32_t k)
+{
+    double v = 0.0;
+    for (size_t i = 0; i < n; i++) v += m2[i] / (double)(n_cpu - 1);  /* n_cpu >= 2 */
+    return v / ((double)k * (double)n * (double)n);
+}
+
+/* ---- the two runs ---------------------------------------------------------------- */
+
+static int check(picvr_status s, const char *what)
+{
+    if (s == PICVR_OK) return 1;
+    fprintf(stderr, PROGRAM ": %s: %s\n", what, picvr_status_string(s));
+    return 0;
+}
+
+/* Seconds for n iterations (picvr_step_iterations returns after the device is done). */
+static int gpu_time(picvr_context *ctx, uint32_t n, double *seconds)
+{
+    double t0 = now_s();
+    if (!check(picvr_step_iterations(ctx, n), "picvr_step_iterations")) return 0;
+    *seconds = now_s() - t0;
+    return 1;
+}
+
+static int run_gpu(const options *o, const picvr_volume_desc *vol, const picvr_light *light,
+                   const picvr_background *sky, const picvr_camera *cam, result *r,
+                   char device_name[256])
+{
+    picvr_config cfg = {0};
+    cfg.seed = o->seed;
+    cfg.device_name = o->device;
+    picvr_context *ctx = NULL;
+    if (!check(picvr_create(&cfg, &ctx), "picvr_create")) return 0;
+    int ok = check(picvr_upload_volume(ctx, vol), "picvr_upload_volume") &&
+             check(picvr_set_transfer_function(ctx, bench_tf, BENCH_TF_COUNT, BENCH_DENSITY),
+                   "picvr_set_transfer_function") &&
+             check(picvr_set_lights(ctx, light, 1, sky), "picvr_set_lights") &&
+             check(picvr_set_camera(ctx, cam), "picvr_set_camera");
+    double secs = 0.0;
+    /* warm-up: pipeline compilation and first-touch costs stay out of the timing */
+    ok = ok && gpu_time(ctx, 3, &secs);
+    uint32_t n = o->iterations_gpu;
+    if (ok && n == 0) {
+        /* calibrate: double k until a batch takes >= 0.25 s (bounded), then scale */
+        double target = o->quick ? GPU_TARGET_QUICK_S : GPU_TARGET_S;
+        uint32_t k = 1;
+        for (int round = 0; ok && round < 20; round++) {
+            ok = gpu_time(ctx, k, &secs);
+            if (secs >= 0.25 || secs >= target || k >= (1u << 19)) break;
+            k *= 2;
+        }
+        double per = secs / k;              /* k >= 1 */
+        double want = per > 0.0 ? target / per : 1e6;
+        n = want < 1.0 ? 1u : want > 1e6 ? 1000000u : (uint32_t)want;
+    }
+    ok = ok && check(picvr_reset(ctx), "picvr_reset") && gpu_time(ctx, n, &secs);
+    picvr_stats st;
+    memset(&st, 0, sizeof st);
+    ok = ok && check(picvr_get_stats(ctx, &st), "picvr_get_stats");
+    size_t npix = (size_t)cam->width * cam->height;
+    float *img = ok ? malloc(npix * 16) : NULL;
+    if (ok && !img) { fprintf(stderr, PROGRAM ": out of memory\n"); ok = 0; }
+    ok = ok && check(picvr_read_rgba32f(ctx, img, npix * 16), "picvr_read_rgba32f");
+    if (ok) {
+        r->iterations = n;
+        r->seconds = secs;
+        r->ms_per_iteration = 1e3 * secs / n;
+        r->msamples_per_s = secs > 0.0 ? (double)npix * n / secs * 1e-6 : 0.0;
+        r->truncated = st.truncated_paths;
+        image_means(img, npix, &r->mean_luminance, &r->mean_alpha);
+        snprintf(device_name, 256, "%s", st.device_name);
+        if (st.iterations != n)
+            fprintf(stderr, PROGRAM ": warning: stats report %u iterations, expected %u\n",
+                    st.iterations, n);
+    }
+    free(img);
+    picvr_destroy(ctx);
+    return ok;
+}
+
+static int run_cpu(const options *o, const picvr_volume_desc *vol, const picvr_light *light,
+                   const picvr_background *sky, const picvr_camera *cam, result *r,
+                   double **m2_out)
+{
+    cref_scene s;
+    int st = cref_scene_init(&s, vol, bench_tf, BENCH_TF_COUNT, BENCH_DENSITY, light, 1, sky,
+                             cam, o->seed);
+    if (st != PICVR_OK) return check((picvr_status)st, "cref_scene_init");
+    size_t npix = (size_t)cam->width * cam->height;
+    float *img = malloc(npix * 4 * sizeof *img);
+    double *m2 = malloc(npix * sizeof *m2);
+    int ok = img && m2;
+    if (!ok) fprintf(stderr, PROGRAM ": out of memory\n");
+    cref_render_stats rs;
+    double t0 = now_s();
+    ok = ok && check((picvr_status)cref_render_ex(&s, 0, o->iterations_cpu, img, m2, &rs),
+                     "cref_render");
+    double secs = now_s() - t0;
+    if (ok) {
+        r->iterations = o->iterations_cpu;
+        r->seconds = secs;
+        r->ms_per_iteration = 1e3 * secs / o->iterations_cpu;
+        r->msamples_per_s = secs > 0.0 ? (double)npix * o->iterations_cpu / secs * 1e-6 : 0.0;
+        r->truncated = rs.truncated_paths;
+        image_means(img, npix, &r->mean_luminance, &r->mean_alpha);
+        if (rs.majorant_violations)
+            fprintf(stderr, PROGRAM ": warning: %llu majorant violations in the CPU reference\n",
+                    (unsigned long long)rs.majorant_violations);
+        *m2_out = m2;
+        m2 = NULL;
+    }
+    free(img);
+    free(m2);
+    cref_free(&s);
+    return ok;
+}
+
+/* ---- output ---------------------------------------------------------------------- */
+
+static void json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
+        else if (c < 0x20) fprintf(f, "\\u%04x", c);
+        else fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+static void json_result(FILE *f, const char *name, const result *r)
+{
+    fprintf(f,
+            "  \"%s\": {\"iterations\": %u, \"seconds\": %.6f, \"ms_per_iteration\": %.4f, "
+            "\"msamples_per_s\": %.4f, \"mean_luminance\": %.8g, \"mean_alpha\": %.6f, "
+            "\"truncated_paths\": %llu},\n",
+            name, r->iterations, r->seconds, r->ms_per_iteration, r->msamples_per_s,
+            r->mean_luminance, r->mean_alpha, (unsigned long long)r->truncated);
+}
+
+static int write_json(const options *o, const char *device, int threads, const result *g,
+                      const result *c, double ratio, double rel_diff, double rel_sigma, int agree)
+{
+    FILE *f = fopen(o->json_path, "w");
+    if (!f) { perror(o->json_path); return 0; }
+    fprintf(f, "{\n  \"program\": \"" PROGRAM "\",\n  \"volume\": ");
+    json_string(f, o->volume_path);
+    fprintf(f, ",\n  \"device\": ");
+    json_string(f, device);
+    fprintf(f, ",\n  \"cpu_threads\": %d,\n  \"width\": %u,\n  \"height\": %u,\n  \"seed\": %u,\n"
+               "  \"quick\": %s,\n",
+            threads, o->width, o->height, o->seed, o->quick ? "true" : "false");
+    json_result(f, "gpu", g);
+    json_result(f, "cpu", c);
+    fprintf(f, "  \"speedup_gpu_over_cpu\": %.4f,\n  \"luminance_rel_diff\": %.6f,\n"
+               "  \"luminance_rel_sigma\": %.6f,\n  \"agree\": %s\n}\n",
+            ratio, rel_diff, rel_sigma, agree ? "true" : "false");
+    int ok = !ferror(f);
+    if (fclose(f) != 0) ok = 0;
+    if (!ok) fprintf(stderr, PROGRAM ": cannot write %s\n", o->json_path);
+    return ok;
+}
+
+static void print_result(const char *name, const result *r, uint32_t w, uint32_t h)
+{
+    printf("%-4s %6u iterations in %7.3f s: %9.3f ms per %ux%u iteration, %9.3f Msamples/s, "
+           "mean luminance %.6f (alpha %.4f), truncated %llu\n",
+           name, r->iterations, r->seconds, r->ms_per_iteration, w, h, r->msamples_per_s,
+           r->mean_luminance, r->mean_alpha, (unsigned long long)r->truncated);
+}
+
+int main(int argc, char **argv)
+{
+    options o;
+    if (!parse_args(argc, argv, &o)) { usage(stderr); return EXIT_USAGE; }
+
+    char err[256];
+    pvio_volume vol;
+    if (pvio_load(o.volume_path, NULL, &vol, err, sizeof err) != PVIO_OK) {
+        fprintf(stderr, PROGRAM ": %s\n", err);
+        return 1;
+    }
+    picvr_volume_desc desc;
+    pvio_to_desc(&vol, &desc);
+    double hx = 0.5 * vol.dims[0] * vol.spacing[0], hy = 0.5 * vol.dims[1] * vol.spacing[1];
+    double hz = 0.5 * vol.dims[2] * vol.spacing[2];
+    float R = (float)sqrt(hx * hx + hy * hy + hz * hz);   /* box half-diagonal */
+
+    picvr_light light;
+    picvr_background sky;
+    picvr_camera cam;
+    bench_lights(R, &light, &sky);
+    bench_camera(R, o.width, o.height, &cam);
+
+    int threads = omp_get_max_threads();
+    printf(PROGRAM ": %s (%ux%ux%u %s), %ux%u image%s\n", o.volume_path, vol.dims[0],
+           vol.dims[1], vol.dims[2], pvio_type_name(vol.type), o.width, o.height,
+           o.quick ? ", quick" : "");
+    fflush(stdout);
+
+    result g, c;
+    memset(&g, 0, sizeof g);
+    memset(&c, 0, sizeof c);
+    char device[256] = "";
+    double *m2 = NULL;
+    int ok = run_gpu(&o, &desc, &light, &sky, &cam, &g, device);
+    if (ok) {
+        printf("GPU device: %s\n", device);
+        print_result("GPU", &g, o.width, o.height);
+        fflush(stdout);
+    }
+    ok = ok && run_cpu(&o, &desc, &light, &sky, &cam, &c, &m2);
+    pvio_free(&vol);
+    if (!ok) { free(m2); return 1; }
+    printf("CPU threads: %d\n", threads);
+    print_result("CPU", &c, o.width, o.height);
+
+    size_t npix = (size_t)o.width * o.height;
+    double ratio = c.ms_per_iteration > 0.0 && g.ms_per_iteration > 0.0
+                 ? c.ms_per_iteration / g.ms_per_iteration : 0.0;
+    /* relative difference of the mean luminance, and its standard error from the
+       CPU's per-pixel variance (the GPU's variance taken equal per sample) */
+    double var = mean_variance(m2, npix, c.iterations, c.iterations) +
+                 mean_variance(m2, npix, c.iterations, g.iterations);
+    free(m2);
+    double denom = c.mean_luminance > 1e-12 ? c.mean_luminance : 1e-12;  /* rule: no /0 */
+    double rel_diff = (g.mean_luminance - c.mean_luminance) / denom;
+    double rel_sigma = sqrt(var) / denom;
+    int agree = fabs(rel_diff) <= REL_TOLERANCE + 4.0 * rel_sigma;
+    printf("speed-up GPU/CPU: %.2fx (GPU %.3f vs CPU %.3f Msamples/s)\n", ratio,
+           g.msamples_per_s, c.msamples_per_s);
+    printf("mean luminance: GPU %.6f, CPU %.6f, relative difference %+.4f "
+           "(standard error %.4f, tolerance %.4f): %s\n",
+           g.mean_luminance, c.mean_luminance, rel_diff, rel_sigma,
+           REL_TOLERANCE + 4.0 * rel_sigma, agree ? "agree" : "DISAGREE");
+    if (o.json_path && !write_json(&o, device, threads, &g, &c, ratio, rel_diff, rel_sigma, agree))
+        return 1;
+    return agree ? 0 : EXIT_MISMATCH;
+}

@@ -1,0 +1,415 @@
+/* presets.c - see presets.h.
+ *
+ * Exposure rule used for every light set-up.  At a scatter event in a medium of
+ * albedo a, single scattering with the isotropic phase function gives the radiance
+ *     L_out = a / (4 pi) * sum_i L_i * Omega_i * T_i,
+ * with L_i the light's radiance, Omega_i its solid angle and T_i the shadow
+ * transmittance (about 0.3-0.5 near a lit surface).  So each light is specified by
+ * its "strength" S = L * Omega seen from the box centre (the irradiance it gives a
+ * surface facing it) and its radiance is derived from its geometry: S of about 12-15
+ * for a key light gives L_out of about 0.3-0.6.  Because everything scales with the
+ * box radius R, the images look the same for any volume size. */
+#include "presets.h"
+
+#include <math.h>
+#include <string.h>
+
+#define PI_F 3.14159265358979f
+
+typedef struct vec3 { float x, y, z; } vec3;
+
+static vec3 v3(float x, float y, float z) { vec3 r = {x, y, z}; return r; }
+static vec3 add(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static vec3 sub(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static vec3 scale(vec3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
+static float dot(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static float length(vec3 a) { return sqrtf(dot(a, a)); }
+static vec3 cross(vec3 a, vec3 b)
+{
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static vec3 normalize(vec3 a)
+{
+    float l = length(a);
+    return l > 0.0f ? scale(a, 1.0f / l) : v3(0.0f, 1.0f, 0.0f);
+}
+static void store(float out[3], vec3 a) { out[0] = a.x; out[1] = a.y; out[2] = a.z; }
+static vec3 load(const float in[3]) { return v3(in[0], in[1], in[2]); }
+
+/* Any unit vector perpendicular to n (prefers the world's y axis as "up"). */
+static vec3 perpendicular(vec3 n)
+{
+    vec3 helper = fabsf(n.y) < 0.95f ? v3(0.0f, 1.0f, 0.0f) : v3(1.0f, 0.0f, 0.0f);
+    return normalize(cross(helper, n));
+}
+
+/* ---- transfer functions ------------------------------------------------------------ */
+
+typedef struct tf_entry {
+    const char *name, *description;
+    float density;
+    uint32_t count;
+    picvr_tf_point points[PVP_MAX_TF_POINTS];
+} tf_entry;
+
+#define GREY(g) {g, g, g}
+
+/* Normalized data values; the thresholds follow the histograms of the data sets in
+   ../shared/data (e.g. bonsai: air below 0.15, foliage and trunk above 0.25). */
+static const tf_entry tf_table[] = {
+    {"ct-bonsai", "bonsai CT: air clear, green foliage, brown trunk, terracotta pot",
+     1.0f, 8,
+     {{0.00f, {0.45f, 0.68f, 0.25f}, 0.00f},
+      {0.19f, {0.45f, 0.68f, 0.25f}, 0.00f},
+      {0.27f, {0.42f, 0.68f, 0.25f}, 0.50f},
+      {0.42f, {0.50f, 0.66f, 0.28f}, 0.85f},
+      {0.52f, {0.62f, 0.45f, 0.28f}, 1.00f},
+      {0.70f, {0.62f, 0.45f, 0.28f}, 1.00f},
+      {0.78f, {0.85f, 0.52f, 0.36f}, 1.00f},
+      {1.00f, {0.85f, 0.52f, 0.36f}, 1.00f}}},
+    {"ct-bone", "generic CT: faint reddish soft tissue, dense white bone", 1.0f, 6,
+     {{0.00f, {0.90f, 0.50f, 0.40f}, 0.00f},
+      {0.20f, {0.90f, 0.50f, 0.40f}, 0.00f},
+      {0.28f, {0.92f, 0.45f, 0.35f}, 0.04f},
+      {0.48f, {0.95f, 0.60f, 0.50f}, 0.06f},
+      {0.62f, {1.00f, 0.96f, 0.90f}, 1.00f},
+      {1.00f, GREY(1.00f), 1.00f}}},
+    {"ct-engine", "engine CT: translucent blue-grey casting, dense parts brass", 1.0f, 6,
+     {{0.00f, {0.70f, 0.78f, 0.90f}, 0.00f},
+      {0.12f, {0.70f, 0.78f, 0.90f}, 0.00f},
+      {0.35f, {0.72f, 0.80f, 0.90f}, 0.08f},
+      {0.50f, {0.80f, 0.84f, 0.90f}, 0.80f},
+      {0.68f, {0.90f, 0.88f, 0.82f}, 1.00f},
+      {0.90f, {1.00f, 0.78f, 0.40f}, 1.00f}}},
+    {"sim", "simulations (fuel, hydrogen, neghip): smooth blue-to-orange ramp", 1.0f, 6,
+     {{0.00f, {0.25f, 0.45f, 0.95f}, 0.00f},
+      {0.04f, {0.25f, 0.45f, 0.95f}, 0.00f},
+      {0.25f, {0.35f, 0.75f, 0.85f}, 0.20f},
+      {0.50f, {0.90f, 0.88f, 0.55f}, 0.45f},
+      {0.75f, {0.98f, 0.62f, 0.25f}, 0.70f},
+      {1.00f, {1.00f, 0.45f, 0.20f}, 1.00f}}},
+    /* Disney cloud: values 0..1, spacing 3.33; a mean free path of 10 world units
+       (3 voxels) at full density. */
+    {"cloud", "clouds: white albedo 0.99, opacity = value, D = 0.1", 0.1f, 2,
+     {{0.00f, GREY(0.99f), 0.00f}, {1.00f, GREY(0.99f), 1.00f}}},
+    {"ramp", "opacity = value, albedo 1, D = 1 (picvr's default)", 1.0f, 2,
+     {{0.00f, GREY(1.00f), 0.00f}, {1.00f, GREY(1.00f), 1.00f}}},
+};
+
+#define TF_COUNT (sizeof tf_table / sizeof tf_table[0])
+
+pvp_status pvp_tf_preset(const char *name, pvp_tf *tf)
+{
+    if (!name || !tf) return PVP_ERROR_NULL_POINTER;
+    for (size_t i = 0; i < TF_COUNT; i++) {
+        if (strcmp(name, tf_table[i].name) != 0) continue;
+        memset(tf, 0, sizeof *tf);
+        memcpy(tf->points, tf_table[i].points, sizeof tf->points);
+        tf->count = tf_table[i].count;
+        tf->density = tf_table[i].density;
+        return PVP_OK;
+    }
+    return PVP_ERROR_UNKNOWN_NAME;
+}
+
+const char *pvp_tf_name(size_t index)
+{
+    return index < TF_COUNT ? tf_table[index].name : NULL;
+}
+
+const char *pvp_tf_description(size_t index)
+{
+    return index < TF_COUNT ? tf_table[index].description : NULL;
+}
+
+/* ---- light builders ------------------------------------------------------------------ */
+
+/* Where the lights go: the box centre and radius, and the camera's frame. */
+typedef struct scene_frame {
+    vec3 centre;
+    float radius;                   /* R, half the box diagonal */
+    vec3 eye, forward, right, up;   /* camera position and basis (forward: to centre) */
+} scene_frame;
+
+static const float WHITE[3] = {1.0f, 1.0f, 1.0f};
+
+/* Solid angle of a sphere of radius r whose centre is at distance d (d > r). */
+static float sphere_solid_angle(float r, float d)
+{
+    float s = r / d;
+    return 2.0f * PI_F * (1.0f - sqrtf(1.0f - s * s));
+}
+
+/* Solid angle of an a x b rectangle seen face-on from distance d along its normal. */
+static float rect_solid_angle(float a, float b, float d)
+{
+    return 4.0f * asinf(a * b / sqrtf((a * a + 4.0f * d * d) * (b * b + 4.0f * d * d)));
+}
+
+static picvr_light *next_light(pvp_lights *out)
+{
+    picvr_light *l = &out->lights[out->count++];
+    memset(l, 0, sizeof *l);
+    return l;
+}
+
+/* A sphere light at `distance` along `direction` from the centre with strength S. */
+static void add_sphere(pvp_lights *out, const scene_frame *f, vec3 direction,
+                       float distance, float radius, const float color[3], float strength)
+{
+    picvr_light *l = next_light(out);
+    l->type = PICVR_LIGHT_SPHERE;
+    store(l->position, add(f->centre, scale(normalize(direction), distance)));
+    l->radius = radius;
+    memcpy(l->color, color, sizeof l->color);
+    l->intensity = strength / sphere_solid_angle(radius, distance);
+}
+
+/* A square rect light of side `size` facing the centre, with strength S. */
+static void add_rect(pvp_lights *out, const scene_frame *f, vec3 direction,
+                     float distance, float size, const float color[3], float strength)
+{
+    vec3 towards_centre = scale(normalize(direction), -1.0f);
+    vec3 u = perpendicular(towards_centre);
+    vec3 v = cross(towards_centre, u);  /* cross(u, v) = towards_centre: lit side */
+    picvr_light *l = next_light(out);
+    l->type = PICVR_LIGHT_RECT;
+    store(l->position, add(f->centre, scale(normalize(direction), distance)));
+    store(l->edge_u, scale(u, size));
+    store(l->edge_v, scale(v, size));
+    memcpy(l->color, color, sizeof l->color);
+    l->intensity = strength / rect_solid_angle(size, size, distance);
+}
+
+static void set_background(pvp_lights *out, float r, float g, float b, float intensity)
+{
+    out->background.color[0] = r;
+    out->background.color[1] = g;
+    out->background.color[2] = b;
+    out->background.intensity = intensity;
+}
+
+/* A direction given in the camera's frame (x right, y up, z toward the camera). */
+static vec3 camera_direction(const scene_frame *f, float x, float y, float z)
+{
+    return add(add(scale(f->right, x), scale(f->up, y)), scale(f->forward, -z));
+}
+
+/* Paper set-up 1: one small, distant, very bright sphere (sharp shadows). */
+static void build_paper1(const scene_frame *f, pvp_lights *out)
+{
+    float R = f->radius;
+    add_sphere(out, f, v3(-0.35f, 0.80f, 0.60f), 6.0f * R, 0.15f * R, WHITE, 14.0f);
+}
+
+/* Paper set-up 3: three large, very intense spheres close to the volume. */
+static void build_paper3(const scene_frame *f, pvp_lights *out)
+{
+    float R = f->radius;
+    add_sphere(out, f, v3(-0.50f, 0.60f, 0.65f), 1.6f * R, 0.5f * R, WHITE, 12.0f);
+    add_sphere(out, f, v3(0.90f, 0.10f, 0.30f), 1.6f * R, 0.5f * R, WHITE, 12.0f);
+    add_sphere(out, f, v3(0.10f, 0.70f, -0.70f), 1.6f * R, 0.5f * R, WHITE, 12.0f);
+}
+
+/* Paper set-up 4: four dim, large rects surrounding the volume (soft, even light). */
+static void build_paper4(const scene_frame *f, pvp_lights *out)
+{
+    float R = f->radius;
+    for (int i = 0; i < 4; i++) {
+        float az = (45.0f + 90.0f * (float)i) * PI_F / 180.0f;
+        float el = (i % 2 ? -15.0f : 25.0f) * PI_F / 180.0f;
+        vec3 dir = v3(cosf(el) * sinf(az), sinf(el), cosf(el) * cosf(az));
+        add_rect(out, f, dir, 2.0f * R, 2.0f * R, WHITE, 5.0f);
+    }
+}
+
+static void build_paper1_bg(const scene_frame *f, pvp_lights *out)
+{
+    build_paper1(f, out);
+    set_background(out, 1.0f, 1.0f, 1.0f, 0.1f);
+}
+
+static void build_paper3_bg(const scene_frame *f, pvp_lights *out)
+{
+    build_paper3(f, out);
+    set_background(out, 1.0f, 1.0f, 1.0f, 0.1f);
+}
+
+static void build_paper4_bg(const scene_frame *f, pvp_lights *out)
+{
+    build_paper4(f, out);
+    set_background(out, 1.0f, 1.0f, 1.0f, 0.1f);
+}
+
+/* Photo studio, following the camera: warm key sphere above left, cool fill rect
+   right, dim blue-grey backdrop. */
+static void build_studio(const scene_frame *f, pvp_lights *out)
+{
+    static const float warm[3] = {1.00f, 0.94f, 0.86f}, cool[3] = {0.85f, 0.92f, 1.00f};
+    float R = f->radius;
+    add_sphere(out, f, camera_direction(f, -0.55f, 0.65f, 0.55f), 3.0f * R, 0.3f * R,
+               warm, 13.0f);
+    add_rect(out, f, camera_direction(f, 0.85f, 0.05f, 0.50f), 3.0f * R, 1.5f * R,
+             cool, 4.0f);
+    set_background(out, 0.55f, 0.60f, 0.70f, 0.10f);
+}
+
+/* The sun (angular diameter of the real one) high in a blue sky. */
+static void build_sun(const scene_frame *f, pvp_lights *out)
+{
+    (void)f;
+    picvr_light *l = next_light(out);
+    l->type = PICVR_LIGHT_DIRECTIONAL;
+    store(l->direction, normalize(v3(-0.40f, 0.80f, 0.45f)));
+    l->angular_diameter = 0.0093f;
+    l->color[0] = 1.0f; l->color[1] = 0.96f; l->color[2] = 0.90f;
+    l->intensity = 12.0f;  /* irradiance */
+    set_background(out, 0.45f, 0.60f, 1.00f, 0.30f);
+}
+
+/* A point light just above the camera: irradiance S at the front of the volume. */
+static void build_headlight(const scene_frame *f, pvp_lights *out)
+{
+    float R = f->radius;
+    vec3 position = add(f->eye, scale(f->up, 0.1f * length(sub(f->eye, f->centre))));
+    float d = length(sub(position, f->centre)) - 0.5f * R;
+    if (d < 0.1f * R) d = 0.1f * R;
+    picvr_light *l = next_light(out);
+    l->type = PICVR_LIGHT_POINT;
+    store(l->position, position);
+    memcpy(l->color, WHITE, sizeof l->color);
+    l->intensity = 12.0f * d * d;  /* radiant intensity I = E d^2 */
+}
+
+typedef struct lights_entry {
+    const char *name, *description;
+    void (*build)(const scene_frame *f, pvp_lights *out);
+} lights_entry;
+
+static const lights_entry lights_table[] = {
+    {"paper1", "one small, distant, very bright sphere light", build_paper1},
+    {"paper3", "three large, very intense sphere lights close to the volume", build_paper3},
+    {"paper4", "four dim, large rect lights surrounding the volume", build_paper4},
+    {"paper1-bg", "paper1 plus a grey background", build_paper1_bg},
+    {"paper3-bg", "paper3 plus a grey background", build_paper3_bg},
+    {"paper4-bg", "paper4 plus a grey background", build_paper4_bg},
+    {"studio", "key sphere + fill rect + dim background, following the camera",
+     build_studio},
+    {"sun", "the sun (0.0093 rad) and a blue sky", build_sun},
+    {"headlight", "a point light just above the camera", build_headlight},
+};
+
+#define LIGHTS_COUNT (sizeof lights_table / sizeof lights_table[0])
+
+const char *pvp_lights_name(size_t index)
+{
+    return index < LIGHTS_COUNT ? lights_table[index].name : NULL;
+}
+
+const char *pvp_lights_description(size_t index)
+{
+    return index < LIGHTS_COUNT ? lights_table[index].description : NULL;
+}
+
+static int box_is_valid(const float box_min[3], const float box_max[3])
+{
+    for (int i = 0; i < 3; i++)
+        if (!isfinite(box_min[i]) || !isfinite(box_max[i]) || box_max[i] < box_min[i])
+            return 0;
+    return 1;
+}
+
+/* Box centre and R; R is kept positive so a degenerate box still gives usable lights. */
+static void box_sphere(const float box_min[3], const float box_max[3], vec3 *centre,
+                       float *radius)
+{
+    vec3 lo = load(box_min), hi = load(box_max);
+    *centre = scale(add(lo, hi), 0.5f);
+    *radius = 0.5f * length(sub(hi, lo));
+    if (!(*radius > 1e-6f)) *radius = 1e-6f;
+}
+
+/* Orbit position and up vector; up = d(position)/d(elevation), never parallel to
+   the view direction, so the poles need no special case. */
+static void orbit(vec3 centre, float azimuth_degrees, float elevation_degrees,
+                  float distance, vec3 *eye, vec3 *up)
+{
+    float az = azimuth_degrees * PI_F / 180.0f, el = elevation_degrees * PI_F / 180.0f;
+    vec3 dir = v3(cosf(el) * sinf(az), sinf(el), cosf(el) * cosf(az));
+    *eye = add(centre, scale(dir, distance));
+    *up = v3(-sinf(el) * sinf(az), cosf(el), -sinf(el) * cosf(az));
+}
+
+pvp_status pvp_lights_preset(const char *name, const float box_min[3],
+                             const float box_max[3], const float eye[3],
+                             pvp_lights *lights)
+{
+    if (!name || !box_min || !box_max || !lights) return PVP_ERROR_NULL_POINTER;
+    const lights_entry *entry = NULL;
+    for (size_t i = 0; i < LIGHTS_COUNT && !entry; i++)
+        if (strcmp(name, lights_table[i].name) == 0) entry = &lights_table[i];
+    if (!entry) return PVP_ERROR_UNKNOWN_NAME;
+    if (!box_is_valid(box_min, box_max)) return PVP_ERROR_BAD_BOX;
+
+    scene_frame f;
+    box_sphere(box_min, box_max, &f.centre, &f.radius);
+    vec3 orbit_up;
+    orbit(f.centre, PVP_DEFAULT_AZIMUTH, PVP_DEFAULT_ELEVATION, 2.9f * f.radius, &f.eye,
+          &orbit_up);
+    if (eye && isfinite(eye[0]) && isfinite(eye[1]) && isfinite(eye[2]) &&
+        length(sub(load(eye), f.centre)) > 1e-6f * f.radius)
+        f.eye = load(eye);
+    f.forward = normalize(sub(f.centre, f.eye));
+    f.right = perpendicular(scale(f.forward, -1.0f));  /* = cross(forward, world up) */
+    f.up = cross(f.right, f.forward);
+
+    memset(lights, 0, sizeof *lights);
+    entry->build(&f, lights);
+    return PVP_OK;
+}
+
+pvp_status pvp_orbit_camera(const float box_min[3], const float box_max[3],
+                            float azimuth_degrees, float elevation_degrees,
+                            float distance_factor, float fov_y_degrees,
+                            uint32_t width, uint32_t height, picvr_camera *camera)
+{
+    if (!box_min || !box_max || !camera) return PVP_ERROR_NULL_POINTER;
+    if (!box_is_valid(box_min, box_max)) return PVP_ERROR_BAD_BOX;
+    if (!isfinite(azimuth_degrees) || !isfinite(elevation_degrees) ||
+        !(distance_factor > 0.0f) || !isfinite(distance_factor) ||
+        !(fov_y_degrees > 0.0f && fov_y_degrees <= 179.0f) || width < 1 || height < 1 ||
+        width > PICVR_MAX_IMAGE_SIZE || height > PICVR_MAX_IMAGE_SIZE)
+        return PVP_ERROR_BAD_ARGUMENT;
+
+    /* The narrower of the vertical and horizontal half-angles decides the fit. */
+    float half_v = 0.5f * fov_y_degrees * PI_F / 180.0f;
+    float half_h = atanf((float)width / (float)height * tanf(half_v));
+    float half = half_v < half_h ? half_v : half_h;
+
+    vec3 centre, eye, up;
+    float radius;
+    box_sphere(box_min, box_max, &centre, &radius);
+    orbit(centre, azimuth_degrees, elevation_degrees,
+          distance_factor * radius / sinf(half), &eye, &up);
+
+    memset(camera, 0, sizeof *camera);
+    store(camera->position, eye);
+    store(camera->target, centre);
+    store(camera->up, up);
+    camera->fov_y_degrees = fov_y_degrees;
+    camera->width = width;
+    camera->height = height;
+    return PVP_OK;
+}
+
+const char *pvp_status_string(pvp_status status)
+{
+    switch (status) {
+    case PVP_OK: return "PVP_OK";
+    case PVP_ERROR_NULL_POINTER: return "PVP_ERROR_NULL_POINTER";
+    case PVP_ERROR_UNKNOWN_NAME: return "PVP_ERROR_UNKNOWN_NAME";
+    case PVP_ERROR_BAD_BOX: return "PVP_ERROR_BAD_BOX";
+    case PVP_ERROR_BAD_ARGUMENT: return "PVP_ERROR_BAD_ARGUMENT";
+    }
+    return "PVP_ERROR_UNKNOWN_STATUS";
+}

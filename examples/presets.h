@@ -1,0 +1,86 @@
+/* presets.h - named transfer functions, light set-ups and an orbit camera for picvr.
+ *
+ * Lights and camera are built from the volume's world box (picvr_volume_box), placed
+ * relative to its centre c and radius R (half the box diagonal), so every preset works
+ * for any volume size and spacing.  Light intensities are chosen so that a lit medium
+ * of albedo 1 has a radiance of roughly 0.3 to 1 (well exposed at exposure 1).
+ *
+ * Only picvr.h's types are used: no Vulkan, nothing to link.
+ */
+#ifndef PICVR_PRESETS_H
+#define PICVR_PRESETS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "picvr.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define PVP_MAX_TF_POINTS 16
+#define PVP_MAX_LIGHTS 8
+
+/* Default orbit view: a 3/4 view from the front right, a little from above. */
+#define PVP_DEFAULT_AZIMUTH 35.0f    /* degrees about +y, from +z toward +x */
+#define PVP_DEFAULT_ELEVATION 20.0f  /* degrees above the x-z plane */
+#define PVP_DEFAULT_DISTANCE 1.0f    /* 1: the box's bounding sphere just fills the view */
+#define PVP_DEFAULT_FOV 40.0f        /* vertical field of view, degrees */
+
+typedef enum pvp_status {
+    PVP_OK = 0,
+    PVP_ERROR_NULL_POINTER,
+    PVP_ERROR_UNKNOWN_NAME,   /* no preset of that name */
+    PVP_ERROR_BAD_BOX,        /* box not finite or max < min */
+    PVP_ERROR_BAD_ARGUMENT    /* camera parameters out of range */
+} pvp_status;
+
+/* A transfer function ready for picvr_set_transfer_function(points, count, density). */
+typedef struct pvp_tf {
+    picvr_tf_point points[PVP_MAX_TF_POINTS];
+    uint32_t count;
+    float density;            /* D, per world unit */
+} pvp_tf;
+
+/* Lights ready for picvr_set_lights(lights, count, &background). */
+typedef struct pvp_lights {
+    picvr_light lights[PVP_MAX_LIGHTS];
+    uint32_t count;
+    picvr_background background;  /* all zero: black */
+} pvp_lights;
+
+/* A static English name for the status; never NULL. */
+const char *pvp_status_string(pvp_status status);
+
+/* Transfer-function presets: ct-bonsai, ct-bone, ct-engine, sim, cloud, ramp. */
+pvp_status pvp_tf_preset(const char *name, pvp_tf *tf);
+
+/* Light presets: paper1, paper3, paper4 (the set-ups of the paper's section 8, no
+   background), paper1-bg, paper3-bg, paper4-bg (plus a modest background), studio,
+   sun, headlight.  eye is the camera position (studio and headlight follow the
+   camera; the others are fixed in world space); NULL means the default orbit view. */
+pvp_status pvp_lights_preset(const char *name, const float box_min[3],
+                             const float box_max[3], const float eye[3],
+                             pvp_lights *lights);
+
+/* Preset names and one-line descriptions for --help: index 0, 1, ... until NULL. */
+const char *pvp_tf_name(size_t index);
+const char *pvp_tf_description(size_t index);
+const char *pvp_lights_name(size_t index);
+const char *pvp_lights_description(size_t index);
+
+/* An orbit camera looking at the box centre from azimuth/elevation (degrees) at
+   distance_factor times the distance where the box's bounding sphere just fills the
+   field of view (both vertically and horizontally).  fov_y_degrees in (0, 179];
+   width and height 1..PICVR_MAX_IMAGE_SIZE; distance_factor > 0.  The up vector
+   follows the orbit, so elevations of +-90 degrees work. */
+pvp_status pvp_orbit_camera(const float box_min[3], const float box_max[3],
+                            float azimuth_degrees, float elevation_degrees,
+                            float distance_factor, float fov_y_degrees,
+                            uint32_t width, uint32_t height, picvr_camera *camera);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PICVR_PRESETS_H */

@@ -1,0 +1,501 @@
+/* volume_io.c - see volume_io.h.  Written to survive hostile names and files (it is
+ * fuzzed): no fixed-size copies of the input, every size product checked, and the
+ * buffer grows with the data actually read, so a tiny file claiming a huge layout
+ * never makes us allocate the huge size up front. */
+#include "volume_io.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include <zlib.h>
+
+#if defined(__GNUC__)
+#define PVIO_PRINTF(f, a) __attribute__((format(printf, f, a)))
+#else
+#define PVIO_PRINTF(f, a)
+#endif
+
+/* Longest piece of a file name quoted in a message, so messages stay readable. */
+#define NAME_QUOTE_MAX 120
+/* First buffer size when reading; doubled as data arrives (up to the layout size). */
+#define INITIAL_READ_BYTES ((size_t)16 << 20)
+/* Largest single gzread() request: its length is an unsigned int, its result an int. */
+#define MAX_READ_CHUNK ((size_t)1 << 30)
+
+PVIO_PRINTF(3, 4)
+static void set_error(char *err, size_t err_size, const char *fmt, ...)
+{
+    if (!err || err_size == 0) return;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err, err_size, fmt, ap);
+    va_end(ap);
+}
+
+const char *pvio_status_string(pvio_status status)
+{
+    switch (status) {
+    case PVIO_OK: return "PVIO_OK";
+    case PVIO_ERROR_NULL_POINTER: return "PVIO_ERROR_NULL_POINTER";
+    case PVIO_ERROR_BAD_NAME: return "PVIO_ERROR_BAD_NAME";
+    case PVIO_ERROR_BAD_DIMS: return "PVIO_ERROR_BAD_DIMS";
+    case PVIO_ERROR_BAD_TYPE: return "PVIO_ERROR_BAD_TYPE";
+    case PVIO_ERROR_SIZE_OVERFLOW: return "PVIO_ERROR_SIZE_OVERFLOW";
+    case PVIO_ERROR_OPEN: return "PVIO_ERROR_OPEN";
+    case PVIO_ERROR_READ: return "PVIO_ERROR_READ";
+    case PVIO_ERROR_TRUNCATED: return "PVIO_ERROR_TRUNCATED";
+    case PVIO_ERROR_TOO_LONG: return "PVIO_ERROR_TOO_LONG";
+    case PVIO_ERROR_OUT_OF_MEMORY: return "PVIO_ERROR_OUT_OF_MEMORY";
+    case PVIO_STATUS_COUNT: break;
+    }
+    return "PVIO_ERROR_UNKNOWN_STATUS";
+}
+
+size_t pvio_voxel_size(picvr_voxel_type type)
+{
+    switch (type) {
+    case PICVR_VOXEL_UINT8: return 1;
+    case PICVR_VOXEL_UINT16: return 2;
+    case PICVR_VOXEL_FLOAT32: return 4;
+    }
+    return 0;
+}
+
+const char *pvio_type_name(picvr_voxel_type type)
+{
+    switch (type) {
+    case PICVR_VOXEL_UINT8: return "uint8";
+    case PICVR_VOXEL_UINT16: return "uint16";
+    case PICVR_VOXEL_FLOAT32: return "float32";
+    }
+    return "unknown";
+}
+
+/* ---- name parsing (pure functions on (pointer, length) pieces of the name) ------ */
+
+static int ascii_lower(int c)
+{
+    return (c >= 'A' && c <= 'Z') ? c - 'A' + 'a' : c;
+}
+
+/* Case-insensitive comparison of the piece s[0..len) with a NUL-terminated word. */
+static int piece_equals(const char *s, size_t len, const char *word)
+{
+    if (strlen(word) != len) return 0;
+    for (size_t i = 0; i < len; i++)
+        if (ascii_lower((unsigned char)s[i]) != word[i]) return 0;
+    return 1;
+}
+
+static int piece_ends_with(const char *s, size_t len, const char *suffix)
+{
+    size_t n = strlen(suffix);
+    return len >= n && piece_equals(s + len - n, n, suffix);
+}
+
+static pvio_status parse_type_piece(const char *s, size_t len, picvr_voxel_type *type)
+{
+    if (piece_equals(s, len, "uint8") || piece_equals(s, len, "u8")) {
+        *type = PICVR_VOXEL_UINT8;
+    } else if (piece_equals(s, len, "uint16") || piece_equals(s, len, "u16")) {
+        *type = PICVR_VOXEL_UINT16;
+    } else if (piece_equals(s, len, "float32") || piece_equals(s, len, "f32")) {
+        *type = PICVR_VOXEL_FLOAT32;
+    } else {
+        return PVIO_ERROR_BAD_TYPE;
+    }
+    return PVIO_OK;
+}
+
+pvio_status pvio_parse_type(const char *text, picvr_voxel_type *type)
+{
+    if (!text || !type) return PVIO_ERROR_NULL_POINTER;
+    return parse_type_piece(text, strlen(text), type);
+}
+
+/* Decimal digits only.  Stops accumulating once past PVIO_MAX_DIM, so any number of
+   digits is safe: BAD_NAME for a non-digit or an empty piece, BAD_DIMS for 0 or a
+   value above the limit. */
+static pvio_status parse_dim_piece(const char *s, size_t len, uint32_t *dim)
+{
+    if (len == 0) return PVIO_ERROR_BAD_NAME;
+    uint32_t v = 0;
+    int too_big = 0;
+    for (size_t i = 0; i < len; i++) {
+        if (s[i] < '0' || s[i] > '9') return PVIO_ERROR_BAD_NAME;
+        if (!too_big) {
+            v = v * 10u + (uint32_t)(s[i] - '0');
+            if (v > PVIO_MAX_DIM) too_big = 1;
+        }
+    }
+    if (too_big || v == 0) return PVIO_ERROR_BAD_DIMS;
+    *dim = v;
+    return PVIO_OK;
+}
+
+/* "XxYxZ" -> three dims.  BAD_NAME beats BAD_DIMS so a malformed piece is reported
+   as such even when an earlier number is out of range. */
+static pvio_status parse_dims_piece(const char *s, size_t len, uint32_t dims[3])
+{
+    pvio_status worst = PVIO_OK;
+    size_t start = 0;
+    int axis = 0;
+    for (size_t i = 0; i <= len; i++) {
+        if (i < len && s[i] != 'x' && s[i] != 'X') continue;
+        if (axis == 3) return PVIO_ERROR_BAD_NAME; /* a fourth number */
+        pvio_status st = parse_dim_piece(s + start, i - start, &dims[axis]);
+        if (st == PVIO_ERROR_BAD_NAME) return st;
+        if (st != PVIO_OK) worst = st;
+        axis++;
+        start = i + 1;
+    }
+    if (axis != 3) return PVIO_ERROR_BAD_NAME;
+    return worst;
+}
+
+pvio_status pvio_layout_bytes(const pvio_layout *layout, size_t *bytes,
+                              char *err, size_t err_size)
+{
+    if (!layout) {
+        set_error(err, err_size, "no layout given");
+        return PVIO_ERROR_NULL_POINTER;
+    }
+    size_t total = pvio_voxel_size(layout->type);
+    if (total == 0) {
+        set_error(err, err_size, "unknown voxel type %d", (int)layout->type);
+        return PVIO_ERROR_BAD_TYPE;
+    }
+    for (int i = 0; i < 3; i++) {
+        uint32_t d = layout->dims[i];
+        if (d < 1 || d > PVIO_MAX_DIM) {
+            set_error(err, err_size, "dimension %d is %lu, must be 1..%u", i,
+                      (unsigned long)d, PVIO_MAX_DIM);
+            return PVIO_ERROR_BAD_DIMS;
+        }
+        if (total > SIZE_MAX / d) {
+            set_error(err, err_size, "volume %lux%lux%lu %s does not fit in memory",
+                      (unsigned long)layout->dims[0], (unsigned long)layout->dims[1],
+                      (unsigned long)layout->dims[2], pvio_type_name(layout->type));
+            return PVIO_ERROR_SIZE_OVERFLOW;
+        }
+        total *= d;
+    }
+    if (bytes) *bytes = total;
+    return PVIO_OK;
+}
+
+pvio_status pvio_parse_name(const char *path, pvio_layout *layout,
+                            char *err, size_t err_size)
+{
+    if (!path || !layout) {
+        set_error(err, err_size, "no file name given");
+        return PVIO_ERROR_NULL_POINTER;
+    }
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    size_t len = strlen(base);
+    int quote = len > NAME_QUOTE_MAX ? NAME_QUOTE_MAX : (int)len;
+
+    /* NAME_XxYxZ_TYPE.raw[.gz]: peel the suffixes, then read the last two '_' fields. */
+    if (piece_ends_with(base, len, ".gz")) len -= 3;
+    if (!piece_ends_with(base, len, ".raw")) {
+        set_error(err, err_size, "'%.*s': name must end in .raw or .raw.gz "
+                  "(NAME_XxYxZ_TYPE.raw[.gz]); otherwise give --dims and --type", quote, base);
+        return PVIO_ERROR_BAD_NAME;
+    }
+    len -= 4;
+
+    size_t type_sep = len;
+    while (type_sep > 0 && base[type_sep - 1] != '_') type_sep--;
+    if (type_sep == 0) {
+        set_error(err, err_size, "'%.*s': no _XxYxZ_TYPE before .raw", quote, base);
+        return PVIO_ERROR_BAD_NAME;
+    }
+    size_t dims_start = type_sep - 1;
+    while (dims_start > 0 && base[dims_start - 1] != '_') dims_start--;
+
+    pvio_layout parsed = {{0, 0, 0}, PICVR_VOXEL_UINT8};
+    if (parse_type_piece(base + type_sep, len - type_sep, &parsed.type) != PVIO_OK) {
+        set_error(err, err_size, "'%.*s': unknown voxel type '%.*s' "
+                  "(use uint8, uint16, float32, u8, u16 or f32)", quote, base,
+                  (int)(len - type_sep > 20 ? 20 : len - type_sep), base + type_sep);
+        return PVIO_ERROR_BAD_TYPE;
+    }
+    pvio_status st = parse_dims_piece(base + dims_start, type_sep - 1 - dims_start,
+                                      parsed.dims);
+    if (st == PVIO_ERROR_BAD_NAME) {
+        set_error(err, err_size, "'%.*s': expected dimensions XxYxZ (e.g. 256x256x128) "
+                  "before _TYPE", quote, base);
+        return st;
+    }
+    if (st != PVIO_OK) {
+        set_error(err, err_size, "'%.*s': every dimension must be 1..%u", quote, base,
+                  PVIO_MAX_DIM);
+        return st;
+    }
+    st = pvio_layout_bytes(&parsed, NULL, err, err_size);
+    if (st == PVIO_OK) *layout = parsed;
+    return st;
+}
+
+/* ---- loading ------------------------------------------------------------------- */
+
+static int host_is_little_endian(void)
+{
+    const uint16_t one = 1;
+    unsigned char first;
+    memcpy(&first, &one, 1);
+    return first == 1;
+}
+
+/* Files are little-endian; swap multi-byte voxels on a big-endian host. */
+static void little_endian_to_host(unsigned char *data, size_t bytes, size_t voxel_size)
+{
+    if (voxel_size < 2 || host_is_little_endian()) return;
+    for (size_t i = 0; i + voxel_size <= bytes; i += voxel_size)
+        for (size_t a = 0, b = voxel_size - 1; a < b; a++, b--) {
+            unsigned char t = data[i + a];
+            data[i + a] = data[i + b];
+            data[i + b] = t;
+        }
+}
+
+/* zlib's message for the last error, without the "path: " prefix zlib puts in front
+   (our messages already start with the path). */
+static const char *gz_message(gzFile gz, const char *path, int *errnum)
+{
+    const char *msg = gzerror(gz, errnum);
+    if (*errnum == Z_ERRNO) return strerror(errno);
+    if (!msg) return "unknown error";
+    size_t n = strlen(path);
+    if (strncmp(msg, path, n) == 0 && msg[n] == ':' && msg[n + 1] == ' ') msg += n + 2;
+    return msg;
+}
+
+/* Reads up to `expected` bytes into a buffer that grows as data arrives.  Returns
+   the buffer (caller frees) and how many bytes came in *got. */
+static pvio_status read_up_to(gzFile gz, const char *path, size_t expected,
+                              unsigned char **out, size_t *got, char *err, size_t err_size)
+{
+    size_t cap = expected < INITIAL_READ_BYTES ? expected : INITIAL_READ_BYTES;
+    unsigned char *buf = malloc(cap);
+    size_t have = 0;
+    if (!buf) goto out_of_memory;
+    for (;;) {
+        if (have == cap) {
+            if (cap == expected) break;
+            size_t next = cap > expected / 2 ? expected : cap * 2;
+            unsigned char *grown = realloc(buf, next);
+            if (!grown) goto out_of_memory;
+            buf = grown;
+            cap = next;
+        }
+        size_t want = cap - have < MAX_READ_CHUNK ? cap - have : MAX_READ_CHUNK;
+        int n = gzread(gz, buf + have, (unsigned)want);
+        if (n < 0) {
+            int errnum;
+            set_error(err, err_size, "%s: read error: %s", path, gz_message(gz, path, &errnum));
+            free(buf);
+            return PVIO_ERROR_READ;
+        }
+        if (n == 0) break;
+        have += (size_t)n;
+    }
+    *out = buf;
+    *got = have;
+    return PVIO_OK;
+
+out_of_memory:
+    set_error(err, err_size, "%s: out of memory for %zu bytes", path, expected);
+    free(buf);
+    return PVIO_ERROR_OUT_OF_MEMORY;
+}
+
+/* After `have` bytes: the file must end here, and a gzip stream must end cleanly
+   (reading on verifies its CRC and length trailer). */
+static pvio_status check_end_of_data(gzFile gz, const char *path, size_t have,
+                                     size_t expected, char *err, size_t err_size)
+{
+    int errnum = Z_OK;
+    if (have < expected) {
+        const char *msg = gz_message(gz, path, &errnum);
+        if (errnum == Z_BUF_ERROR) {
+            set_error(err, err_size, "%s: truncated gzip data (%s) after %zu of %zu bytes",
+                      path, msg, have, expected);
+        } else {
+            set_error(err, err_size, "%s: truncated: %zu bytes, the layout needs %zu",
+                      path, have, expected);
+        }
+        return PVIO_ERROR_TRUNCATED;
+    }
+    unsigned char extra;
+    int n = gzread(gz, &extra, 1);
+    if (n < 0) {
+        set_error(err, err_size, "%s: read error: %s", path, gz_message(gz, path, &errnum));
+        return PVIO_ERROR_READ;
+    }
+    if (n > 0) {
+        set_error(err, err_size, "%s: too long: more than the %zu bytes the layout needs",
+                  path, expected);
+        return PVIO_ERROR_TOO_LONG;
+    }
+    const char *msg = gz_message(gz, path, &errnum);
+    if (errnum == Z_BUF_ERROR) {
+        set_error(err, err_size, "%s: truncated gzip data (%s); check sum not verified",
+                  path, msg);
+        return PVIO_ERROR_TRUNCATED;
+    }
+    if (errnum != Z_OK) {
+        set_error(err, err_size, "%s: read error: %s", path, msg);
+        return PVIO_ERROR_READ;
+    }
+    return PVIO_OK;
+}
+
+/* For an uncompressed regular file the size is known up front: a precise early error. */
+static pvio_status check_plain_file_size(gzFile gz, const struct stat *st, const char *path,
+                                         size_t expected, char *err, size_t err_size)
+{
+    if (!S_ISREG(st->st_mode) || !gzdirect(gz)) return PVIO_OK;
+    if (st->st_size < 0) return PVIO_OK;
+    uintmax_t actual = (uintmax_t)st->st_size;
+    if (actual < expected) {
+        set_error(err, err_size, "%s: truncated: %ju bytes, the layout needs %zu",
+                  path, actual, expected);
+        return PVIO_ERROR_TRUNCATED;
+    }
+    if (actual > expected) {
+        set_error(err, err_size, "%s: too long: %ju bytes, the layout needs %zu",
+                  path, actual, expected);
+        return PVIO_ERROR_TOO_LONG;
+    }
+    return PVIO_OK;
+}
+
+static pvio_status read_volume_file(const char *path, size_t expected, unsigned char **data,
+                                    char *err, size_t err_size)
+{
+    struct stat st;
+    if (stat(path, &st) != 0) {
+        set_error(err, err_size, "%s: %s", path, strerror(errno));
+        return PVIO_ERROR_OPEN;
+    }
+    if (!S_ISREG(st.st_mode) && !S_ISFIFO(st.st_mode)) {
+        set_error(err, err_size, "%s: not a regular file", path);
+        return PVIO_ERROR_OPEN;
+    }
+    errno = 0;
+    gzFile gz = gzopen(path, "rb");
+    if (!gz) {
+        set_error(err, err_size, "%s: %s", path, errno ? strerror(errno) : "cannot open");
+        return errno ? PVIO_ERROR_OPEN : PVIO_ERROR_OUT_OF_MEMORY;
+    }
+    gzbuffer(gz, 1u << 18); /* fewer system calls than the 8 KiB default */
+
+    unsigned char *buf = NULL;
+    size_t have = 0;
+    pvio_status status = check_plain_file_size(gz, &st, path, expected, err, err_size);
+    if (status == PVIO_OK)
+        status = read_up_to(gz, path, expected, &buf, &have, err, err_size);
+    if (status == PVIO_OK)
+        status = check_end_of_data(gz, path, have, expected, err, err_size);
+    gzclose(gz);
+    if (status != PVIO_OK) {
+        free(buf);
+        return status;
+    }
+    *data = buf;
+    return PVIO_OK;
+}
+
+pvio_status pvio_load(const char *path, const pvio_layout *layout, pvio_volume *volume,
+                      char *err, size_t err_size)
+{
+    if (volume) memset(volume, 0, sizeof *volume);
+    if (!path || !volume) {
+        set_error(err, err_size, "no file name or output given");
+        return PVIO_ERROR_NULL_POINTER;
+    }
+    pvio_layout from_name;
+    if (!layout) {
+        pvio_status st = pvio_parse_name(path, &from_name, err, err_size);
+        if (st != PVIO_OK) return st;
+        layout = &from_name;
+    }
+    size_t bytes = 0;
+    pvio_status st = pvio_layout_bytes(layout, &bytes, err, err_size);
+    if (st != PVIO_OK) return st;
+
+    unsigned char *data = NULL;
+    st = read_volume_file(path, bytes, &data, err, err_size);
+    if (st != PVIO_OK) return st;
+    little_endian_to_host(data, bytes, pvio_voxel_size(layout->type));
+
+    memcpy(volume->dims, layout->dims, sizeof volume->dims);
+    volume->type = layout->type;
+    volume->spacing[0] = volume->spacing[1] = volume->spacing[2] = 1.0f;
+    volume->data = data;
+    volume->size = bytes;
+    return PVIO_OK;
+}
+
+void pvio_free(pvio_volume *volume)
+{
+    if (!volume) return;
+    free(volume->data);
+    memset(volume, 0, sizeof *volume);
+}
+
+/* ---- helpers for callers --------------------------------------------------------- */
+
+pvio_status pvio_value_range(const pvio_volume *volume, double *min, double *max,
+                             size_t *non_finite)
+{
+    if (!volume || !volume->data) return PVIO_ERROR_NULL_POINTER;
+    size_t voxel = pvio_voxel_size(volume->type);
+    if (voxel == 0) return PVIO_ERROR_BAD_TYPE;
+    size_t count = volume->size / voxel, bad = 0;
+    double lo = INFINITY, hi = -INFINITY;
+    for (size_t i = 0; i < count; i++) {
+        double v;
+        if (volume->type == PICVR_VOXEL_UINT8) {
+            v = ((const uint8_t *)volume->data)[i];
+        } else if (volume->type == PICVR_VOXEL_UINT16) {
+            uint16_t u;
+            memcpy(&u, (const unsigned char *)volume->data + 2 * i, 2);
+            v = u;
+        } else {
+            float f;
+            memcpy(&f, (const unsigned char *)volume->data + 4 * i, 4);
+            if (!isfinite(f)) {
+                bad++;
+                continue;
+            }
+            v = f;
+        }
+        if (v < lo) lo = v;
+        if (v > hi) hi = v;
+    }
+    if (lo > hi) lo = hi = 0.0; /* no finite value at all */
+    if (min) *min = lo;
+    if (max) *max = hi;
+    if (non_finite) *non_finite = bad;
+    return PVIO_OK;
+}
+
+pvio_status pvio_to_desc(const pvio_volume *volume, picvr_volume_desc *desc)
+{
+    if (!volume || !desc) return PVIO_ERROR_NULL_POINTER;
+    memset(desc, 0, sizeof *desc);
+    memcpy(desc->dims, volume->dims, sizeof desc->dims);
+    desc->type = volume->type;
+    memcpy(desc->spacing, volume->spacing, sizeof desc->spacing);
+    desc->data = volume->data;
+    return PVIO_OK;
+}

@@ -1,0 +1,513 @@
+/* test_util.c - helpers of the picvr test suite (declared in test_util.h). */
+#include "test_util.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <signal.h>
+#include <time.h>
+#include <unistd.h>
+
+/* ---- context registry, per-test timing ---------------------------------------------- */
+
+#define TU_MAX_LIVE 16
+static picvr_context *tu_live[TU_MAX_LIVE];
+static struct timespec tu_t_start;
+
+static void tu_register(picvr_context *ctx, int add) {
+    for (int i = 0; i < TU_MAX_LIVE; i++) {
+        if (add && !tu_live[i]) { tu_live[i] = ctx; return; }
+        if (!add && tu_live[i] == ctx) { tu_live[i] = NULL; return; }
+    }
+}
+
+static int tu_validation_expected(void) {
+    const char *e = getenv("PICVR_VALIDATION");
+    return !(e && strcmp(e, "0") == 0);
+}
+
+picvr_context *tu_create(uint32_t seed) {
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.validation = 1;
+    cfg.seed = seed;
+    picvr_context *ctx = NULL;
+    TU_OK(picvr_create(&cfg, &ctx));
+    assert_non_null(ctx);
+    tu_register(ctx, 1);
+    if (tu_validation_expected()) {
+        picvr_stats st;
+        TU_OK(picvr_get_stats(ctx, &st));
+        if (st.validation_enabled != 1)
+            fail_msg("cfg.validation = 1 but stats.validation_enabled = %u",
+                     st.validation_enabled);
+    }
+    return ctx;
+}
+
+void tu_finish(picvr_context *ctx) {
+    picvr_stats st;
+    TU_OK(picvr_get_stats(ctx, &st));
+    tu_register(ctx, 0);
+    picvr_destroy(ctx);
+    if (st.validation_messages != 0)
+        fail_msg("%u Khronos validation message(s) (see the log above)",
+                 st.validation_messages);
+}
+
+/* A step that never returns would hang the whole suite: a per-test watchdog ends the
+   process with a message instead (cmocka has no timeouts). */
+#define TU_WATCHDOG_S 240
+static void tu_on_alarm(int sig) {
+    (void)sig;
+    static const char msg[] = "\n[  FAILED  ] watchdog: a test ran longer than "
+                              "240 s (a picvr call did not return?)\n";
+    ssize_t r = write(2, msg, sizeof msg - 1);
+    (void)r;
+    _exit(3);
+}
+
+int tu_setup(void **state) {
+    (void)state;
+    signal(SIGALRM, tu_on_alarm);
+    alarm(TU_WATCHDOG_S);
+    clock_gettime(CLOCK_MONOTONIC, &tu_t_start);
+    return 0;
+}
+
+int tu_teardown(void **state) {
+    (void)state;
+    alarm(0);
+    for (int i = 0; i < TU_MAX_LIVE; i++) {
+        if (tu_live[i]) { picvr_destroy(tu_live[i]); tu_live[i] = NULL; }
+    }
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    double s = (double)(t.tv_sec - tu_t_start.tv_sec) + 1e-9 * (double)(t.tv_nsec - tu_t_start.tv_nsec);
+    print_message("    (%.2f s)\n", s);
+    fflush(stdout);
+    return 0;
+}
+
+/* ---- volumes ------------------------------------------------------------------------ */
+
+tu_vol tu_vol_new(uint32_t nx, uint32_t ny, uint32_t nz, float spacing, uint8_t fill) {
+    tu_vol v;
+    v.dims[0] = nx; v.dims[1] = ny; v.dims[2] = nz;
+    v.spacing[0] = v.spacing[1] = v.spacing[2] = spacing;
+    v.v = malloc((size_t)nx * ny * nz);
+    assert_non_null(v.v);
+    memset(v.v, fill, (size_t)nx * ny * nz);
+    return v;
+}
+
+void tu_vol_free(tu_vol *vol) {
+    free(vol->v);
+    vol->v = NULL;
+}
+
+tu_vol tu_vol_ball(uint32_t n) {
+    tu_vol v = tu_vol_new(n, n, n, 1.0f, 0);
+    double R = 0.4 * n, soft = 0.15 * n, c = 0.5 * n;
+    for (uint32_t z = 0; z < n; z++)
+        for (uint32_t y = 0; y < n; y++)
+            for (uint32_t x = 0; x < n; x++) {
+                double dx = x + 0.5 - c, dy = y + 0.5 - c, dz = z + 0.5 - c;
+                double r = sqrt(dx * dx + dy * dy + dz * dz);
+                double s = (R - r) / soft;
+                s = s < 0 ? 0 : s > 1 ? 1 : s;
+                *tu_vox(&v, x, y, z) = (uint8_t)lround(255.0 * s);
+            }
+    return v;
+}
+
+void tu_upload(picvr_context *ctx, const tu_vol *vol) {
+    picvr_volume_desc d;
+    memset(&d, 0, sizeof d);
+    memcpy(d.dims, vol->dims, sizeof d.dims);
+    memcpy(d.spacing, vol->spacing, sizeof d.spacing);
+    d.type = PICVR_VOXEL_UINT8;
+    d.data = vol->v;
+    TU_OK(picvr_upload_volume(ctx, &d));
+}
+
+void tu_vol_box(const tu_vol *vol, double bmin[3], double bmax[3]) {
+    for (int i = 0; i < 3; i++) {
+        double s = vol->spacing[i] == 0 ? 1.0 : (double)vol->spacing[i];
+        bmax[i] = 0.5 * vol->dims[i] * s;
+        bmin[i] = -bmax[i];
+    }
+}
+
+uint64_t tu_rand_u64(uint64_t *state) {
+    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+double tu_rand01(uint64_t *state) {
+    return (double)(tu_rand_u64(state) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+double tu_trilinear(const tu_vol *vol, const double p[3]) {
+    int i0[3], i1[3];
+    double f[3];
+    for (int a = 0; a < 3; a++) {
+        double q = p[a] - 0.5;
+        double fl = floor(q);
+        f[a] = q - fl;
+        int n = (int)vol->dims[a];
+        int lo = (int)fl, hi = lo + 1;
+        i0[a] = lo < 0 ? 0 : lo > n - 1 ? n - 1 : lo;
+        i1[a] = hi < 0 ? 0 : hi > n - 1 ? n - 1 : hi;
+    }
+    double r = 0;
+    for (int c = 0; c < 8; c++) {
+        uint32_t x = (uint32_t)((c & 1) ? i1[0] : i0[0]);
+        uint32_t y = (uint32_t)((c & 2) ? i1[1] : i0[1]);
+        uint32_t z = (uint32_t)((c & 4) ? i1[2] : i0[2]);
+        double w = ((c & 1) ? f[0] : 1 - f[0]) * ((c & 2) ? f[1] : 1 - f[1]) *
+                   ((c & 4) ? f[2] : 1 - f[2]);
+        r += w * vol->v[x + (size_t)vol->dims[0] * (y + (size_t)vol->dims[1] * z)];
+    }
+    return r / 255.0;
+}
+
+static int tu_cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y ? 1 : 0;
+}
+
+double tu_value_integral(const tu_vol *vol, const double o[3], const double d[3],
+                         double t0, double t1) {
+    if (!(t1 > t0)) return 0;
+    double bmin[3], bmax[3], sp[3];
+    tu_vol_box(vol, bmin, bmax);
+    for (int a = 0; a < 3; a++) sp[a] = vol->spacing[a] == 0 ? 1.0 : vol->spacing[a];
+    size_t cap = 2 + (size_t)vol->dims[0] + vol->dims[1] + vol->dims[2] + 3;
+    double *ts = malloc(cap * sizeof *ts); /* called from OpenMP threads: no cmocka asserts */
+    if (!ts) abort();
+    size_t n = 0;
+    ts[n++] = t0;
+    for (int a = 0; a < 3; a++) {
+        if (d[a] == 0) continue;
+        double pa = (o[a] + t0 * d[a] - bmin[a]) / sp[a];
+        double pb = (o[a] + t1 * d[a] - bmin[a]) / sp[a];
+        double lo = pa < pb ? pa : pb, hi = pa < pb ? pb : pa;
+        for (long k = (long)floor(lo - 0.5); k <= (long)ceil(hi - 0.5); k++) {
+            double pk = k + 0.5;
+            if (pk <= lo || pk >= hi) continue;
+            double t = (bmin[a] + pk * sp[a] - o[a]) / d[a];
+            if (t > t0 && t < t1 && n < cap - 1) ts[n++] = t;
+        }
+    }
+    ts[n++] = t1;
+    qsort(ts, n, sizeof *ts, tu_cmp_double);
+    static const double gx[3] = {-0.7745966692414834, 0.0, 0.7745966692414834};
+    static const double gw[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
+    double sum = 0;
+    for (size_t i = 0; i + 1 < n; i++) {
+        double a = ts[i], b = ts[i + 1];
+        if (!(b > a)) continue;
+        double m = 0.5 * (a + b), hl = 0.5 * (b - a), s = 0;
+        for (int g = 0; g < 3; g++) {
+            double t = m + hl * gx[g], p[3];
+            for (int k = 0; k < 3; k++) p[k] = (o[k] + t * d[k] - bmin[k]) / sp[k];
+            s += gw[g] * tu_trilinear(vol, p);
+        }
+        sum += hl * s;
+    }
+    free(ts);
+    return sum;
+}
+
+/* ---- transfer function, lights --------------------------------------------------------- */
+
+void tu_tf_const(picvr_context *ctx, float ar, float ag, float ab, float opacity, float D) {
+    picvr_tf_point tf[2] = {{0.0f, {ar, ag, ab}, opacity}, {1.0f, {ar, ag, ab}, opacity}};
+    TU_OK(picvr_set_transfer_function(ctx, tf, 2, D));
+}
+
+void tu_tf_ramp(picvr_context *ctx, float ar, float ag, float ab, float D) {
+    picvr_tf_point tf[2] = {{0.0f, {ar, ag, ab}, 0.0f}, {1.0f, {ar, ag, ab}, 1.0f}};
+    TU_OK(picvr_set_transfer_function(ctx, tf, 2, D));
+}
+
+void tu_background_only(picvr_context *ctx, float r, float g, float b, float intensity) {
+    picvr_background bg = {{r, g, b}, intensity};
+    TU_OK(picvr_set_lights(ctx, NULL, 0, &bg));
+}
+
+void tu_sun(picvr_context *ctx, double dx, double dy, double dz, float r, float g, float b,
+            float intensity, float bg_intensity) {
+    picvr_light sun;
+    memset(&sun, 0, sizeof sun);
+    sun.type = PICVR_LIGHT_DIRECTIONAL;
+    sun.direction[0] = (float)dx; sun.direction[1] = (float)dy; sun.direction[2] = (float)dz;
+    sun.angular_diameter = 0.0f;
+    sun.color[0] = r; sun.color[1] = g; sun.color[2] = b;
+    sun.intensity = intensity;
+    picvr_background bg = {{1, 1, 1}, bg_intensity};
+    TU_OK(picvr_set_lights(ctx, &sun, 1, &bg));
+}
+
+/* ---- camera -------------------------------------------------------------------------- */
+
+static void tu_normalize(double v[3]) {
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    v[0] /= l; v[1] /= l; v[2] /= l;
+}
+
+static void tu_cross(const double a[3], const double b[3], double c[3]) {
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+tu_cam tu_cam_from(const picvr_camera *c) {
+    tu_cam k;
+    double up[3] = {c->up[0], c->up[1], c->up[2]};
+    if (up[0] == 0 && up[1] == 0 && up[2] == 0) up[1] = 1;
+    for (int i = 0; i < 3; i++) {
+        k.pos[i] = c->position[i];
+        k.f[i] = (double)c->target[i] - (double)c->position[i];
+    }
+    tu_normalize(k.f);
+    tu_cross(k.f, up, k.r);
+    tu_normalize(k.r);
+    tu_cross(k.r, k.f, k.u);
+    double fov = c->fov_y_degrees == 0 ? 40.0 : (double)c->fov_y_degrees;
+    k.h = tan(0.5 * fov * M_PI / 180.0);
+    k.a = (double)c->width / (double)c->height;
+    k.w = c->width;
+    k.hgt = c->height;
+    return k;
+}
+
+tu_cam tu_set_camera(picvr_context *ctx, double px, double py, double pz, double tx,
+                     double ty, double tz, double fov_deg, uint32_t w, uint32_t h) {
+    picvr_camera c;
+    memset(&c, 0, sizeof c);
+    c.position[0] = (float)px; c.position[1] = (float)py; c.position[2] = (float)pz;
+    c.target[0] = (float)tx; c.target[1] = (float)ty; c.target[2] = (float)tz;
+    c.up[1] = 1.0f;
+    c.fov_y_degrees = (float)fov_deg;
+    c.width = w;
+    c.height = h;
+    TU_OK(picvr_set_camera(ctx, &c));
+    return tu_cam_from(&c);
+}
+
+void tu_cam_dir(const tu_cam *c, double sx, double sy, double dir[3]) {
+    double kx = (2.0 * sx / c->w - 1.0) * c->h * c->a;
+    double ky = (1.0 - 2.0 * sy / c->hgt) * c->h;
+    for (int i = 0; i < 3; i++) dir[i] = c->f[i] + kx * c->r[i] + ky * c->u[i];
+    tu_normalize(dir);
+}
+
+double *tu_expected_image(const tu_cam *c, int sub, tu_ray_fn fn, void *user) {
+    size_t np = (size_t)c->w * c->hgt;
+    double *img = calloc(np * 4, sizeof *img);
+    assert_non_null(img);
+    long total = (long)np;
+#pragma omp parallel for schedule(dynamic, 4)
+    for (long p = 0; p < total; p++) {
+        uint32_t x = (uint32_t)(p % c->w), y = (uint32_t)(p / c->w);
+        double acc[4] = {0, 0, 0, 0};
+        for (int j = 0; j < sub; j++)
+            for (int i = 0; i < sub; i++) {
+                double d[3], out[4] = {0, 0, 0, 0};
+                tu_cam_dir(c, x + (i + 0.5) / sub, y + (j + 0.5) / sub, d);
+                fn(c->pos, d, user, out);
+                for (int k = 0; k < 4; k++) acc[k] += out[k];
+            }
+        for (int k = 0; k < 4; k++) img[4 * (size_t)p + k] = acc[k] / (sub * sub);
+    }
+    return img;
+}
+
+/* ---- geometry, quadrature ---------------------------------------------------------------- */
+
+int tu_ray_box(const double o[3], const double d[3], const double bmin[3],
+               const double bmax[3], double *t0, double *t1) {
+    double lo = 0, hi = INFINITY;
+    for (int i = 0; i < 3; i++) {
+        if (d[i] == 0) {
+            if (o[i] < bmin[i] || o[i] > bmax[i]) return 0;
+            continue;
+        }
+        double a = (bmin[i] - o[i]) / d[i], b = (bmax[i] - o[i]) / d[i];
+        if (a > b) { double t = a; a = b; b = t; }
+        if (a > lo) lo = a;
+        if (b < hi) hi = b;
+    }
+    if (!(hi > lo)) return 0;
+    *t0 = lo;
+    *t1 = hi;
+    return 1;
+}
+
+double tu_box_exit(const double x[3], const double d[3], const double bmin[3],
+                   const double bmax[3]) {
+    double t = INFINITY;
+    for (int i = 0; i < 3; i++) {
+        double s;
+        if (d[i] > 0) s = (bmax[i] - x[i]) / d[i];
+        else if (d[i] < 0) s = (bmin[i] - x[i]) / d[i];
+        else continue;
+        if (s < t) t = s;
+    }
+    return t < 0 ? 0 : t;
+}
+
+double tu_segment_in_box(const double a[3], const double b[3], const double bmin[3],
+                         const double bmax[3]) {
+    double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, t0, t1;
+    if (!tu_ray_box(a, d, bmin, bmax, &t0, &t1)) return 0;
+    if (t1 > 1) t1 = 1;
+    if (t1 <= t0) return 0;
+    return (t1 - t0) * sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+}
+
+double tu_integrate(double (*f)(double t, void *user), void *user, double a, double b,
+                    int pieces) {
+    static const double gx[4] = {0.1834346424956498, 0.5255324099163290,
+                                 0.7966664774136267, 0.9602898564975363};
+    static const double gw[4] = {0.3626837833783620, 0.3137066458778873,
+                                 0.2223810344533745, 0.1012285362903763};
+    double h = (b - a) / pieces, sum = 0;
+    for (int p = 0; p < pieces; p++) {
+        double m = a + (p + 0.5) * h, hl = 0.5 * h, s = 0;
+        for (int g = 0; g < 4; g++) s += gw[g] * (f(m - hl * gx[g], user) + f(m + hl * gx[g], user));
+        sum += hl * s;
+    }
+    return sum;
+}
+
+double tu_triangle_solid_angle(const double x[3], const double a[3], const double b[3],
+                               const double c[3]) {
+    double A[3], B[3], C[3], bc[3];
+    for (int i = 0; i < 3; i++) { A[i] = a[i] - x[i]; B[i] = b[i] - x[i]; C[i] = c[i] - x[i]; }
+    tu_cross(B, C, bc);
+    double num = fabs(A[0] * bc[0] + A[1] * bc[1] + A[2] * bc[2]);
+    double la = sqrt(A[0] * A[0] + A[1] * A[1] + A[2] * A[2]);
+    double lb = sqrt(B[0] * B[0] + B[1] * B[1] + B[2] * B[2]);
+    double lc = sqrt(C[0] * C[0] + C[1] * C[1] + C[2] * C[2]);
+    double ab = A[0] * B[0] + A[1] * B[1] + A[2] * B[2];
+    double ac = A[0] * C[0] + A[1] * C[1] + A[2] * C[2];
+    double bcd = B[0] * C[0] + B[1] * C[1] + B[2] * C[2];
+    double den = la * lb * lc + ab * lc + ac * lb + bcd * la;
+    return 2.0 * atan2(num, den);
+}
+
+/* ---- images ---------------------------------------------------------------------------- */
+
+float *tu_read(picvr_context *ctx, uint32_t w, uint32_t h) {
+    size_t bytes = (size_t)w * h * 4 * sizeof(float);
+    float *img = malloc(bytes);
+    assert_non_null(img);
+    TU_OK(picvr_read_rgba32f(ctx, img, bytes));
+    return img;
+}
+
+void tu_assert_finite(const float *x, size_t n, const char *what) {
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(x[i]))
+            fail_msg("%s: value %zu (pixel %zu channel %zu) is %f", what, i, i / 4, i % 4,
+                     (double)x[i]);
+}
+
+picvr_stats tu_stats_finite(picvr_context *ctx) {
+    picvr_stats st;
+    TU_OK(picvr_get_stats(ctx, &st));
+    double v[6] = {st.iterations_mean, st.elapsed_ms, st.samples_per_second, st.est_error,
+                   st.est_rel_error, st.mean_luminance};
+    const char *names[6] = {"iterations_mean", "elapsed_ms", "samples_per_second",
+                            "est_error", "est_rel_error", "mean_luminance"};
+    for (int i = 0; i < 6; i++)
+        if (!isfinite(v[i])) fail_msg("stats.%s is not finite (%f)", names[i], v[i]);
+    return st;
+}
+
+double tu_region_mean(const float *img, uint32_t w, int ch, uint32_t x0, uint32_t y0,
+                      uint32_t x1, uint32_t y1) {
+    double s = 0;
+    for (uint32_t y = y0; y < y1; y++)
+        for (uint32_t x = x0; x < x1; x++) s += img[4 * ((size_t)y * w + x) + ch];
+    return s / ((double)(x1 - x0) * (y1 - y0));
+}
+
+int tu_check_mean_ex(const char *label, const float *img, const double *expected, uint32_t w,
+                     int ch, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
+                     uint32_t n_iter, double M, double z, double sys_rel, tu_mean_result *res) {
+    double P = (double)(x1 - x0) * (y1 - y0);
+    double sm = 0, se = 0, sv = 0;
+    for (uint32_t y = y0; y < y1; y++)
+        for (uint32_t x = x0; x < x1; x++) {
+            size_t i = 4 * ((size_t)y * w + x) + (size_t)ch;
+            double mu = expected[i];
+            sm += img[i];
+            se += mu;
+            if (M > 0) sv += fmax(0.0, mu * (M - mu));
+        }
+    double meas = sm / P, expv = se / P;
+    double se_an = M > 0 ? sqrt(sv / n_iter) / P : 0;
+    /* Empirical: residual means of whole 8x8 blocks inside the region. */
+    double se_emp = 0;
+    uint32_t nbx = (x1 - x0) / 8, nby = (y1 - y0) / 8, nb = nbx * nby;
+    if (nb >= 4) {
+        double s1 = 0, s2 = 0;
+        for (uint32_t by = 0; by < nby; by++)
+            for (uint32_t bx = 0; bx < nbx; bx++) {
+                double r = 0;
+                for (uint32_t y = y0 + 8 * by; y < y0 + 8 * by + 8; y++)
+                    for (uint32_t x = x0 + 8 * bx; x < x0 + 8 * bx + 8; x++) {
+                        size_t i = 4 * ((size_t)y * w + x) + (size_t)ch;
+                        r += img[i] - expected[i];
+                    }
+                r /= 64.0;
+                s1 += r;
+                s2 += r * r;
+            }
+        double mean = s1 / nb, var = (s2 - nb * mean * mean) / (nb - 1);
+        se_emp = sqrt(fmax(var, 0.0) / nb);
+    }
+    double sig = fmax(se_an, se_emp);
+    double bound = z * sig + sys_rel * fabs(expv);
+    double diff = meas - expv;
+    int ok = isfinite(meas) && fabs(diff) <= bound;
+    print_message("    %-44s ch%d measured %.6g expected %.6g diff %+.3g (%+.2f sigma; "
+                  "se analytic %.3g empirical %.3g) bound %.3g %s\n",
+                  label, ch, meas, expv, diff, sig > 0 ? diff / sig : 0.0, se_an, se_emp,
+                  bound, ok ? "ok" : "FAIL");
+    if (res) { res->measured = meas; res->expected = expv; res->se = sig; }
+    return ok;
+}
+
+int tu_check_chi2(const char *label, const float *img, const double *expected, uint32_t w,
+                  uint32_t h, int ch, uint32_t n_iter, double M, double max_reduced) {
+    double chi2 = 0;
+    size_t P = (size_t)w * h;
+    for (size_t p = 0; p < P; p++) {
+        double mu = expected[4 * p + ch], r = img[4 * p + ch] - mu;
+        double var = fmax(mu * (M - mu), 1e-4 * M * M) / n_iter;
+        chi2 += r * r / var;
+    }
+    double red = chi2 / (double)P;
+    int ok = isfinite(red) && red <= max_reduced;
+    print_message("    %-44s ch%d chi2/P %.4g (limit %.3g) %s\n", label, ch, red, max_reduced,
+                  ok ? "ok" : "FAIL");
+    return ok;
+}
+
+double *tu_mirror_x(const double *expected, uint32_t w, uint32_t h) {
+    double *m = malloc((size_t)w * h * 4 * sizeof *m);
+    assert_non_null(m);
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++)
+            for (int c = 0; c < 4; c++)
+                m[4 * ((size_t)y * w + x) + c] = expected[4 * ((size_t)y * w + (w - 1 - x)) + c];
+    return m;
+}

@@ -1,0 +1,236 @@
+/* test_util.h - shared helpers of the picvr test suite (cmocka).
+ *
+ * One binary (build/picvr-tests) is built from all tests/test_*.c; test_main.c runs
+ * one cmocka group with every test listed in TU_ALL_TESTS below.  Helpers live in
+ * test_util.c.
+ *
+ * Statistics used throughout (see tu_check_mean): a rendered pixel is the mean of N
+ * independent samples (the header: random numbers are a hash of pixel, iteration,
+ * dimension, seed).  The expected value of every pixel is computed in the test in
+ * double precision from a closed form or a deterministic quadrature, integrated over
+ * the pixel's jitter.  The image (or region) mean is compared with the expected mean
+ * within z standard errors, z = 5 unless stated (two-sided p = 6e-7 per comparison for
+ * a normal mean of ~1e5 samples; fixed seeds make every run reproducible anyway).
+ * The standard error is the larger of
+ *   - an analytic bound: when every sample lies in [0, M] (Bernoulli samples, or a
+ *     delta light with ratio-tracking weights in [0, 1]), Var <= mu (M - mu)
+ *     (Bhatia-Davis, exact for Bernoulli samples), summed over pixels; and
+ *   - an empirical one: the spread of the residual means of 8x8 pixel blocks,
+ *     which stays valid if the implementation correlates neighbouring pixels
+ *     (e.g. coherent sampling within a subgroup; that does not bias the mean).
+ */
+#ifndef PICVR_TEST_UTIL_H
+#define PICVR_TEST_UTIL_H
+
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "picvr.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+/* ---- every test of the suite (defined in tests/test_*.c) -------------------------- */
+#define TU_ALL_TESTS(X)                                             \
+    /* test_api_errors.c */                                         \
+    X(test_status_strings_non_null_and_distinct)                    \
+    X(test_create_destroy_errors)                                   \
+    X(test_step_before_volume_and_camera_is_not_ready)              \
+    X(test_bad_inputs_rejected_and_state_kept)                      \
+    /* test_accumulation.c */                                       \
+    X(test_image_zero_before_first_iteration)                       \
+    X(test_changes_reset_accumulation_identical_camera_does_not)    \
+    X(test_stats_counters_and_step_time)                            \
+    X(test_volume_box_and_anisotropic_spacing)                      \
+    /* test_empty.c */                                              \
+    X(test_empty_volume_is_exact_background)                        \
+    X(test_no_light_black_background_is_exact_zero)                 \
+    X(test_camera_looking_away_is_exact_background)                 \
+    X(test_rgba8_tone_mapping_formula)                              \
+    /* test_determinism.c */                                        \
+    X(test_same_seed_bit_identical_different_seed_differs)          \
+    X(test_error_estimate_halves_with_4x_iterations)                \
+    /* test_beer_lambert.c */                                       \
+    X(test_beer_lambert_homogeneous_cube)                           \
+    X(test_beer_lambert_optical_depth_5)                            \
+    X(test_beer_lambert_uint16_and_float32_volumes)                 \
+    X(test_beer_lambert_loose_majorant_and_brick_apron)             \
+    /* test_single_scatter.c */                                     \
+    X(test_single_scatter_delta_sun_coloured)                       \
+    /* test_area_lights.c */                                        \
+    X(test_point_light_single_scatter_closed_form)                  \
+    X(test_sphere_light_matches_point_light)                        \
+    X(test_rect_light_facing_closed_form_and_back_side_dark)        \
+    /* test_extreme.c */                                            \
+    X(test_extreme_density_range_finite)                            \
+    X(test_dense_medium_surface_lit_thin_is_background)             \
+    X(test_extreme_cameras_and_image_sizes_finite)                  \
+    X(test_extreme_volumes_finite)                                  \
+    /* test_cpu_reference.c */                                      \
+    X(test_gpu_matches_cpu_reference_area_light_background)         \
+    /* test_real_data.c */                                          \
+    X(test_real_data_fuel_smoke)
+
+#define TU_DECLARE(name) void name(void **state);
+TU_ALL_TESTS(TU_DECLARE)
+#undef TU_DECLARE
+
+/* ---- context ---------------------------------------------------------------------- */
+
+/* Creates a context with cfg.validation = 1 and the given seed (asserts PICVR_OK and,
+   unless PICVR_VALIDATION=0, that the validation layer is active).  The context is
+   registered so that the per-test teardown destroys it if the test fails early. */
+picvr_context *tu_create(uint32_t seed);
+/* Asserts picvr_get_stats().validation_messages == 0, then destroys the context. */
+void tu_finish(picvr_context *ctx);
+/* Per-test setup/teardown: timing (printed) and destruction of leftover contexts. */
+int tu_setup(void **state);
+int tu_teardown(void **state);
+
+/* Asserts that a picvr call returns the expected status (prints the names). */
+#define TU_EXPECT(call, expected)                                                       \
+    do {                                                                               \
+        picvr_status tu_s_ = (call);                                                   \
+        if (tu_s_ != (expected))                                                       \
+            fail_msg("%s:%d: %s returned %s, expected %s", __FILE__, __LINE__, #call,  \
+                     picvr_status_string(tu_s_), picvr_status_string(expected));       \
+    } while (0)
+#define TU_OK(call) TU_EXPECT(call, PICVR_OK)
+
+/* ---- volumes ----------------------------------------------------------------------- */
+
+/* A uint8 volume built in the test (x fastest). */
+typedef struct tu_vol {
+    uint32_t dims[3];
+    float spacing[3];
+    uint8_t *v;
+} tu_vol;
+
+tu_vol tu_vol_new(uint32_t nx, uint32_t ny, uint32_t nz, float spacing, uint8_t fill);
+void tu_vol_free(tu_vol *vol);
+static inline uint8_t *tu_vox(tu_vol *vol, uint32_t x, uint32_t y, uint32_t z) {
+    return &vol->v[x + (size_t)vol->dims[0] * (y + (size_t)vol->dims[1] * z)];
+}
+/* A ball: value 255 * clamp((R - r) / (soft), 0, 1) with R = 0.4 * n, soft = 0.15 * n. */
+tu_vol tu_vol_ball(uint32_t n);
+/* Uploads as PICVR_VOXEL_UINT8 (asserts OK). */
+void tu_upload(picvr_context *ctx, const tu_vol *vol);
+/* World box of a volume per the CONVENTIONS (centred at the origin). */
+void tu_vol_box(const tu_vol *vol, double bmin[3], double bmax[3]);
+
+/* Deterministic random numbers for building volumes (splitmix64). */
+uint64_t tu_rand_u64(uint64_t *state);
+double tu_rand01(uint64_t *state);
+
+/* Trilinear normalized value (voxel/255) at voxel coordinate p, clamp to edge,
+   voxel i's centre at p = i + 0.5 (the CONVENTIONS). */
+double tu_trilinear(const tu_vol *vol, const double p[3]);
+/* Exact integral of the trilinear value along o + t d, t in [t0, t1] (world units;
+   d need not be unit, the integral is over t): the interpolant is a cubic in t
+   between the planes p = k + 0.5, so 3-point Gauss-Legendre per piece is exact. */
+double tu_value_integral(const tu_vol *vol, const double o[3], const double d[3],
+                         double t0, double t1);
+
+/* ---- transfer function, lights ----------------------------------------------------- */
+
+/* Opacity constant `opacity`, albedo constant. */
+void tu_tf_const(picvr_context *ctx, float ar, float ag, float ab, float opacity, float D);
+/* Opacity = normalized value (linear ramp 0..1), albedo constant. */
+void tu_tf_ramp(picvr_context *ctx, float ar, float ag, float ab, float D);
+/* Only a background (no lights). */
+void tu_background_only(picvr_context *ctx, float r, float g, float b, float intensity);
+/* One delta sun (angular diameter 0), direction toward the sun, plus a background. */
+void tu_sun(picvr_context *ctx, double dx, double dy, double dz, float r, float g, float b,
+            float intensity, float bg_intensity);
+
+/* ---- camera ------------------------------------------------------------------------ */
+
+/* The camera of the CONVENTIONS in double precision. */
+typedef struct tu_cam {
+    double pos[3], f[3], r[3], u[3], h, a;
+    uint32_t w, hgt;
+} tu_cam;
+
+/* Builds a picvr_camera (up 0,1,0) and sets it (asserts OK); returns the double basis. */
+tu_cam tu_set_camera(picvr_context *ctx, double px, double py, double pz, double tx,
+                     double ty, double tz, double fov_deg, uint32_t w, uint32_t h);
+tu_cam tu_cam_from(const picvr_camera *c);
+/* Unit direction of the ray through image point (sx, sy) = (x + jx, y + jy). */
+void tu_cam_dir(const tu_cam *c, double sx, double sy, double dir[3]);
+
+/* Expected image: for every pixel, the mean of fn over sub x sub midpoint jitters.
+   fn writes the expected RGBA of one ray (o = camera position, d unit).  Returns a
+   malloc'ed w*h*4 doubles array. */
+typedef void (*tu_ray_fn)(const double o[3], const double d[3], void *user, double out[4]);
+double *tu_expected_image(const tu_cam *c, int sub, tu_ray_fn fn, void *user);
+
+/* ---- geometry, quadrature ------------------------------------------------------------ */
+
+/* Slab test: returns 1 and the overlap [*t0, *t1] of t >= 0 with the box, else 0. */
+int tu_ray_box(const double o[3], const double d[3], const double bmin[3],
+               const double bmax[3], double *t0, double *t1);
+/* Distance from x (inside or on the box) along unit d to the box exit. */
+double tu_box_exit(const double x[3], const double d[3], const double bmin[3],
+                   const double bmax[3]);
+/* Length of the part of segment a->b inside the box. */
+double tu_segment_in_box(const double a[3], const double b[3], const double bmin[3],
+                         const double bmax[3]);
+/* Integral of f over [a, b]: `pieces` equal pieces, 8-point Gauss-Legendre each. */
+double tu_integrate(double (*f)(double t, void *user), void *user, double a, double b,
+                    int pieces);
+/* Solid angle of the triangle (a, b, c) seen from x (Van Oosterom-Strackee). */
+double tu_triangle_solid_angle(const double x[3], const double a[3], const double b[3],
+                               const double c[3]);
+
+/* ---- images ----------------------------------------------------------------------- */
+
+/* Reads rgba32f (w*h*4 floats, malloc'ed; asserts OK). */
+float *tu_read(picvr_context *ctx, uint32_t w, uint32_t h);
+/* Rec. 709 luminance. */
+static inline double tu_lum(double r, double g, double b) {
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+/* Fails (with the first offending index) unless all n floats are finite. */
+void tu_assert_finite(const float *x, size_t n, const char *what);
+/* Reads stats (asserts OK) and checks every floating field is finite. */
+picvr_stats tu_stats_finite(picvr_context *ctx);
+/* Mean of channel ch over the pixel rectangle [x0,x1) x [y0,y1) of an RGBA image. */
+double tu_region_mean(const float *img, uint32_t w, int ch, uint32_t x0, uint32_t y0,
+                      uint32_t x1, uint32_t y1);
+
+/* The statistical comparison described at the top.  Compares the mean of channel ch
+   of the rendered image over [x0,x1) x [y0,y1) with the mean of the expected image
+   (w*h*4 doubles).  M > 0: every sample of that channel lies in [0, M] (analytic
+   bound); M <= 0: empirical bound only.  Passes when
+   |measured - expected| <= z * SE + sys_rel * |expected|.  Prints one line.
+   Returns 1 on pass; *res (may be NULL) receives the numbers. */
+typedef struct tu_mean_result {
+    double measured, expected, se;
+} tu_mean_result;
+int tu_check_mean_ex(const char *label, const float *img, const double *expected, uint32_t w,
+                     int ch, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
+                     uint32_t n_iter, double M, double z, double sys_rel, tu_mean_result *res);
+#define tu_check_mean(label, img, expected, w, ch, x0, y0, x1, y1, n, M, z, sys) \
+    tu_check_mean_ex(label, img, expected, w, ch, x0, y0, x1, y1, n, M, z, sys, NULL)
+
+/* Per-pixel structure check: chi2 = sum over pixels of (measured - expected)^2 /
+   (max(mu (M - mu), 1e-4 M^2) / N), with M the bound on a sample as above (an upper
+   bound on the variance, so chi2 / P is <= 1 in expectation).  Passes when
+   chi2 / P <= max_reduced.  A misplaced, flipped or mis-scaled volume gives residuals
+   of the size of the image contrast, i.e. chi2 / P >> 2 in the scenes used here
+   (each caller prints the value for the mirrored expectation as a power check). */
+int tu_check_chi2(const char *label, const float *img, const double *expected, uint32_t w,
+                  uint32_t h, int ch, uint32_t n_iter, double M, double max_reduced);
+/* The expected image mirrored left-right (for the power check above). */
+double *tu_mirror_x(const double *expected, uint32_t w, uint32_t h);
+
+#endif /* PICVR_TEST_UTIL_H */
