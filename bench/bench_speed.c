@@ -11,7 +11,8 @@
  * GPU: the public picvr API; a warm-up (shader compilation, first-touch costs), a
  * calibration that picks N for about 4 s (unless --iterations-gpu), then the timed
  * picvr_step_iterations(ctx, N) (it returns when the device is done).
- * CPU: cref_render() on omp_get_max_threads() threads, timed with CLOCK_MONOTONIC.
+ * CPU: cref_render() on omp_get_max_threads() threads, timed with CLOCK_MONOTONIC;
+ * one untimed iteration picks N for about 2 s (unless --iterations-cpu).
  *
  * Sanity check: both images' mean luminance must agree within 3 % plus 4 standard
  * errors (the standard error from the CPU's per-pixel sample variance).  Exit status:
@@ -34,13 +35,15 @@
 #define EXIT_MISMATCH 3
 #define GPU_TARGET_S 4.0         /* timed GPU run length when N is chosen here */
 #define GPU_TARGET_QUICK_S 0.5
+#define CPU_TARGET_S 2.0         /* timed CPU run length when its N is chosen here */
+#define CPU_TARGET_QUICK_S 0.3
 #define REL_TOLERANCE 0.03       /* systematic allowance between the two renderers */
 
 typedef struct options {
     const char *volume_path, *json_path, *device;
     uint32_t width, height;
     uint32_t iterations_gpu;     /* 0: calibrate */
-    uint32_t iterations_cpu;
+    uint32_t iterations_cpu;     /* 0: calibrate (at least 2) */
     uint32_t seed;
     int quick;
 } options;
@@ -65,12 +68,12 @@ static void usage(FILE *f)
             "  --volume FILE          NAME_XxYxZ_TYPE.raw[.gz] (bonsai_256x256x256_uint8.raw.gz)\n"
             "  --size N | WxH         image size (default 512)\n"
             "  --iterations-gpu N     timed GPU iterations (default: about %.0f s worth)\n"
-            "  --iterations-cpu N     timed CPU iterations (default 4, at least 2)\n"
+            "  --iterations-cpu N     timed CPU iterations (default: about %.0f s worth, >= 2)\n"
             "  --seed N               random seed (default 1)\n"
             "  --device NAME          Vulkan device name substring\n"
             "  --json FILE            write the figures as JSON\n"
-            "  --quick                smoke run: 128x128, ~%.1f s GPU, 2 CPU iterations\n",
-            GPU_TARGET_S, GPU_TARGET_QUICK_S);
+            "  --quick                smoke run: 128x128, ~%.1f s GPU, ~%.1f s CPU\n",
+            GPU_TARGET_S, CPU_TARGET_S, GPU_TARGET_QUICK_S, CPU_TARGET_QUICK_S);
 }
 
 /* Strict unsigned parse: digits only, 1..max. */
@@ -99,9 +102,8 @@ static int parse_args(int argc, char **argv, options *o)
 {
     memset(o, 0, sizeof *o);
     o->width = o->height = 512;
-    o->iterations_cpu = 4;
     o->seed = 1;
-    int have_size = 0, have_cpu = 0;
+    int have_size = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         int ok = 1, takes = 1;
@@ -112,7 +114,7 @@ static int parse_args(int argc, char **argv, options *o)
         else if (!strcmp(a, "--device")) ok = (o->device = v) != NULL;
         else if (!strcmp(a, "--size")) ok = have_size = parse_size(v, &o->width, &o->height);
         else if (!strcmp(a, "--iterations-gpu")) ok = parse_u32(v, 1000000, &o->iterations_gpu);
-        else if (!strcmp(a, "--iterations-cpu")) ok = have_cpu = parse_u32(v, 1000000, &o->iterations_cpu);
+        else if (!strcmp(a, "--iterations-cpu")) ok = parse_u32(v, 1000000, &o->iterations_cpu);
         else if (!strcmp(a, "--seed")) { ok = v != NULL; if (ok) o->seed = (uint32_t)strtoul(v, NULL, 10); }
         else { fprintf(stderr, PROGRAM ": unknown option '%s'\n", a); return 0; }
         if (!ok) { fprintf(stderr, PROGRAM ": bad or missing value for %s\n", a); return 0; }
@@ -120,8 +122,7 @@ static int parse_args(int argc, char **argv, options *o)
     }
     if (!o->volume_path) { fprintf(stderr, PROGRAM ": --volume is required\n"); return 0; }
     if (o->quick && !have_size) o->width = o->height = 128;
-    if (o->quick && !have_cpu) o->iterations_cpu = 2;
-    if (o->iterations_cpu < 2) o->iterations_cpu = 2;   /* a sample variance needs 2 */
+    if (o->iterations_cpu == 1) o->iterations_cpu = 2;   /* a sample variance needs 2 */
     return 1;
 }
 
@@ -271,15 +272,25 @@ static int run_cpu(const options *o, const picvr_volume_desc *vol, const picvr_l
     int ok = img && m2;
     if (!ok) fprintf(stderr, PROGRAM ": out of memory\n");
     cref_render_stats rs;
-    double t0 = now_s();
-    ok = ok && check((picvr_status)cref_render_ex(&s, 0, o->iterations_cpu, img, m2, &rs),
-                     "cref_render");
-    double secs = now_s() - t0;
+    uint32_t n = o->iterations_cpu;
+    double t0, secs = 0.0;
+    if (ok && n == 0) {
+        /* calibrate with one iteration (also warms caches and the thread pool) */
+        double target = o->quick ? CPU_TARGET_QUICK_S : CPU_TARGET_S;
+        t0 = now_s();
+        ok = check((picvr_status)cref_render_ex(&s, 0, 1, img, NULL, NULL), "cref_render");
+        secs = now_s() - t0;
+        double want = secs > 0.0 ? target / secs : 1000.0;
+        n = want < 2.0 ? 2u : want > 1000.0 ? 1000u : (uint32_t)want;
+    }
+    t0 = now_s();
+    ok = ok && check((picvr_status)cref_render_ex(&s, 0, n, img, m2, &rs), "cref_render");
+    secs = now_s() - t0;
     if (ok) {
-        r->iterations = o->iterations_cpu;
+        r->iterations = n;
         r->seconds = secs;
-        r->ms_per_iteration = 1e3 * secs / o->iterations_cpu;
-        r->msamples_per_s = secs > 0.0 ? (double)npix * o->iterations_cpu / secs * 1e-6 : 0.0;
+        r->ms_per_iteration = 1e3 * secs / n;
+        r->msamples_per_s = secs > 0.0 ? (double)npix * n / secs * 1e-6 : 0.0;
         r->truncated = rs.truncated_paths;
         image_means(img, npix, &r->mean_luminance, &r->mean_alpha);
         if (rs.majorant_violations)

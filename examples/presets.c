@@ -35,6 +35,7 @@ static vec3 normalize(vec3 a)
 }
 static void store(float out[3], vec3 a) { out[0] = a.x; out[1] = a.y; out[2] = a.z; }
 static vec3 load(const float in[3]) { return v3(in[0], in[1], in[2]); }
+static int vec_is_finite(vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 
 /* Any unit vector perpendicular to n (prefers the world's y axis as "up"). */
 static vec3 perpendicular(vec3 n)
@@ -74,13 +75,14 @@ static const tf_entry tf_table[] = {
       {0.48f, {0.95f, 0.60f, 0.50f}, 0.06f},
       {0.62f, {1.00f, 0.96f, 0.90f}, 1.00f},
       {1.00f, GREY(1.00f), 1.00f}}},
-    {"ct-engine", "engine CT: translucent blue-grey casting, dense parts brass", 1.0f, 6,
+    {"ct-engine", "engine CT: translucent blue-grey casting, dense parts brass", 1.0f, 7,
      {{0.00f, {0.70f, 0.78f, 0.90f}, 0.00f},
       {0.12f, {0.70f, 0.78f, 0.90f}, 0.00f},
-      {0.35f, {0.72f, 0.80f, 0.90f}, 0.08f},
-      {0.50f, {0.80f, 0.84f, 0.90f}, 0.80f},
-      {0.68f, {0.90f, 0.88f, 0.82f}, 1.00f},
-      {0.90f, {1.00f, 0.78f, 0.40f}, 1.00f}}},
+      {0.35f, {0.72f, 0.80f, 0.90f}, 0.02f},
+      {0.50f, {0.75f, 0.80f, 0.88f}, 0.08f},
+      {0.62f, {0.80f, 0.83f, 0.90f}, 0.12f},
+      {0.70f, {0.95f, 0.80f, 0.50f}, 1.00f},
+      {1.00f, {1.00f, 0.78f, 0.40f}, 1.00f}}},
     {"sim", "simulations (fuel, hydrogen, neghip): smooth blue-to-orange ramp", 1.0f, 6,
      {{0.00f, {0.25f, 0.45f, 0.95f}, 0.00f},
       {0.04f, {0.25f, 0.45f, 0.95f}, 0.00f},
@@ -195,32 +197,41 @@ static vec3 camera_direction(const scene_frame *f, float x, float y, float z)
     return add(add(scale(f->right, x), scale(f->up, y)), scale(f->forward, -z));
 }
 
+/* Every set-up is placed in the camera's frame, like a photographer's light kit, so
+   it lights the visible side from any --camera.  Directions are (x right, y up,
+   z toward the camera); at the default distance no light is in the picture or
+   between the camera and the volume. */
+
 /* Paper set-up 1: one small, distant, very bright sphere (sharp shadows). */
 static void build_paper1(const scene_frame *f, pvp_lights *out)
 {
     float R = f->radius;
-    add_sphere(out, f, v3(-0.35f, 0.80f, 0.60f), 6.0f * R, 0.15f * R, WHITE, 14.0f);
+    add_sphere(out, f, camera_direction(f, -0.45f, 0.75f, 0.50f), 6.0f * R, 0.15f * R,
+               WHITE, 20.0f);
 }
 
-/* Paper set-up 3: three large, very intense spheres close to the volume. */
+/* Paper set-up 3: three large, very intense spheres close to the volume: above
+   left, right and overhead-behind. */
 static void build_paper3(const scene_frame *f, pvp_lights *out)
 {
     float R = f->radius;
-    add_sphere(out, f, v3(-0.50f, 0.60f, 0.65f), 1.6f * R, 0.5f * R, WHITE, 12.0f);
-    add_sphere(out, f, v3(0.90f, 0.10f, 0.30f), 1.6f * R, 0.5f * R, WHITE, 12.0f);
-    add_sphere(out, f, v3(0.10f, 0.70f, -0.70f), 1.6f * R, 0.5f * R, WHITE, 12.0f);
+    add_sphere(out, f, camera_direction(f, -0.75f, 0.55f, 0.35f), 1.6f * R, 0.5f * R,
+               WHITE, 12.0f);
+    add_sphere(out, f, camera_direction(f, 0.95f, -0.10f, 0.30f), 1.6f * R, 0.5f * R,
+               WHITE, 12.0f);
+    add_sphere(out, f, camera_direction(f, 0.10f, 0.95f, -0.30f), 1.6f * R, 0.5f * R,
+               WHITE, 12.0f);
 }
 
-/* Paper set-up 4: four dim, large rects surrounding the volume (soft, even light). */
+/* Paper set-up 4: four dim, large rects in a ring around the line of sight
+   (left, right, above, below), tilted a little toward the camera: soft, even light. */
 static void build_paper4(const scene_frame *f, pvp_lights *out)
 {
+    static const float ring[4][2] = {{-1, 0}, {1, 0}, {0, 1}, {0, -1}};
     float R = f->radius;
-    for (int i = 0; i < 4; i++) {
-        float az = (45.0f + 90.0f * (float)i) * PI_F / 180.0f;
-        float el = (i % 2 ? -15.0f : 25.0f) * PI_F / 180.0f;
-        vec3 dir = v3(cosf(el) * sinf(az), sinf(el), cosf(el) * cosf(az));
-        add_rect(out, f, dir, 2.0f * R, 2.0f * R, WHITE, 5.0f);
-    }
+    for (int i = 0; i < 4; i++)
+        add_rect(out, f, camera_direction(f, ring[i][0], ring[i][1], 0.35f), 2.0f * R,
+                 2.0f * R, WHITE, 5.0f);
 }
 
 static void build_paper1_bg(const scene_frame *f, pvp_lights *out)
@@ -241,8 +252,8 @@ static void build_paper4_bg(const scene_frame *f, pvp_lights *out)
     set_background(out, 1.0f, 1.0f, 1.0f, 0.1f);
 }
 
-/* Photo studio, following the camera: warm key sphere above left, cool fill rect
-   right, dim blue-grey backdrop. */
+/* Photo studio: warm key sphere above left, cool fill rect right, dim blue-grey
+   backdrop. */
 static void build_studio(const scene_frame *f, pvp_lights *out)
 {
     static const float warm[3] = {1.00f, 0.94f, 0.86f}, cool[3] = {0.85f, 0.92f, 1.00f};
@@ -254,17 +265,16 @@ static void build_studio(const scene_frame *f, pvp_lights *out)
     set_background(out, 0.55f, 0.60f, 0.70f, 0.10f);
 }
 
-/* The sun (angular diameter of the real one) high in a blue sky. */
+/* The sun (angular diameter of the real one) high over the left shoulder, blue sky. */
 static void build_sun(const scene_frame *f, pvp_lights *out)
 {
-    (void)f;
     picvr_light *l = next_light(out);
     l->type = PICVR_LIGHT_DIRECTIONAL;
-    store(l->direction, normalize(v3(-0.40f, 0.80f, 0.45f)));
+    store(l->direction, normalize(camera_direction(f, -0.45f, 0.80f, 0.40f)));
     l->angular_diameter = 0.0093f;
     l->color[0] = 1.0f; l->color[1] = 0.96f; l->color[2] = 0.90f;
-    l->intensity = 12.0f;  /* irradiance */
-    set_background(out, 0.45f, 0.60f, 1.00f, 0.30f);
+    l->intensity = 14.0f;  /* irradiance */
+    set_background(out, 0.45f, 0.60f, 1.00f, 0.25f);
 }
 
 /* A point light just above the camera: irradiance S at the front of the volume. */
@@ -278,7 +288,7 @@ static void build_headlight(const scene_frame *f, pvp_lights *out)
     l->type = PICVR_LIGHT_POINT;
     store(l->position, position);
     memcpy(l->color, WHITE, sizeof l->color);
-    l->intensity = 12.0f * d * d;  /* radiant intensity I = E d^2 */
+    l->intensity = 16.0f * d * d;  /* radiant intensity I = E d^2 */
 }
 
 typedef struct lights_entry {
@@ -340,8 +350,28 @@ static void orbit(vec3 centre, float azimuth_degrees, float elevation_degrees,
     *up = v3(-sinf(el) * sinf(az), cosf(el), -sinf(el) * cosf(az));
 }
 
+/* The camera's frame; a degenerate camera (eye at the centre, up along the view)
+   falls back to the default orbit view or the world's y axis. */
+static void camera_frame(const picvr_camera *camera, scene_frame *f)
+{
+    vec3 default_up;
+    orbit(f->centre, PVP_DEFAULT_AZIMUTH, PVP_DEFAULT_ELEVATION, 2.9f * f->radius, &f->eye,
+          &default_up);
+    vec3 up = default_up;
+    if (camera && vec_is_finite(load(camera->position)) && vec_is_finite(load(camera->up)) &&
+        length(sub(load(camera->position), f->centre)) > 1e-6f * f->radius) {
+        f->eye = load(camera->position);
+        up = length(load(camera->up)) > 0.0f ? load(camera->up) : v3(0.0f, 1.0f, 0.0f);
+    }
+    f->forward = normalize(sub(f->centre, f->eye));
+    f->right = cross(f->forward, normalize(up));
+    f->right = length(f->right) > 1e-4f ? normalize(f->right)
+                                        : perpendicular(scale(f->forward, -1.0f));
+    f->up = cross(f->right, f->forward);
+}
+
 pvp_status pvp_lights_preset(const char *name, const float box_min[3],
-                             const float box_max[3], const float eye[3],
+                             const float box_max[3], const picvr_camera *camera,
                              pvp_lights *lights)
 {
     if (!name || !box_min || !box_max || !lights) return PVP_ERROR_NULL_POINTER;
@@ -353,16 +383,7 @@ pvp_status pvp_lights_preset(const char *name, const float box_min[3],
 
     scene_frame f;
     box_sphere(box_min, box_max, &f.centre, &f.radius);
-    vec3 orbit_up;
-    orbit(f.centre, PVP_DEFAULT_AZIMUTH, PVP_DEFAULT_ELEVATION, 2.9f * f.radius, &f.eye,
-          &orbit_up);
-    if (eye && isfinite(eye[0]) && isfinite(eye[1]) && isfinite(eye[2]) &&
-        length(sub(load(eye), f.centre)) > 1e-6f * f.radius)
-        f.eye = load(eye);
-    f.forward = normalize(sub(f.centre, f.eye));
-    f.right = perpendicular(scale(f.forward, -1.0f));  /* = cross(forward, world up) */
-    f.up = cross(f.right, f.forward);
-
+    camera_frame(camera, &f);
     memset(lights, 0, sizeof *lights);
     entry->build(&f, lights);
     return PVP_OK;

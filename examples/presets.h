@@ -58,10 +58,12 @@ pvp_status pvp_tf_preset(const char *name, pvp_tf *tf);
 
 /* Light presets: paper1, paper3, paper4 (the set-ups of the paper's section 8, no
    background), paper1-bg, paper3-bg, paper4-bg (plus a modest background), studio,
-   sun, headlight.  eye is the camera position (studio and headlight follow the
-   camera; the others are fixed in world space); NULL means the default orbit view. */
+   sun, headlight.  All are placed in the frame of `camera` (position and up; the
+   view direction is toward the box centre), like a light kit that moves with the
+   camera, so the visible side is lit from any view.  camera NULL: the default orbit
+   view. */
 pvp_status pvp_lights_preset(const char *name, const float box_min[3],
-                             const float box_max[3], const float eye[3],
+                             const float box_max[3], const picvr_camera *camera,
                              pvp_lights *lights);
 
 /* Preset names and one-line descriptions for --help: index 0, 1, ... until NULL. */

@@ -686,7 +686,7 @@ static int set_up_scene(picvr_context *ctx, const options *o)
         return 0;
 
     pvp_lights lights;
-    if ((ps = pvp_lights_preset(o->lights_name, box_min, box_max, cam.position,
+    if ((ps = pvp_lights_preset(o->lights_name, box_min, box_max, &cam,
                                 &lights)) != PVP_OK) {
         fail("--lights %s: %s", o->lights_name, pvp_status_string(ps));
         return 0;

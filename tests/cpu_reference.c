@@ -413,7 +413,7 @@ static int delta_track(const cref_scene *s, const double o[3], const double d[3]
 /* Ratio tracking: product of (1 - sigma_t / majorant) over tentative collisions.
    Below T = 0.01 an unbiased Russian roulette (survive with probability T / 0.01,
    then weight 0.01) ends hopeless rays early.  *truncated is set when the step bound
-   is hit (T = 0 then). */
+   is hit; the estimate so far is returned then (biased high, as on the GPU). */
 static double ratio_track(const cref_scene *s, const double o[3], const double d[3],
                           double t0, double t1, rng_t *rng, int *truncated, uint64_t *viol)
 {
@@ -427,7 +427,7 @@ static double ratio_track(const cref_scene *s, const double o[3], const double d
         for (;;) {
             t += exp_step(rng, m);          /* m > 0 */
             if (t >= tb) break;
-            if (++steps > CREF_MAX_STEPS) { *truncated = 1; return 0.0; }
+            if (++steps > CREF_MAX_STEPS) { *truncated = 1; return T; }
             double x[3];
             ray_at(o, d, t, x);
             double sig = sigma_t_at(s, x);
@@ -794,8 +794,8 @@ static void render_sample(const cref_scene *s, uint32_t px, uint32_t py, uint64_
         if (t1 > h.t) t1 = h.t;
         if (t0 < t1) r = delta_track(s, o, d, t0, t1, &rng, &th, viol);
     }
-    if (r == TRACK_TRUNCATED) { fl->truncated = 1; return; }
-    if (r == TRACK_ESCAPED) {
+    if (r == TRACK_TRUNCATED) fl->truncated = 1;   /* then treated as escaping */
+    if (r != TRACK_COLLIDED) {
         const double *L = h.idx >= 0 ? (h.front ? s->lights[h.idx].radiance : NULL)
                                      : s->background;
         if (L) memcpy(rgb, L, 3 * sizeof *rgb);

@@ -18,9 +18,10 @@
  *     shadow ray that hits one stops there.  A rect's back side is black.  A point
  *     inside a sphere light sees its emission from every direction.
  *   - Camera rays that escape see the background and area lights, never a sun disk.
- *   - A tracking loop that runs past CREF_MAX_STEPS tentative collisions ends the
- *     sample: free flight -> radiance 0, alpha 0; ratio tracking -> T = 0.  Such
- *     samples are counted in cref_render_stats.truncated_paths.
+ *   - A tracking loop that runs past CREF_MAX_STEPS tentative collisions stops:
+ *     free flight -> treated as escaping (background or area light, alpha 0); ratio
+ *     tracking -> the transmittance estimate so far.  Both are biased (as on the
+ *     GPU); such samples are counted in cref_render_stats.truncated_paths.
  *   - Light selection power (luminance of colour*intensity, times): sphere
  *     pi*4*pi*r^2, rect pi*area, point 4*pi, directional pi*R^2, background
  *     4*pi*pi*R^2, with R = half the diagonal of the volume box.

@@ -90,6 +90,13 @@ void test_single_scatter_delta_sun_coloured(void **state) {
                                 5.0, 1e-4);
         }
     }
+    /* Per-pixel structure (G channel): the variance bound is an upper bound, so
+       chi2 / P <= ~1; limit 1.5. */
+    double Mg = s.albedo[1] * s.E[1] / (4 * M_PI);
+    ok &= tu_check_chi2("delta sun: per pixel", img, expv, W, H, 1, N, Mg, 1.5);
+    double *mir = tu_mirror_x(expv, W, H);
+    tu_check_chi2("(power check: mirrored expectation)", img, mir, W, H, 1, N, Mg, 1.5);
+    free(mir);
     ok &= tu_check_mean("delta sun: alpha (1 - T)", img, expv, W, 3, 0, 0, W, H, N, 1.0, 5.0,
                         1e-4);
     picvr_stats st = tu_stats_finite(ctx);
