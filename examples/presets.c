@@ -131,6 +131,7 @@ typedef struct scene_frame {
     vec3 centre;
     float radius;                   /* R, half the box diagonal */
     vec3 eye, forward, right, up;   /* camera position and basis (forward: to centre) */
+    float tan_half_x, tan_half_y;   /* the view frustum's half-angles */
 } scene_frame;
 
 static const float WHITE[3] = {1.0f, 1.0f, 1.0f};
@@ -155,10 +156,34 @@ static picvr_light *next_light(pvp_lights *out)
     return l;
 }
 
-/* A sphere light at `distance` along `direction` from the centre with strength S. */
+/* Whether a ball (centre p, radius r) reaches into the camera's view frustum. */
+static int ball_in_view(const scene_frame *f, vec3 p, float r)
+{
+    vec3 q = sub(p, f->eye);
+    float x = dot(q, f->right), y = dot(q, f->up), z = dot(q, f->forward);
+    float nx = sqrtf(1.0f + f->tan_half_x * f->tan_half_x);
+    float ny = sqrtf(1.0f + f->tan_half_y * f->tan_half_y);
+    return (fabsf(x) - z * f->tan_half_x) / nx < r && (fabsf(y) - z * f->tan_half_y) / ny < r &&
+           z > -r;
+}
+
+/* The nominal distance, or farther along `direction` (up to 4x) where a light of
+   bounding radius r stays out of the picture, e.g. for wide images or a distant
+   camera.  A light behind the volume cannot leave the view: it keeps its place. */
+static float distance_out_of_view(const scene_frame *f, vec3 direction, float distance,
+                                  float r)
+{
+    vec3 d = normalize(direction);
+    for (float k = 1.0f; k <= 4.0f; k *= 1.05f)
+        if (!ball_in_view(f, add(f->centre, scale(d, k * distance)), r)) return k * distance;
+    return distance;
+}
+
+/* A sphere light along `direction` from the centre with strength S. */
 static void add_sphere(pvp_lights *out, const scene_frame *f, vec3 direction,
                        float distance, float radius, const float color[3], float strength)
 {
+    distance = distance_out_of_view(f, direction, distance, radius);
     picvr_light *l = next_light(out);
     l->type = PICVR_LIGHT_SPHERE;
     store(l->position, add(f->centre, scale(normalize(direction), distance)));
@@ -171,6 +196,7 @@ static void add_sphere(pvp_lights *out, const scene_frame *f, vec3 direction,
 static void add_rect(pvp_lights *out, const scene_frame *f, vec3 direction,
                      float distance, float size, const float color[3], float strength)
 {
+    distance = distance_out_of_view(f, direction, distance, 0.7072f * size);
     vec3 towards_centre = scale(normalize(direction), -1.0f);
     vec3 u = perpendicular(towards_centre);
     vec3 v = cross(towards_centre, u);  /* cross(u, v) = towards_centre: lit side */
@@ -199,8 +225,8 @@ static vec3 camera_direction(const scene_frame *f, float x, float y, float z)
 
 /* Every set-up is placed in the camera's frame, like a photographer's light kit, so
    it lights the visible side from any --camera.  Directions are (x right, y up,
-   z toward the camera); at the default distance no light is in the picture or
-   between the camera and the volume. */
+   z toward the camera).  Area lights are moved outward where needed so that none
+   shows in the picture or stands between the camera and the volume. */
 
 /* Paper set-up 1: one small, distant, very bright sphere (sharp shadows). */
 static void build_paper1(const scene_frame *f, pvp_lights *out)
@@ -210,16 +236,16 @@ static void build_paper1(const scene_frame *f, pvp_lights *out)
                WHITE, 20.0f);
 }
 
-/* Paper set-up 3: three large, very intense spheres close to the volume: above
-   left, right and overhead-behind. */
+/* Paper set-up 3: three large, very intense spheres close to the volume (left,
+   right, above), just outside the default view. */
 static void build_paper3(const scene_frame *f, pvp_lights *out)
 {
     float R = f->radius;
-    add_sphere(out, f, camera_direction(f, -0.75f, 0.55f, 0.35f), 1.6f * R, 0.5f * R,
+    add_sphere(out, f, camera_direction(f, -0.95f, 0.30f, 0.40f), 1.7f * R, 0.5f * R,
                WHITE, 12.0f);
-    add_sphere(out, f, camera_direction(f, 0.95f, -0.10f, 0.30f), 1.6f * R, 0.5f * R,
+    add_sphere(out, f, camera_direction(f, 0.95f, -0.15f, 0.35f), 1.7f * R, 0.5f * R,
                WHITE, 12.0f);
-    add_sphere(out, f, camera_direction(f, 0.10f, 0.95f, -0.30f), 1.6f * R, 0.5f * R,
+    add_sphere(out, f, camera_direction(f, 0.20f, 1.00f, 0.35f), 1.7f * R, 0.5f * R,
                WHITE, 12.0f);
 }
 
@@ -358,16 +384,23 @@ static void camera_frame(const picvr_camera *camera, scene_frame *f)
     orbit(f->centre, PVP_DEFAULT_AZIMUTH, PVP_DEFAULT_ELEVATION, 2.9f * f->radius, &f->eye,
           &default_up);
     vec3 up = default_up;
+    float fov = PVP_DEFAULT_FOV, aspect = 1.0f;
     if (camera && vec_is_finite(load(camera->position)) && vec_is_finite(load(camera->up)) &&
         length(sub(load(camera->position), f->centre)) > 1e-6f * f->radius) {
         f->eye = load(camera->position);
         up = length(load(camera->up)) > 0.0f ? load(camera->up) : v3(0.0f, 1.0f, 0.0f);
+        if (camera->fov_y_degrees > 0.0f && camera->fov_y_degrees <= 179.0f)
+            fov = camera->fov_y_degrees;
+        if (camera->width > 0 && camera->height > 0)
+            aspect = (float)camera->width / (float)camera->height;
     }
     f->forward = normalize(sub(f->centre, f->eye));
     f->right = cross(f->forward, normalize(up));
     f->right = length(f->right) > 1e-4f ? normalize(f->right)
                                         : perpendicular(scale(f->forward, -1.0f));
     f->up = cross(f->right, f->forward);
+    f->tan_half_y = tanf(0.5f * fov * PI_F / 180.0f);
+    f->tan_half_x = aspect * f->tan_half_y;
 }
 
 pvp_status pvp_lights_preset(const char *name, const float box_min[3],

@@ -300,9 +300,12 @@ int nearest_area_light(vec3 x, vec3 w, float tmax, out float t_hit) {
             if (abs(denom) < 1e-30) continue;
             float t = dot(l.p0.xyz - x, n) / denom;
             if (t <= 0.0 || t >= t_hit) continue;
+            // Parallelogram coordinates in the dual basis (edges need not be
+            // perpendicular): q = su U + sv V with |n|^2 = dot(n, U x V).
             vec3 q = x + w * t - l.p0.xyz;
-            float su = dot(q, l.p2.xyz) / dot(l.p2.xyz, l.p2.xyz);
-            float sv = dot(q, l.p3.xyz) / dot(l.p3.xyz, l.p3.xyz);
+            float nn = dot(n, n);
+            float su = dot(q, cross(l.p3.xyz, n)) / nn;
+            float sv = dot(q, cross(n, l.p2.xyz)) / nn;
             if (abs(su) <= 0.5 && abs(sv) <= 0.5) { t_hit = t; hit = int(i); }
         }
     }
