@@ -329,7 +329,7 @@ static const lights_entry lights_table[] = {
     {"paper1-bg", "paper1 plus a grey background", build_paper1_bg},
     {"paper3-bg", "paper3 plus a grey background", build_paper3_bg},
     {"paper4-bg", "paper4 plus a grey background", build_paper4_bg},
-    {"studio", "key sphere + fill rect + dim background, following the camera",
+    {"studio", "warm key sphere + cool fill rect + dim background (the default)",
      build_studio},
     {"sun", "the sun (0.0093 rad) and a blue sky", build_sun},
     {"headlight", "a point light just above the camera", build_headlight},

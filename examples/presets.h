@@ -5,7 +5,7 @@
  * for any volume size and spacing.  Light intensities are chosen so that a lit medium
  * of albedo 1 has a radiance of roughly 0.3 to 1 (well exposed at exposure 1).
  *
- * Only picvr.h's types are used: no Vulkan, nothing to link.
+ * Only picvr.h's types are used: no Vulkan; link with -lm.
  */
 #ifndef PICVR_PRESETS_H
 #define PICVR_PRESETS_H

@@ -139,7 +139,7 @@ static void print_help(FILE *f)
     fprintf(f, "\ntransfer functions (--tf)\n");
     for (size_t i = 0; pvp_tf_name(i); i++)
         fprintf(f, "  %-12s %s\n", pvp_tf_name(i), pvp_tf_description(i));
-    fprintf(f, "\nlights (--lights)\n");
+    fprintf(f, "\nlights (--lights), placed around the camera's view of the volume\n");
     for (size_t i = 0; pvp_lights_name(i); i++)
         fprintf(f, "  %-12s %s\n", pvp_lights_name(i), pvp_lights_description(i));
     fprintf(f, "\nExit status: 0 ok, 1 error, 2 usage error, 130 interrupted (outputs written).\n");
@@ -177,44 +177,48 @@ static int parse_float(const char *text, float *out)
     return 1;
 }
 
-/* Exactly n floats separated by `sep`. */
-static int parse_float_list(const char *text, char sep, int n, float *out)
+/* Splits a copy of text (in buf) at `sep` into exactly n pieces. */
+static int split(const char *text, char sep, int n, char *buf, size_t buf_size,
+                 char **pieces)
 {
-    char buf[256];
-    if (!text || strlen(text) >= sizeof buf) return 0;
+    if (!text || strlen(text) >= buf_size) return 0;
     strcpy(buf, text);
     char *p = buf;
     for (int i = 0; i < n; i++) {
         char *next = strchr(p, sep);
-        if ((i < n - 1) != (next != NULL)) return 0;
+        if ((i < n - 1) != (next != NULL)) return 0;  /* too few or too many */
         if (next) *next = '\0';
-        if (!parse_float(p, &out[i])) return 0;
+        pieces[i] = p;
         p = next ? next + 1 : p;
     }
     return 1;
 }
 
+/* Exactly n floats separated by commas. */
+static int parse_float_list(const char *text, int n, float *out)
+{
+    char buf[256], *pieces[3];
+    if (n > 3 || !split(text, ',', n, buf, sizeof buf, pieces)) return 0;
+    for (int i = 0; i < n; i++)
+        if (!parse_float(pieces[i], &out[i])) return 0;
+    return 1;
+}
+
 static int parse_dims(const char *text, uint32_t dims[3])
 {
-    float f[3];
-    if (!parse_float_list(text, ',', 3, f)) return 0;
-    for (int i = 0; i < 3; i++) {
-        if (f[i] < 1.0f || f[i] > (float)PVIO_MAX_DIM || f[i] != floorf(f[i])) return 0;
-        dims[i] = (uint32_t)f[i];
-    }
-    return 1;
+    char buf[64], *pieces[3];
+    return split(text, ',', 3, buf, sizeof buf, pieces) &&
+           parse_u32(pieces[0], 1, PVIO_MAX_DIM, &dims[0]) &&
+           parse_u32(pieces[1], 1, PVIO_MAX_DIM, &dims[1]) &&
+           parse_u32(pieces[2], 1, PVIO_MAX_DIM, &dims[2]);
 }
 
 static int parse_size(const char *text, uint32_t *width, uint32_t *height)
 {
-    char buf[64];
-    if (!text || strlen(text) >= sizeof buf) return 0;
-    strcpy(buf, text);
-    char *x = strchr(buf, 'x');
-    if (!x) return 0;
-    *x = '\0';
-    return parse_u32(buf, 1, PICVR_MAX_IMAGE_SIZE, width) &&
-           parse_u32(x + 1, 1, PICVR_MAX_IMAGE_SIZE, height);
+    char buf[64], *pieces[2];
+    return split(text, 'x', 2, buf, sizeof buf, pieces) &&
+           parse_u32(pieces[0], 1, PICVR_MAX_IMAGE_SIZE, width) &&
+           parse_u32(pieces[1], 1, PICVR_MAX_IMAGE_SIZE, height);
 }
 
 static int positive_all(const float *v, int n)
@@ -235,15 +239,20 @@ static int apply_option(options *o, const char *name, const char *value)
     } else if (!strcmp(name, "type")) {
         ok = o->have_type = pvio_parse_type(value, &o->type) == PVIO_OK;
     } else if (!strcmp(name, "spacing")) {
-        ok = o->have_spacing = parse_float_list(value, ',', 3, o->spacing) &&
+        ok = o->have_spacing = parse_float_list(value, 3, o->spacing) &&
                                positive_all(o->spacing, 3);
     } else if (!strcmp(name, "range")) {
-        ok = o->have_range = parse_float_list(value, ',', 2, o->range) &&
+        ok = o->have_range = parse_float_list(value, 2, o->range) &&
                              o->range[0] < o->range[1];
     } else if (!strcmp(name, "tf")) {
         pvp_tf probe;
         o->tf_name = value;
-        ok = pvp_tf_preset(value, &probe) == PVP_OK;
+        if (pvp_tf_preset(value, &probe) != PVP_OK) {
+            fail("unknown --tf '%s'; presets:", value);
+            for (size_t i = 0; pvp_tf_name(i); i++) fprintf(stderr, " %s", pvp_tf_name(i));
+            fputc('\n', stderr);
+            return 0;
+        }
     } else if (!strcmp(name, "density")) {
         ok = o->have_density = parse_float(value, &o->density) && o->density >= 0.0f;
     } else if (!strcmp(name, "lights")) {
@@ -251,6 +260,13 @@ static int apply_option(options *o, const char *name, const char *value)
         ok = 0;
         for (size_t i = 0; pvp_lights_name(i) && !ok; i++)
             ok = !strcmp(value, pvp_lights_name(i));
+        if (!ok) {
+            fail("unknown --lights '%s'; presets:", value);
+            for (size_t i = 0; pvp_lights_name(i); i++)
+                fprintf(stderr, " %s", pvp_lights_name(i));
+            fputc('\n', stderr);
+            return 0;
+        }
     } else if (!strcmp(name, "size")) {
         ok = parse_size(value, &o->width, &o->height);
     } else if (!strcmp(name, "time")) {
@@ -267,7 +283,7 @@ static int apply_option(options *o, const char *name, const char *value)
         ok = parse_float(value, &o->exposure) && o->exposure > 0.0f;
     } else if (!strcmp(name, "camera")) {
         float c[3];
-        ok = parse_float_list(value, ',', 3, c) && c[2] > 0.0f;
+        ok = parse_float_list(value, 3, c) && c[2] > 0.0f;
         if (ok) { o->azimuth = c[0]; o->elevation = c[1]; o->distance = c[2]; }
     } else if (!strcmp(name, "fov")) {
         ok = parse_float(value, &o->fov) && o->fov > 0.0f && o->fov <= 179.0f;
@@ -603,9 +619,9 @@ static int write_json(const options *o, const picvr_stats *s)
     fputs(", \"mean_luminance\": ", f);
     json_number(f, s->mean_luminance);
     fprintf(f, ", \"truncated_paths\": %llu, \"validation_messages\": %u, "
-            "\"width\": %u, \"height\": %u, \"device_name\": ",
-            (unsigned long long)s->truncated_paths, s->validation_messages, s->width,
-            s->height);
+            "\"validation_enabled\": %u, \"width\": %u, \"height\": %u, "
+            "\"device_name\": ", (unsigned long long)s->truncated_paths,
+            s->validation_messages, s->validation_enabled, s->width, s->height);
     char device[sizeof s->device_name + 1];
     snprintf(device, sizeof device, "%.*s", (int)sizeof s->device_name, s->device_name);
     json_string(f, device);
@@ -639,25 +655,27 @@ static void print_summary(const options *o, const picvr_stats *s)
 
 /* ---- scene set-up ----------------------------------------------------------------------- */
 
-/* Loads the volume, uploads it and frees the host copy (picvr keeps its own). */
-static int upload_volume(picvr_context *ctx, const options *o, const pvio_layout *layout)
+/* Loads the volume file into host memory, with --spacing applied. */
+static int load_volume(const options *o, const pvio_layout *layout, pvio_volume *vol)
 {
-    pvio_volume vol;
     char err[512];
-    if (pvio_load(o->volume_path, layout, &vol, err, sizeof err) != PVIO_OK) {
+    if (pvio_load(o->volume_path, layout, vol, err, sizeof err) != PVIO_OK) {
         fail("%s", err);
         return 0;
     }
-    if (o->have_spacing) memcpy(vol.spacing, o->spacing, sizeof vol.spacing);
+    if (o->have_spacing) memcpy(vol->spacing, o->spacing, sizeof vol->spacing);
+    return 1;
+}
+
+static int upload_volume(picvr_context *ctx, const options *o, const pvio_volume *vol)
+{
     picvr_volume_desc desc;
-    pvio_to_desc(&vol, &desc);
+    pvio_to_desc(vol, &desc);
     if (o->have_range) {
         desc.value_min = o->range[0];
         desc.value_max = o->range[1];
     }
-    int ok = check(picvr_upload_volume(ctx, &desc), "picvr_upload_volume");
-    pvio_free(&vol);
-    return ok;
+    return check(picvr_upload_volume(ctx, &desc), "picvr_upload_volume");
 }
 
 /* Camera from the orbit parameters, then the presets built around the volume's box. */
@@ -721,8 +739,14 @@ static int render(const options *o, const pvio_layout *layout)
                             "samples_per_second\n", r.log) >= 0;
         if (!ok) fail("cannot write %s: %s", o->log_path, strerror(errno));
     }
+    /* The file first: a bad file should not cost a Vulkan start-up.  The host copy
+       is freed right after the upload (picvr keeps its own). */
+    pvio_volume vol = {{0, 0, 0}, PICVR_VOXEL_UINT8, {0, 0, 0}, NULL, 0};
+    ok = ok && load_volume(o, layout, &vol);
     ok = ok && check(picvr_create(&cfg, &r.ctx), "picvr_create");
-    ok = ok && upload_volume(r.ctx, o, layout) && set_up_scene(r.ctx, o);
+    ok = ok && upload_volume(r.ctx, o, &vol);
+    pvio_free(&vol);
+    ok = ok && set_up_scene(r.ctx, o);
     if (ok) {
         install_interrupt_handler();
         prog.start_ms = prog.next_line_ms = now_ms();

@@ -92,15 +92,54 @@ void test_step_before_volume_and_camera_is_not_ready(void **state) {
 
 typedef struct table_state {
     picvr_context *ctx;
+    const tu_vol *vol;
     float baseline[W * H * 4];
     float img[W * H * 4];
     int failures, rows;
 } table_state;
 
+/* The baseline scene: ball volume, coloured ramp TF, sun + background, 16x16 camera. */
+static const picvr_tf_point BASE_TF[2] = {{0.0f, {0.9f, 0.8f, 0.7f}, 0.0f},
+                                          {1.0f, {0.9f, 0.8f, 0.7f}, 1.0f}};
+static const picvr_background BASE_BG = {{0.5f, 0.6f, 0.8f}, 0.5f};
+
+static picvr_light base_sun(void) {
+    picvr_light sun;
+    memset(&sun, 0, sizeof sun);
+    sun.type = PICVR_LIGHT_DIRECTIONAL;
+    sun.direction[0] = 1; sun.direction[1] = 1; sun.direction[2] = 1;
+    sun.color[0] = sun.color[1] = sun.color[2] = 1;
+    sun.intensity = 3;
+    return sun;
+}
+
+static picvr_camera base_camera(void) {
+    picvr_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position[2] = 20;
+    cam.up[1] = 1;
+    cam.fov_y_degrees = 40;
+    cam.width = W;
+    cam.height = H;
+    return cam;
+}
+
+/* Sets the whole baseline scene (used at the start and to recover after a failed row,
+   so that one failure does not cascade into the following rows). */
+static void set_baseline(table_state *t) {
+    tu_upload(t->ctx, t->vol);
+    TU_OK(picvr_set_transfer_function(t->ctx, BASE_TF, 2, 0.5f));
+    picvr_light sun = base_sun();
+    TU_OK(picvr_set_lights(t->ctx, &sun, 1, &BASE_BG));
+    picvr_camera cam = base_camera();
+    TU_OK(picvr_set_camera(t->ctx, &cam));
+}
+
 /* After a failed call the context must still render, and (the previous volume, TF,
    lights and camera kept) give exactly the baseline image: same seed, same iteration
    count -> bit-identical. */
 static void check_row(table_state *t, const char *row, picvr_status got, picvr_status want) {
+    int failures = t->failures;
     t->rows++;
     if (got != want) {
         print_message("    FAIL %-52s returned %s, expected %s\n", row, picvr_status_string(got),
@@ -114,10 +153,13 @@ static void check_row(table_state *t, const char *row, picvr_status got, picvr_s
         print_message("    FAIL after %-46s the context no longer renders (%s, %s, %s)\n", row,
                       picvr_status_string(s1), picvr_status_string(s2), picvr_status_string(s3));
         t->failures++;
+    } else if (got == PICVR_OK && want != PICVR_OK) {
+        /* the call was (wrongly) accepted: the state changed legitimately */
     } else if (memcmp(t->img, t->baseline, sizeof t->img) != 0) {
         print_message("    FAIL after %-46s the image changed (state not kept)\n", row);
         t->failures++;
     }
+    if (t->failures != failures) set_baseline(t);
 }
 
 #define ROW(t, name, want, call) check_row((t), (name), (call), (want))
@@ -141,25 +183,13 @@ void test_bad_inputs_rejected_and_state_kept(void **state) {
 
     /* Baseline scene. */
     tu_vol vol = tu_vol_ball(8);
-    tu_upload(ctx, &vol);
-    picvr_tf_point tf[2] = {{0.0f, {0.9f, 0.8f, 0.7f}, 0.0f}, {1.0f, {0.9f, 0.8f, 0.7f}, 1.0f}};
-    TU_OK(picvr_set_transfer_function(ctx, tf, 2, 0.5f));
-    picvr_light sun;
-    memset(&sun, 0, sizeof sun);
-    sun.type = PICVR_LIGHT_DIRECTIONAL;
-    sun.direction[0] = 1; sun.direction[1] = 1; sun.direction[2] = 1;
-    sun.color[0] = sun.color[1] = sun.color[2] = 1;
-    sun.intensity = 3;
-    picvr_background bg = {{0.5f, 0.6f, 0.8f}, 0.5f};
-    TU_OK(picvr_set_lights(ctx, &sun, 1, &bg));
-    picvr_camera cam;
-    memset(&cam, 0, sizeof cam);
-    cam.position[2] = 20;
-    cam.up[1] = 1;
-    cam.fov_y_degrees = 40;
-    cam.width = W;
-    cam.height = H;
-    TU_OK(picvr_set_camera(ctx, &cam));
+    t->vol = &vol;
+    set_baseline(t);
+    picvr_tf_point tf[2];
+    memcpy(tf, BASE_TF, sizeof tf);
+    picvr_light sun = base_sun();
+    picvr_background bg = BASE_BG;
+    picvr_camera cam = base_camera();
     TU_OK(picvr_step_iterations(ctx, 2));
     TU_OK(picvr_read_rgba32f(ctx, t->baseline, sizeof t->baseline));
     tu_assert_finite(t->baseline, W * H * 4, "baseline");
@@ -248,7 +278,10 @@ void test_bad_inputs_rejected_and_state_kept(void **state) {
         char name[64];
         snprintf(name, sizeof name, "upload_volume(float32 voxel %s)", nf_name[k]);
         ROW(t, name, PICVR_ERROR_NON_FINITE, picvr_upload_volume(ctx, &d));
-        d.value_min = 0; d.value_max = 511; /* explicit range: the voxels are still checked */
+        /* Explicit range: the voxels must still be checked ("float32 data must be
+           finite").  KNOWN LIBRARY FAILURE (reported): picvr_vk.c volume_range() only
+           scans for non-finite voxels when it computes the range itself. */
+        d.value_min = 0; d.value_max = 511;
         snprintf(name, sizeof name, "upload_volume(float32 voxel %s, range set)", nf_name[k]);
         ROW(t, name, PICVR_ERROR_NON_FINITE, picvr_upload_volume(ctx, &d));
         f32[300] = saved;

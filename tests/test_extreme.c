@@ -76,6 +76,10 @@ void test_extreme_density_range_finite(void **state) {
    any single-scattering image under one sun).
    Thin (D = 1e-6) ball with background radiance 1: the image mean is the background
    within 1e-3 (the optical depth is < 3e-5). */
+/* KNOWN LIBRARY FAILURE (reported): at D = 1e5 every sample hits MAX_TRACK_STEPS while
+   crossing the empty part of a shell brick at the brick's majorant, and a truncated free
+   flight is treated as escaping: the lit surface renders black (with a background, the
+   ball becomes invisible; also at D = 1e4, see test_extreme_density_range_finite). */
 void test_dense_medium_surface_lit_thin_is_background(void **state) {
     (void)state;
     picvr_context *ctx = tu_create(22);
@@ -118,7 +122,7 @@ void test_extreme_cameras_and_image_sizes_finite(void **state) {
     struct { const char *what; double p[3], t[3], fov; uint32_t w, h; float D; } cases[] = {
         {"camera at the centre (inside)", {0, 0, 0}, {1, 0, 0}, 60, 24, 24, 1.0f},
         {"camera inside, dense D = 1e3", {0, 0, 0}, {0.2, 1, 0}, 60, 24, 24, 1e3f},
-        {"camera inside the shell", {0, 8, 0}, {0, 20, 0}, 90, 24, 24, 10.0f},
+        {"camera inside the shell", {0, 8, 0}, {0, 20, 3}, 90, 24, 24, 10.0f},
         {"camera on a box corner", {12, 12, 12}, {0, 0, 0}, 60, 24, 24, 1.0f},
         {"fov 1 degree", {0, 0, 40}, {0, 0, 0}, 1, 24, 24, 1.0f},
         {"fov 170 degrees", {0, 0, 40}, {0, 0, 0}, 170, 24, 24, 1.0f},

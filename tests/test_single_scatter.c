@@ -18,15 +18,47 @@
 
 typedef struct sun_scene {
     double bmin[3], bmax[3], sigma, l[3], albedo[3], E[3];
+    double half_angle;      /* 0: delta sun */
+    double e1[3], e2[3];    /* frame around l (finite sun) */
     /* per ray */
     double o[3], d[3], t0;
 } sun_scene;
 
+/* Finite sun of half-angle a: uniform radiance L over the cone with
+   irradiance on a plane facing the sun = L pi sin^2(a) = E (the header's unit), so
+   L = E / (pi sin^2 a) and the in-scattered radiance is L / (4 pi) int_cone T dw.
+   The cone integral: 4-point Gauss-Legendre in cos(theta) x 16 midpoints in phi. */
+static double cone_transmittance_integral(const sun_scene *s, const double x[3]) {
+    static const double gx[4] = {-0.8611363115940526, -0.3399810435848563,
+                                 0.3399810435848563, 0.8611363115940526};
+    static const double gw[4] = {0.3478548451374538, 0.6521451548625461,
+                                 0.6521451548625461, 0.3478548451374538};
+    const int nphi = 16;
+    double cmin = cos(s->half_angle), sum = 0;
+    for (int i = 0; i < 4; i++) {
+        double u = 0.5 * (1 + cmin) + 0.5 * (1 - cmin) * gx[i], sn = sqrt(1 - u * u);
+        double wu = 0.5 * (1 - cmin) * gw[i];
+        for (int j = 0; j < nphi; j++) {
+            double ph = 2 * M_PI * (j + 0.5) / nphi, w[3];
+            for (int k = 0; k < 3; k++)
+                w[k] = u * s->l[k] + sn * (cos(ph) * s->e1[k] + sin(ph) * s->e2[k]);
+            sum += wu * (2 * M_PI / nphi) * exp(-s->sigma * tu_box_exit(x, w, s->bmin, s->bmax));
+        }
+    }
+    return sum;
+}
+
 static double sun_integrand(double t, void *user) {
     const sun_scene *s = user;
     double x[3] = {s->o[0] + t * s->d[0], s->o[1] + t * s->d[1], s->o[2] + t * s->d[2]};
-    double sd = tu_box_exit(x, s->l, s->bmin, s->bmax);
-    return s->sigma * exp(-s->sigma * (t - s->t0)) * exp(-s->sigma * sd) / (4 * M_PI);
+    double in; /* int over directions of (radiance / E) * T, i.e. in-scatter per unit E */
+    if (s->half_angle > 0) {
+        double sa = sin(s->half_angle);
+        in = cone_transmittance_integral(s, x) / (M_PI * sa * sa);
+    } else {
+        in = exp(-s->sigma * tu_box_exit(x, s->l, s->bmin, s->bmax));
+    }
+    return s->sigma * exp(-s->sigma * (t - s->t0)) * in / (4 * M_PI);
 }
 
 static void sun_ray(const double o[3], const double d[3], void *user, double out[4]) {
@@ -37,7 +69,7 @@ static void sun_ray(const double o[3], const double d[3], void *user, double out
     memcpy(s.o, o, sizeof s.o);
     memcpy(s.d, d, sizeof s.d);
     s.t0 = t0;
-    double J = tu_integrate(sun_integrand, &s, t0, t1, 64);
+    double J = tu_integrate(sun_integrand, &s, t0, t1, s.half_angle > 0 ? 8 : 64);
     for (int c = 0; c < 3; c++) out[c] = s.albedo[c] * s.E[c] * J;
     out[3] = 1 - exp(-s.sigma * (t1 - t0));
 }
@@ -94,9 +126,7 @@ void test_single_scatter_delta_sun_coloured(void **state) {
        chi2 / P <= ~1; limit 1.5. */
     double Mg = s.albedo[1] * s.E[1] / (4 * M_PI);
     ok &= tu_check_chi2("delta sun: per pixel", img, expv, W, H, 1, N, Mg, 1.5);
-    double *mir = tu_mirror_x(expv, W, H);
-    tu_check_chi2("(power check: mirrored expectation)", img, mir, W, H, 1, N, Mg, 1.5);
-    free(mir);
+    tu_chi2_power_check(img, expv, W, H, 1, N, Mg);
     ok &= tu_check_mean("delta sun: alpha (1 - T)", img, expv, W, 3, 0, 0, W, H, N, 1.0, 5.0,
                         1e-4);
     picvr_stats st = tu_stats_finite(ctx);
@@ -114,4 +144,89 @@ void test_single_scatter_delta_sun_coloured(void **state) {
     tu_vol_free(&vol);
     if (!ok) fail_msg("single scattering under a delta sun differs from the closed form");
     tu_finish(ctx);
+}
+
+/* Homogeneous cube as above, albedo 1, white sun with an angular size (so the sun is
+   sampled with MIS against the phase function), black background.  Returns 1 on pass. */
+static int finite_sun_case(double angular_diameter, uint32_t seed, const char *name) {
+    picvr_context *ctx = tu_create(seed);
+    tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
+    tu_upload(ctx, &vol);
+    sun_scene s;
+    memset(&s, 0, sizeof s);
+    tu_vol_box(&vol, s.bmin, s.bmax);
+    const float D = 0.15f, inten = 3.0f;
+    s.sigma = D;
+    tu_tf_const(ctx, 1, 1, 1, 1.0f, D);
+    double l[3] = {0.6, 0.45, 0.66}, ll = sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+    for (int i = 0; i < 3; i++) {
+        s.l[i] = l[i] / ll;
+        s.albedo[i] = 1;
+        s.E[i] = inten;
+    }
+    /* frame: e1 = normalize(l x z), e2 = l x e1 */
+    s.e1[0] = s.l[1]; s.e1[1] = -s.l[0]; s.e1[2] = 0;
+    double n1 = sqrt(s.e1[0] * s.e1[0] + s.e1[1] * s.e1[1]);
+    s.e1[0] /= n1; s.e1[1] /= n1;
+    s.e2[0] = s.l[1] * s.e1[2] - s.l[2] * s.e1[1];
+    s.e2[1] = s.l[2] * s.e1[0] - s.l[0] * s.e1[2];
+    s.e2[2] = s.l[0] * s.e1[1] - s.l[1] * s.e1[0];
+    s.half_angle = 0.5 * (double)(float)angular_diameter;
+    picvr_light sun;
+    memset(&sun, 0, sizeof sun);
+    sun.type = PICVR_LIGHT_DIRECTIONAL;
+    for (int i = 0; i < 3; i++) { sun.direction[i] = (float)l[i]; sun.color[i] = 1; }
+    sun.angular_diameter = (float)angular_diameter;
+    sun.intensity = inten;
+    TU_OK(picvr_set_lights(ctx, &sun, 1, NULL));
+    const uint32_t W = 32, H = 32, N = 512;
+    tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
+    double *expv = tu_expected_image(&cam, 2, sun_ray, &s);
+    TU_OK(picvr_step_iterations(ctx, N));
+    float *img = tu_read(ctx, W, H);
+    tu_assert_finite(img, (size_t)W * H * 4, name);
+    /* z = 5 with the empirical (8x8 block) error: MIS samples have no simple bound.
+       sys_rel 2e-3: the cone quadrature (16 x 4 directions; exact 1e-4 or better) and
+       the 2x2 jitter quadrature of a smooth image. */
+    char label[96];
+    snprintf(label, sizeof label, "%s: image G", name);
+    tu_mean_result r;
+    int ok = tu_check_mean_ex(label, img, expv, W, 1, 0, 0, W, H, N, 0, 5.0, 2e-3, &r);
+    if (s.half_angle > 0) {
+        double a = s.half_angle, omega = 2 * M_PI * (1 - cos(a));
+        print_message("    (with L = E / Omega instead of E / (pi sin^2 a) the expectation "
+                      "would be %.6g)\n", r.expected * M_PI * sin(a) * sin(a) / omega);
+    }
+    picvr_stats st = tu_stats_finite(ctx);
+    if (st.truncated_paths != 0) ok = 0;
+    free(img);
+    free(expv);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+    return ok;
+}
+
+/* A small sun (0.02 rad): the cone integral equals the delta-sun value to ~1e-4, so
+   this checks the MIS sampling of a sun with an angular size against the closed form. */
+void test_single_scatter_small_sun_closed_form(void **state) {
+    (void)state;
+    if (!finite_sun_case(0.02, 12, "sun 0.02 rad"))
+        fail_msg("single scattering under a small finite sun differs from the closed form");
+}
+
+/* KNOWN LIBRARY FAILURE (reported): picvr_vk.c/the shaders give the sun the radiance
+   E / Omega (as tests/cpu_reference.h documents), 6 % below the header's unit here.
+   Either the library or the header's wording has to change.
+   A wide sun (1 rad).  The header's unit: "directional: irradiance on a plane facing the
+   light" = colour * intensity = E.  A cone of uniform radiance L and half-angle a gives
+   that plane L pi sin^2(a), so L = E / (pi sin^2 a); the in-scattered radiance
+   (isotropic phase) is then larger than for a delta sun of the same E by
+   Omega / (pi sin^2 a) = 2 / (1 + cos a) = 1.063 at a = 0.5 (a 6 % effect; the
+   5-sigma bound is ~1.5 %).  [Taking L = E / Omega instead gives the facing plane an
+   irradiance of E (1 + cos a) / 2, i.e. 6 % less than the header's E.] */
+void test_single_scatter_wide_sun_irradiance_unit(void **state) {
+    (void)state;
+    if (!finite_sun_case(1.0, 13, "sun 1 rad"))
+        fail_msg("a wide sun does not deliver the irradiance E on a plane facing it "
+                 "(header: directional = irradiance on a plane facing the light)");
 }

@@ -486,8 +486,8 @@ int tu_check_mean_ex(const char *label, const float *img, const double *expected
     return ok;
 }
 
-int tu_check_chi2(const char *label, const float *img, const double *expected, uint32_t w,
-                  uint32_t h, int ch, uint32_t n_iter, double M, double max_reduced) {
+double tu_chi2(const float *img, const double *expected, uint32_t w, uint32_t h, int ch,
+               uint32_t n_iter, double M) {
     double chi2 = 0;
     size_t P = (size_t)w * h;
     for (size_t p = 0; p < P; p++) {
@@ -495,11 +495,24 @@ int tu_check_chi2(const char *label, const float *img, const double *expected, u
         double var = fmax(mu * (M - mu), 1e-4 * M * M) / n_iter;
         chi2 += r * r / var;
     }
-    double red = chi2 / (double)P;
+    return chi2 / (double)P;
+}
+
+int tu_check_chi2(const char *label, const float *img, const double *expected, uint32_t w,
+                  uint32_t h, int ch, uint32_t n_iter, double M, double max_reduced) {
+    double red = tu_chi2(img, expected, w, h, ch, n_iter, M);
     int ok = isfinite(red) && red <= max_reduced;
     print_message("    %-44s ch%d chi2/P %.4g (limit %.3g) %s\n", label, ch, red, max_reduced,
                   ok ? "ok" : "FAIL");
     return ok;
+}
+
+void tu_chi2_power_check(const float *img, const double *expected, uint32_t w, uint32_t h,
+                         int ch, uint32_t n_iter, double M) {
+    double *m = tu_mirror_x(expected, w, h);
+    print_message("    (power check: chi2/P against the mirrored expectation %.4g)\n",
+                  tu_chi2(img, m, w, h, ch, n_iter, M));
+    free(m);
 }
 
 double *tu_mirror_x(const double *expected, uint32_t w, uint32_t h) {

@@ -66,6 +66,8 @@
     X(test_beer_lambert_loose_majorant_and_brick_apron)             \
     /* test_single_scatter.c */                                     \
     X(test_single_scatter_delta_sun_coloured)                       \
+    X(test_single_scatter_small_sun_closed_form)                    \
+    X(test_single_scatter_wide_sun_irradiance_unit)                 \
     /* test_area_lights.c */                                        \
     X(test_point_light_single_scatter_closed_form)                  \
     X(test_sphere_light_matches_point_light)                        \
@@ -230,6 +232,12 @@ int tu_check_mean_ex(const char *label, const float *img, const double *expected
    (each caller prints the value for the mirrored expectation as a power check). */
 int tu_check_chi2(const char *label, const float *img, const double *expected, uint32_t w,
                   uint32_t h, int ch, uint32_t n_iter, double M, double max_reduced);
+/* The chi2 / P of tu_check_chi2 without the check. */
+double tu_chi2(const float *img, const double *expected, uint32_t w, uint32_t h, int ch,
+               uint32_t n_iter, double M);
+/* Prints the power check: chi2 / P of the image against the mirrored expectation. */
+void tu_chi2_power_check(const float *img, const double *expected, uint32_t w, uint32_t h,
+                         int ch, uint32_t n_iter, double M);
 /* The expected image mirrored left-right (for the power check above). */
 double *tu_mirror_x(const double *expected, uint32_t w, uint32_t h);
 
