@@ -26,11 +26,14 @@ typedef struct gpu_light { float p0[4], p1[4], p2[4], p3[4], p4[4]; } gpu_light;
 typedef struct gpu_scene {
     float cam_pos[4], cam_fwd[4], cam_right[4], cam_up[4];
     float box_min[4], box_size[4], cell_size[4];
-    uint32_t grid[4], image[4];
+    uint32_t grid[4], image[4], dims[4];
     float background[4];
     float value_map[4];
     gpu_light lights[PICVR_MAX_LIGHTS];
 } gpu_scene;
+
+/* Sparse table of the opacity column: level k holds the max over 2^k entries. */
+typedef struct range_max { float level[13][TF_SIZE]; } range_max;
 
 typedef struct gpu_partial { float sums[4]; uint32_t counts[4]; } gpu_partial;
 
@@ -84,6 +87,7 @@ struct picvr_context {
     buffer scene_ubo;                /* persistently mapped gpu_scene */
     image tf_image;
     buffer tf_staging;
+    buffer tf_range_max;             /* sparse table of the opacity column (fine majorants) */
     image volume;
     buffer majorant;
     buffer accum[3];                 /* mean rgba, Kahan terms, (lum mean, M2, n, bad) */
@@ -99,6 +103,7 @@ struct picvr_context {
     uint32_t brick, grid[3];
     float *brick_min, *brick_max;    /* normalized data range per brick, with apron */
     float tf_table[TF_SIZE * 4];
+    struct range_max *tf_rm;
     float density;
     int use_phase_mis;
     picvr_camera camera;
@@ -523,21 +528,26 @@ static picvr_status create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPi
     return PICVR_OK;
 }
 
+/* Binding layout shared by all kernels (see ARCHITECTURE.md): 0 scene UBO, 1 volume,
+   2 transfer function, 3 majorant grid, 4-6 accumulation planes, 7 stats partials,
+   8 opacity range-max table. */
+#define NUM_BINDINGS 9
+static VkDescriptorType binding_type(uint32_t i) {
+    return i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+         : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+}
+
 static picvr_status create_pipelines(picvr_context *ctx) {
-    VkDescriptorSetLayoutBinding b[8];
+    VkDescriptorSetLayoutBinding b[NUM_BINDINGS];
     memset(b, 0, sizeof b);
-    VkDescriptorType types[8] = {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
-                                 VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                                 VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                                 VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER};
-    for (uint32_t i = 0; i < 8; i++) {
+    for (uint32_t i = 0; i < NUM_BINDINGS; i++) {
         b[i].binding = i;
-        b[i].descriptorType = types[i];
+        b[i].descriptorType = binding_type(i);
         b[i].descriptorCount = 1;
         b[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
     }
     VkDescriptorSetLayoutCreateInfo li = {VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-    li.bindingCount = 8;
+    li.bindingCount = NUM_BINDINGS;
     li.pBindings = b;
     VK_TRY(ctx, vkCreateDescriptorSetLayout(ctx->device, &li, NULL, &ctx->set_layout));
 
@@ -552,7 +562,7 @@ static picvr_status create_pipelines(picvr_context *ctx) {
 
     VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
                                      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
-                                     {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5}};
+                                     {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NUM_BINDINGS - 3}};
     VkDescriptorPoolCreateInfo pi = {VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     pi.maxSets = 1;
     pi.poolSizeCount = 3;
@@ -633,6 +643,9 @@ static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
     if ((s = buffer_create(ctx, &ctx->scene_ubo, sizeof(gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
     if ((s = image_create(ctx, &ctx->tf_image, VK_IMAGE_TYPE_1D, VK_FORMAT_R32G32B32A32_SFLOAT, TF_SIZE, 1, 1))) return s;
     if ((s = buffer_create(ctx, &ctx->tf_staging, sizeof ctx->tf_table, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1))) return s;
+    if (!(ctx->tf_rm = mem_alloc(&ctx->alloc, sizeof *ctx->tf_rm))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    if ((s = buffer_create(ctx, &ctx->tf_range_max, sizeof *ctx->tf_rm,
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
     return set_default_transfer_function(ctx);
 }
 
@@ -667,6 +680,7 @@ void picvr_destroy(picvr_context *ctx) {
         vkDeviceWaitIdle(ctx->device);
         buffer_destroy(ctx, &ctx->scene_ubo);
         buffer_destroy(ctx, &ctx->tf_staging);
+        buffer_destroy(ctx, &ctx->tf_range_max);
         buffer_destroy(ctx, &ctx->majorant);
         buffer_destroy(ctx, &ctx->readback);
         buffer_destroy(ctx, &ctx->partials);
@@ -697,6 +711,7 @@ void picvr_destroy(picvr_context *ctx) {
     }
     mem_free(&ctx->alloc, ctx->brick_min);
     mem_free(&ctx->alloc, ctx->brick_max);
+    mem_free(&ctx->alloc, ctx->tf_rm);
     picvr_allocator a = ctx->alloc;
     mem_free(&a, ctx);
 }
@@ -742,9 +757,8 @@ static void tf_eval(const picvr_tf_point *p, uint32_t n, float v, float out[4]) 
 }
 
 /* Maximum opacity table entry over [lo, hi] by a sparse table (O(1) per query). */
-typedef struct range_max { float level[13][TF_SIZE]; } range_max;
-
 static void range_max_build(range_max *rm, const float *table) {
+    memset(rm, 0, sizeof *rm);   /* entries past the end of a level are never read */
     for (int i = 0; i < TF_SIZE; i++) rm->level[0][i] = table[i * 4 + 3];
     for (int k = 1; k < 13; k++)
         for (int i = 0; i + (1 << k) <= TF_SIZE; i++)
@@ -792,9 +806,8 @@ static picvr_status update_majorant(picvr_context *ctx) {
     if (!ctx->has_volume) return PICVR_OK;
     size_t cells = (size_t)ctx->grid[0] * ctx->grid[1] * ctx->grid[2];
     float *maj = mem_alloc(&ctx->alloc, 2 * cells * sizeof(float));
-    range_max *rm = mem_alloc(&ctx->alloc, sizeof *rm);
-    if (!maj || !rm) { mem_free(&ctx->alloc, maj); mem_free(&ctx->alloc, rm); return PICVR_ERROR_OUT_OF_HOST_MEMORY; }
-    range_max_build(rm, ctx->tf_table);
+    if (!maj) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    const range_max *rm = ctx->tf_rm;
     for (size_t c = 0; c < cells; c++) {
         int lo = (int)floorf(ctx->brick_min[c] * (TF_SIZE - 1)) - 1;
         int hi = (int)ceilf(ctx->brick_max[c] * (TF_SIZE - 1)) + 1;
@@ -806,7 +819,6 @@ static picvr_status update_majorant(picvr_context *ctx) {
     empty_distance(ctx->grid, maj, maj + cells);
     picvr_status s = upload_buffer(ctx, &ctx->majorant, maj, 2 * cells * sizeof(float));
     mem_free(&ctx->alloc, maj);
-    mem_free(&ctx->alloc, rm);
     return s;
 }
 
@@ -845,7 +857,9 @@ static picvr_status apply_tf(picvr_context *ctx, const picvr_tf_point *p, uint32
     for (int i = 0; i < TF_SIZE; i++) tf_eval(p, n, (float)i / (TF_SIZE - 1), &ctx->tf_table[i * 4]);
     ctx->density = density;
     ctx->scene.box_min[3] = density;
+    range_max_build(ctx->tf_rm, ctx->tf_table);
     picvr_status s = upload_tf_table(ctx);
+    if (!s) s = upload_buffer(ctx, &ctx->tf_range_max, ctx->tf_rm, sizeof *ctx->tf_rm);
     if (!s) s = update_majorant(ctx);
     if (!s) s = clear_accumulation(ctx);
     return s;
@@ -916,12 +930,13 @@ static picvr_status validate_volume(picvr_context *ctx, const picvr_volume_desc 
 
 /* Data range for normalization, and (float32) the finiteness check. */
 static picvr_status volume_range(const picvr_volume_desc *d, size_t n, value_map *m) {
-    if (d->value_min != 0.0f || d->value_max != 0.0f) {
-        m->lo = d->value_min; m->hi = d->value_max;
+    int given = d->value_min != 0.0f || d->value_max != 0.0f;
+    if (d->type != PICVR_VOXEL_FLOAT32) {
+        m->lo = given ? d->value_min : 0.0;
+        m->hi = given ? d->value_max : d->type == PICVR_VOXEL_UINT8 ? 255.0 : 65535.0;
         return PICVR_OK;
     }
-    if (d->type == PICVR_VOXEL_UINT8) { m->lo = 0; m->hi = 255; return PICVR_OK; }
-    if (d->type == PICVR_VOXEL_UINT16) { m->lo = 0; m->hi = 65535; return PICVR_OK; }
+    /* float32: always scanned, every voxel must be finite */
     const float *f = d->data;
     double lo = INFINITY, hi = -INFINITY;
     for (size_t i = 0; i < n; i++) {
@@ -929,6 +944,7 @@ static picvr_status volume_range(const picvr_volume_desc *d, size_t n, value_map
         if (f[i] < lo) lo = f[i];
         if (f[i] > hi) hi = f[i];
     }
+    if (d->value_min != 0.0f || d->value_max != 0.0f) { lo = d->value_min; hi = d->value_max; }
     m->lo = lo; m->hi = hi;
     return PICVR_OK;
 }
@@ -1075,6 +1091,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
         ctx->scene.box_size[i] = size;
         ctx->scene.cell_size[i] = brick * ctx->spacing[i];
         ctx->scene.grid[i] = grid[i];
+        ctx->scene.dims[i] = desc->dims[i];
         if (ctx->spacing[i] < min_spacing) min_spacing = ctx->spacing[i];
     }
     ctx->scene.cell_size[3] = min_spacing;
@@ -1155,8 +1172,10 @@ static void pack_light(const picvr_light *l, gpu_light *g) {
         double s = sin(0.25 * l->angular_diameter), omc = 2.0 * s * s;
         if (omc < 1e-12) omc = 0.0;
         g->p2[3] = (float)omc;
+        /* colour * intensity is the irradiance on a plane facing the sun:
+           E = L * pi sin^2(h), so L = E / (pi omc (2 - omc)). */
         if (omc > 0.0)
-            for (int c = 0; c < 3; c++) g->p1[c] = (float)(rad[c] / (2.0 * PICVR_PI * omc));
+            for (int c = 0; c < 3; c++) g->p1[c] = (float)(rad[c] / (PICVR_PI * omc * (2.0 - omc)));
     }
 }
 
@@ -1303,24 +1322,24 @@ static void update_descriptors(picvr_context *ctx) {
     VkDescriptorBufferInfo ubo = {ctx->scene_ubo.buf, 0, VK_WHOLE_SIZE};
     VkDescriptorImageInfo vol = {ctx->linear_sampler, ctx->volume.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
     VkDescriptorImageInfo tf = {ctx->linear_sampler, ctx->tf_image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-    VkDescriptorBufferInfo bufs[5] = {{ctx->majorant.buf, 0, VK_WHOLE_SIZE}, {ctx->accum[0].buf, 0, VK_WHOLE_SIZE},
-                                      {ctx->accum[1].buf, 0, VK_WHOLE_SIZE}, {ctx->accum[2].buf, 0, VK_WHOLE_SIZE},
-                                      {ctx->partials.buf, 0, VK_WHOLE_SIZE}};
-    VkWriteDescriptorSet w[8];
+    VkDescriptorBufferInfo bufs[NUM_BINDINGS - 3] = {
+        {ctx->majorant.buf, 0, VK_WHOLE_SIZE}, {ctx->accum[0].buf, 0, VK_WHOLE_SIZE},
+        {ctx->accum[1].buf, 0, VK_WHOLE_SIZE}, {ctx->accum[2].buf, 0, VK_WHOLE_SIZE},
+        {ctx->partials.buf, 0, VK_WHOLE_SIZE}, {ctx->tf_range_max.buf, 0, VK_WHOLE_SIZE}};
+    VkWriteDescriptorSet w[NUM_BINDINGS];
     memset(w, 0, sizeof w);
-    for (uint32_t i = 0; i < 8; i++) {
+    for (uint32_t i = 0; i < NUM_BINDINGS; i++) {
         w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
         w[i].dstSet = ctx->set;
         w[i].dstBinding = i;
         w[i].descriptorCount = 1;
-        w[i].descriptorType = i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
-                            : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+        w[i].descriptorType = binding_type(i);
+        if (i >= 3) w[i].pBufferInfo = &bufs[i - 3];
     }
     w[0].pBufferInfo = &ubo;
     w[1].pImageInfo = &vol;
     w[2].pImageInfo = &tf;
-    for (int i = 0; i < 5; i++) w[3 + i].pBufferInfo = &bufs[i];
-    vkUpdateDescriptorSets(ctx->device, 8, w, 0, NULL);
+    vkUpdateDescriptorSets(ctx->device, NUM_BINDINGS, w, 0, NULL);
     ctx->descriptors_dirty = 0;
 }
 

@@ -24,7 +24,7 @@
 // One light, packed by picvr_vk.c (pack_light):
 //   p0.xyz position (sphere/rect centre, point) or unit direction toward the light
 //          (directional); p0.w type
-//   p1.xyz radiance (area, directional: E / cone solid angle), irradiance
+//   p1.xyz radiance (area; directional: E / (pi sin^2 half angle)), irradiance
 //          (delta directional) or intensity (point); p1.w selection probability
 //   p2.xyz rect edge_u; p2.w sphere radius, or 1 - cos(half angle) for directional
 //   p3.xyz rect edge_v; p3.w rect area
@@ -41,6 +41,7 @@ layout(set = 0, binding = 0, std140) uniform Scene {
     vec4 cell_size;    // xyz world size of one majorant cell, w = smallest spacing
     uvec4 grid;        // xyz majorant grid dims, w = number of lights
     uvec4 image;       // x width, y height
+    uvec4 dims;        // xyz voxel dims
     vec4 background;   // rgb radiance, w = selection probability
     vec4 value_map;    // x scale, y offset: normalized value = clamp(texel * x + y, 0, 1)
     Light lights[MAX_LIGHTS];
@@ -134,26 +135,47 @@ float sigma_t(vec3 x) { return scene.box_min.w * transfer(data_value(x)).a; }
 
 vec3 albedo_at(vec3 x) { return transfer(data_value(x)).rgb; }
 
-// ---- majorant grid traversal (3D DDA over bricks of voxels) ----
+// ---- majorant grids: bricks (coarse) and voxels (fine) ----
+// Coarse: one majorant per brick of `brick` voxels (with a one-voxel apron), plus an
+// empty-space distance.  Fine, used only inside bricks where delta tracking would take
+// many steps (dense media: majorant * length > FINE_THRESHOLD): the dual grid of voxel
+// centres, where the trilinear value is a convex combination of the 8 corner texels,
+// so D * max(opacity over [min, max] of the corners) bounds sigma_t exactly.
+#define FINE_THRESHOLD 64.0
+
+layout(set = 0, binding = 8, std430) readonly buffer TfRangeMax { float tf_range_max[]; };
+
 struct Dda {
     ivec3 cell;
     ivec3 stp;
+    ivec3 hi;       // last valid cell per axis (the first is 0)
     vec3 t_next;    // ray parameter of the next boundary per axis
     vec3 t_delta;   // ray parameter across one cell per axis
 };
 
-Dda dda_start(vec3 ro, vec3 rd, float t) {
+// DDA over cells of size cs whose cell (0,0,0) starts at origin.
+Dda dda_start(vec3 ro, vec3 rd, float t, vec3 origin, vec3 cs, ivec3 hi) {
     Dda d;
-    vec3 cs = scene.cell_size.xyz;
-    vec3 p = (ro + rd * t - scene.box_min.xyz) / cs;
-    ivec3 g = ivec3(scene.grid.xyz);
-    d.cell = clamp(ivec3(floor(p)), ivec3(0), g - 1);
+    vec3 p = (ro + rd * t - origin) / cs;
+    d.hi = hi;
+    d.cell = clamp(ivec3(floor(p)), ivec3(0), hi);
     d.stp = ivec3(mix(vec3(-1.0), vec3(1.0), greaterThanEqual(rd, vec3(0.0))));
     vec3 inv = safe_inverse(rd);
-    vec3 boundary = (vec3(d.cell) + vec3(greaterThan(d.stp, ivec3(0)))) * cs + scene.box_min.xyz;
+    vec3 boundary = (vec3(d.cell) + vec3(greaterThan(d.stp, ivec3(0)))) * cs + origin;
     d.t_next = max((boundary - ro) * inv, vec3(t));
     d.t_delta = abs(cs * inv);
     return d;
+}
+
+Dda coarse_start(vec3 ro, vec3 rd, float t) {
+    return dda_start(ro, rd, t, scene.box_min.xyz, scene.cell_size.xyz, ivec3(scene.grid.xyz) - 1);
+}
+
+// Fine cells are shifted by half a voxel (dual grid), so cell j spans voxel centres
+// j-1 .. j (texels clamped at the border); there are dims + 1 of them per axis.
+Dda fine_start(vec3 ro, vec3 rd, float t) {
+    vec3 spacing = scene.box_size.xyz / vec3(scene.dims.xyz);
+    return dda_start(ro, rd, t, scene.box_min.xyz - 0.5 * spacing, spacing, ivec3(scene.dims.xyz));
 }
 
 uint cell_index(Dda d) {
@@ -162,6 +184,33 @@ uint cell_index(Dda d) {
 }
 
 float cell_majorant(Dda d) { return majorant[cell_index(d)]; }
+
+float texel_value(ivec3 q) {
+    q = clamp(q, ivec3(0), ivec3(scene.dims.xyz) - 1);
+    return clamp(texelFetch(volume_tex, q, 0).r * scene.value_map.x + scene.value_map.y, 0.0, 1.0);
+}
+
+// Largest table opacity over entries [lo, hi] (sparse table: level k holds the max of
+// 2^k entries), with one entry of margin each side as on the host.
+float opacity_range_max(float vmin, float vmax) {
+    int lo = max(int(floor(vmin * (TF_SIZE - 1.0))) - 1, 0);
+    int hi = min(int(ceil(vmax * (TF_SIZE - 1.0))) + 1, int(TF_SIZE) - 1);
+    int k = findMSB(hi - lo + 1);
+    int n = int(TF_SIZE);
+    return max(tf_range_max[k * n + lo], tf_range_max[k * n + hi - (1 << k) + 1]);
+}
+
+// Written out (no loop) so it does not count against llvmpipe's loop budget.
+float fine_majorant(Dda f) {
+    ivec3 j = f.cell - 1;
+    float a = texel_value(j),                 b = texel_value(j + ivec3(1, 0, 0));
+    float c = texel_value(j + ivec3(0, 1, 0)), d = texel_value(j + ivec3(1, 1, 0));
+    float e = texel_value(j + ivec3(0, 0, 1)), g = texel_value(j + ivec3(1, 0, 1));
+    float h = texel_value(j + ivec3(0, 1, 1)), k = texel_value(j + ivec3(1, 1, 1));
+    float vmin = min(min(min(a, b), min(c, d)), min(min(e, g), min(h, k)));
+    float vmax = max(max(max(a, b), max(c, d)), max(max(e, g), max(h, k)));
+    return scene.box_min.w * opacity_range_max(vmin, vmax) * 1.001;
+}
 
 // Empty-space skipping.  The second half of the majorant buffer holds, per empty
 // cell, the Chebyshev distance k (in cells) to the nearest non-empty cell.  From any
@@ -188,81 +237,77 @@ bool dda_advance(inout Dda d) {
     } else {
         d.cell.z += d.stp.z; d.t_next.z += d.t_delta.z;
     }
-    return all(greaterThanEqual(d.cell, ivec3(0))) && all(lessThan(d.cell, ivec3(scene.grid.xyz)));
+    return all(greaterThanEqual(d.cell, ivec3(0))) && all(lessThanEqual(d.cell, d.hi));
 }
 
-// Delta (Woodcock) tracking in [t0, t1]: the distance of a real collision, or -1 when
-// the ray passes.  Free flights restart at cell boundaries (the exponential
-// distribution is memoryless), so each cell uses its own majorant.
-float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
-    Dda d = dda_start(ro, rd, t0);
-    float t = t0;
-    float maj = cell_majorant(d);
+// Delta tracking (ratio == false): the distance of a real collision in [t0, t1], or
+// -1 when the ray passes.  Ratio tracking (ratio == true): an unbiased estimate of
+// the transmittance (Eq. 2) over [t0, t1], with Russian roulette below 0.1.
+// Free flights restart at cell boundaries (the exponential distribution is
+// memoryless), so every cell uses its own majorant.  One loop, one bound: each
+// iteration is a tentative collision, a cell step or an empty-space jump.
+float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    Dda c = coarse_start(ro, rd, t0);
+    Dda f = c;
+    float t = t0, T = 1.0;
+    float maj = cell_majorant(c), fmaj = 0.0;
+    bool fine = false;
     for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
-        float t_cell = min(dda_exit(d), t1);
-        if (maj > 0.0) {
-            // -log(1 - u) is finite because u < 1 (rnd has 24 bits).
-            float t_try = t - log(1.0 - rnd(rng)) / maj;
-            if (t_try < t_cell) {
-                t = t_try;
-                if (rnd(rng) * maj < sigma_t(ro + rd * t)) return t;
-                continue;
-            }
-        } else {
-            float jump = empty_skip(d, rd);
-            if (jump > 0.0) {
-                t += jump;
-                if (t >= t1) return -1.0;
-                d = dda_start(ro, rd, t);
-                maj = cell_majorant(d);
-                continue;
-            }
+        float t_cell = min(dda_exit(c), t1);
+        if (!fine && maj * (t_cell - t) > FINE_THRESHOLD) {
+            fine = true;
+            f = fine_start(ro, rd, t);
+            fmaj = fine_majorant(f);
         }
-        t = t_cell;
-        if (t >= t1 || !dda_advance(d)) return -1.0;
-        maj = cell_majorant(d);
-    }
-    truncated = true;   // bound reached: treated as escaping (biased, counted)
-    return -1.0;
-}
-
-// Ratio tracking in [t0, t1]: an unbiased transmittance estimate (Eq. 2).  Russian
-// roulette below 0.1 ends long, dark paths early without bias.
-float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
-    Dda d = dda_start(ro, rd, t0);
-    float t = t0;
-    float T = 1.0;
-    float maj = cell_majorant(d);
-    for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
-        float t_cell = min(dda_exit(d), t1);
-        if (maj > 0.0) {
-            float t_try = t - log(1.0 - rnd(rng)) / maj;
-            if (t_try < t_cell) {
+        float m = fine ? fmaj : maj;
+        float t_seg = fine ? min(dda_exit(f), t_cell) : t_cell;
+        if (m > 0.0) {
+            // -log(1 - u) is finite because u < 1 (rnd has 24 bits).
+            float t_try = t - log(1.0 - rnd(rng)) / m;
+            if (t_try < t_seg) {
                 t = t_try;
-                // sigma_t <= maj by construction; the clamp keeps T >= 0 under rounding
-                T *= clamp(1.0 - sigma_t(ro + rd * t) / maj, 0.0, 1.0);
-                if (T < 0.1) {
-                    if (T <= 0.0 || rnd(rng) >= T * 10.0) return 0.0;
-                    T = 0.1;
+                float s = sigma_t(ro + rd * t);
+                if (!ratio) {
+                    if (rnd(rng) * m < s) return t;
+                } else {
+                    // sigma_t <= m by construction; the clamp keeps T >= 0 under rounding
+                    T *= clamp(1.0 - s / m, 0.0, 1.0);
+                    if (T < 0.1) {
+                        if (T <= 0.0 || rnd(rng) >= T * 10.0) return 0.0;
+                        T = 0.1;
+                    }
                 }
                 continue;
             }
-        } else {
-            float jump = empty_skip(d, rd);
+        } else if (!fine) {
+            float jump = empty_skip(c, rd);
             if (jump > 0.0) {
                 t += jump;
-                if (t >= t1) return T;
-                d = dda_start(ro, rd, t);
-                maj = cell_majorant(d);
+                if (t >= t1) return ratio ? T : -1.0;
+                c = coarse_start(ro, rd, t);
+                maj = cell_majorant(c);
                 continue;
             }
         }
-        t = t_cell;
-        if (t >= t1 || !dda_advance(d)) return T;
-        maj = cell_majorant(d);
+        t = t_seg;
+        if (fine) {
+            if (t < t_cell && dda_advance(f)) { fmaj = fine_majorant(f); continue; }
+            fine = false;       // reached the end of the brick
+            t = t_cell;
+        }
+        if (t >= t1 || !dda_advance(c)) return ratio ? T : -1.0;
+        maj = cell_majorant(c);
     }
-    truncated = true;
-    return T;
+    truncated = true;   // bound reached: delta tracking treats it as escaping (biased, counted)
+    return ratio ? T : -1.0;
+}
+
+float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    return track(false, ro, rd, t0, t1, rng, truncated);
+}
+
+float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    return track(true, ro, rd, t0, t1, rng, truncated);
 }
 
 // Transmittance from x along unit w over distance dist (only the part inside the box).
@@ -286,13 +331,20 @@ int nearest_area_light(vec3 x, vec3 w, float tmax, out float t_hit) {
         Light l = scene.lights[i];
         int type = int(l.p0.w);
         if (type == LIGHT_SPHERE) {
+            // Numerically stable ray/sphere test (Haines et al., Ray Tracing Gems
+            // ch. 7): the discriminant from the closest-approach vector, not b^2 - c,
+            // which loses r^2 against |oc|^2 for distant lights in float.
+            float r = l.p2.w;
             vec3 oc = x - l.p0.xyz;
             float b = dot(oc, w);
-            float c = dot(oc, oc) - l.p2.w * l.p2.w;
-            float disc = b * b - c;
+            vec3 f = oc - b * w;
+            float disc = r * r - dot(f, f);
             if (disc < 0.0) continue;
             float s = sqrt(disc);
-            float t = (c > 0.0) ? -b - s : -b + s;   // outside: near hit; inside: exit
+            float c = dot(oc, oc) - r * r;
+            float q = b < 0.0 ? s - b : -b - s;   // -b - sign(b) s: no cancellation
+            float r1 = q, r2 = q != 0.0 ? c / q : 0.0;
+            float t = c > 0.0 ? min(r1, r2) : max(r1, r2);   // outside: near hit; inside: exit
             if (t > 0.0 && t < t_hit) { t_hit = t; hit = int(i); }
         } else if (type == LIGHT_RECT) {
             vec3 n = cross(l.p2.xyz, l.p3.xyz);

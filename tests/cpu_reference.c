@@ -1004,6 +1004,11 @@ static int load_light(cref_light *L, const picvr_light *in)
         double omc = 2.0 * sh * sh;         /* 1 - cos(a/2) without cancellation */
         L->cos_half = 1.0 - omc;
         L->omega = 2.0 * PI * omc;          /* 0 for a = 0: a delta light */
+        /* colour * intensity is the irradiance E on a plane facing the sun, so the
+           radiance is E / (pi sin^2 h) and L * Omega = E * 2 / (2 - omc); the
+           "radiance" field holds L * Omega (E itself for the delta sun). */
+        if (omc > 0.0)
+            for (int k = 0; k < 3; k++) L->radiance[k] *= 2.0 / (2.0 - omc);
         return PICVR_OK;
     }
     case PICVR_LIGHT_POINT:

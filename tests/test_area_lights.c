@@ -243,3 +243,63 @@ void test_rect_light_facing_closed_form_and_back_side_dark(void **state) {
     if (!ok) fail_msg("rect light: facing differs from the closed form or its back side emits");
     tu_finish(ctx);
 }
+
+/* Camera rays see area lights ("A ray that leaves the volume sees the background (and
+   area lights)").  A sphere light of radius 4 and radiance 2 in front of a black-free
+   background of radiance 0.5, seen directly by a camera at distance 100 and at 1e5
+   with the same angular framing (the view's half-height at the sphere is 2.5 r): the
+   expected image is L inside the sphere's silhouette and the background outside,
+   computed per pixel from 8x8 sub-samples with the exact ray-sphere distance in double.
+   Every sample is 0.5 or 2, inside [0, 2]: analytic bound M = 2, z = 5; sys_rel 2e-3
+   for the 8x8 sub-sampling of the silhouette edge pixels.  (The volume is empty and
+   sits between the camera and the light: it must not matter.)
+   KNOWN LIBRARY FAILURE (reported): at 1e5 the disc is drawn several times too large
+   (float32 cancellation in the ray-sphere quadratic: |o - c|^2 - r^2 with
+   |o - c|^2 ~ 1e10 loses r^2 = 16). */
+typedef struct direct_sphere { double c[3], r, L, bg; } direct_sphere;
+
+static void direct_sphere_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    const direct_sphere *s = user;
+    double oc[3] = {s->c[0] - o[0], s->c[1] - o[1], s->c[2] - o[2]};
+    double tc = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
+    double q[3] = {oc[0] - tc * d[0], oc[1] - tc * d[1], oc[2] - tc * d[2]};
+    int hit = tc > 0 && q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < s->r * s->r;
+    out[0] = out[1] = out[2] = hit ? s->L : s->bg;
+    out[3] = 0;
+}
+
+void test_sphere_light_seen_directly_near_and_far(void **state) {
+    (void)state;
+    picvr_context *ctx = tu_create(8);
+    tu_vol vol = tu_vol_new(4, 4, 4, 1.0f, 0); /* empty (default TF: opacity = value) */
+    tu_upload(ctx, &vol);
+    direct_sphere s = {{0, 0, -40}, 4, 2, 0.5};
+    picvr_light sl;
+    memset(&sl, 0, sizeof sl);
+    sl.type = PICVR_LIGHT_SPHERE;
+    for (int i = 0; i < 3; i++) { sl.position[i] = (float)s.c[i]; sl.color[i] = 1; }
+    sl.radius = (float)s.r;
+    sl.intensity = (float)s.L;
+    picvr_background bg = {{1, 1, 1}, (float)s.bg};
+    TU_OK(picvr_set_lights(ctx, &sl, 1, &bg));
+    const uint32_t W = 32, H = 32, N = 16;
+    const double dists[2] = {100.0, 1e5};
+    int ok = 1;
+    for (int k = 0; k < 2; k++) {
+        double zc = s.c[2] + dists[k];
+        double fov = 2 * atan(2.5 * s.r / dists[k]) * 180 / M_PI;
+        tu_cam cam = tu_set_camera(ctx, 0, 0, zc, 0, 0, s.c[2], fov, W, H);
+        TU_OK(picvr_step_iterations(ctx, N));
+        float *img = tu_read(ctx, W, H);
+        tu_assert_finite(img, (size_t)W * H * 4, "sphere light seen directly");
+        double *expv = tu_expected_image(&cam, 8, direct_sphere_ray, &s);
+        char label[64];
+        snprintf(label, sizeof label, "sphere light seen from %g", dists[k]);
+        ok &= tu_check_mean(label, img, expv, W, 1, 0, 0, W, H, N, s.L, 5.0, 2e-3);
+        free(img);
+        free(expv);
+    }
+    tu_vol_free(&vol);
+    if (!ok) fail_msg("a sphere light seen directly has the wrong size");
+    tu_finish(ctx);
+}

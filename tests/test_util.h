@@ -72,6 +72,7 @@
     X(test_point_light_single_scatter_closed_form)                  \
     X(test_sphere_light_matches_point_light)                        \
     X(test_rect_light_facing_closed_form_and_back_side_dark)        \
+    X(test_sphere_light_seen_directly_near_and_far)                 \
     /* test_extreme.c */                                            \
     X(test_extreme_density_range_finite)                            \
     X(test_dense_medium_surface_lit_thin_is_background)             \
