@@ -14,6 +14,8 @@
 #include <string.h>
 #include <time.h>
 
+#define FINE_THRESHOLD 64.0          /* expected steps per brick above which the shader
+                                      tracks at voxel level (shaders: FINE_THRESHOLD) */
 #define TF_SIZE 4096               /* entries of the transfer-function table (shaders: TF_SIZE) */
 #define MAX_GRID 64                /* majorant grid cells per axis at most */
 #define STAGING_CHUNK (32u << 20)  /* bytes per volume upload slab */
@@ -79,7 +81,7 @@ struct picvr_context {
     VkDescriptorPool desc_pool;
     VkDescriptorSet set;
     VkShaderModule render_module, stats_module;
-    VkPipeline render_pipe[2];       /* [USE_PHASE_MIS] */
+    VkPipeline render_pipe[4];       /* [USE_PHASE_MIS + 2 * USE_FINE] */
     VkPipeline stats_pipe;
     VkSampler linear_sampler;
     VkFormat float_volume_format;    /* R32_SFLOAT, or R16_UNORM where it cannot filter */
@@ -106,6 +108,7 @@ struct picvr_context {
     struct range_max *tf_rm;
     float density;
     int use_phase_mis;
+    int use_fine;                    /* some brick needs voxel-level majorants */
     picvr_camera camera;
 
     uint32_t iterations;
@@ -577,12 +580,13 @@ static picvr_status create_pipelines(picvr_context *ctx) {
     picvr_status s = create_shader(ctx, picvr_spv_render, sizeof picvr_spv_render, &ctx->render_module);
     if (!s) s = create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->stats_module);
     if (s) return s;
-    /* Two variants of the rendering procedure: with and without phase-sampled MIS rays
-       (left out for scenes lit only by delta lights). */
-    for (uint32_t v = 0; v < 2; v++) {
-        VkBool32 value = v;
-        VkSpecializationMapEntry entry = {0, 0, sizeof value};
-        VkSpecializationInfo spec = {1, &entry, sizeof value, &value};
+    /* Four variants of the rendering procedure: with and without phase-sampled MIS rays
+       (left out for scenes lit only by delta lights), with and without voxel-level
+       majorants (left out unless the medium is dense). */
+    for (uint32_t v = 0; v < 4; v++) {
+        VkBool32 value[2] = {v & 1, v >> 1};
+        VkSpecializationMapEntry entry[2] = {{0, 0, sizeof(VkBool32)}, {1, sizeof(VkBool32), sizeof(VkBool32)}};
+        VkSpecializationInfo spec = {2, entry, sizeof value, value};
         s = create_pipeline(ctx, ctx->render_module, ctx->render_layout, &spec, &ctx->render_pipe[v]);
         if (s) return s;
     }
@@ -689,7 +693,7 @@ void picvr_destroy(picvr_context *ctx) {
         image_destroy(ctx, &ctx->volume);
         VkDevice d = ctx->device;
         if (ctx->linear_sampler) vkDestroySampler(d, ctx->linear_sampler, NULL);
-        for (int i = 0; i < 2; i++) if (ctx->render_pipe[i]) vkDestroyPipeline(d, ctx->render_pipe[i], NULL);
+        for (int i = 0; i < 4; i++) if (ctx->render_pipe[i]) vkDestroyPipeline(d, ctx->render_pipe[i], NULL);
         if (ctx->stats_pipe) vkDestroyPipeline(d, ctx->stats_pipe, NULL);
         if (ctx->render_module) vkDestroyShaderModule(d, ctx->render_module, NULL);
         if (ctx->stats_module) vkDestroyShaderModule(d, ctx->stats_module, NULL);
@@ -808,6 +812,10 @@ static picvr_status update_majorant(picvr_context *ctx) {
     float *maj = mem_alloc(&ctx->alloc, 2 * cells * sizeof(float));
     if (!maj) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     const range_max *rm = ctx->tf_rm;
+    double diag = sqrt((double)ctx->scene.cell_size[0] * ctx->scene.cell_size[0] +
+                       (double)ctx->scene.cell_size[1] * ctx->scene.cell_size[1] +
+                       (double)ctx->scene.cell_size[2] * ctx->scene.cell_size[2]);
+    ctx->use_fine = 0;
     for (size_t c = 0; c < cells; c++) {
         int lo = (int)floorf(ctx->brick_min[c] * (TF_SIZE - 1)) - 1;
         int hi = (int)ceilf(ctx->brick_max[c] * (TF_SIZE - 1)) + 1;
@@ -815,6 +823,7 @@ static picvr_status update_majorant(picvr_context *ctx) {
         hi = hi > TF_SIZE - 1 ? TF_SIZE - 1 : hi;
         double m = (double)ctx->density * range_max_query(rm, lo, hi) * (1.0 + 1e-3);
         maj[c] = m > FLT_MAX ? FLT_MAX : (float)m;
+        if (m * diag > FINE_THRESHOLD) ctx->use_fine = 1;
     }
     empty_distance(ctx->grid, maj, maj + cells);
     picvr_status s = upload_buffer(ctx, &ctx->majorant, maj, 2 * cells * sizeof(float));
@@ -1358,7 +1367,8 @@ static picvr_status render_batch(picvr_context *ctx, uint32_t k) {
     picvr_status s = cmd_begin(ctx);
     if (s) return s;
     barrier_all(ctx);
-    vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->render_pipe[ctx->use_phase_mis ? 1 : 0]);
+    vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                      ctx->render_pipe[(ctx->use_phase_mis ? 1 : 0) + (ctx->use_fine ? 2 : 0)]);
     vkCmdBindDescriptorSets(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->render_layout, 0, 1, &ctx->set, 0, NULL);
     uint32_t gx = (ctx->camera.width + 15) / 16, gy = (ctx->camera.height + 7) / 8;
     for (uint32_t i = 0; i < k; i++) {

@@ -142,6 +142,10 @@ vec3 albedo_at(vec3 x) { return transfer(data_value(x)).rgb; }
 // centres, where the trilinear value is a convex combination of the 8 corner texels,
 // so D * max(opacity over [min, max] of the corners) bounds sigma_t exactly.
 #define FINE_THRESHOLD 64.0
+// Specialization constant: the host turns the voxel-level path on only when some brick
+// needs it (majorant * brick diagonal > FINE_THRESHOLD).  Compiled out otherwise: its
+// eight texel fetches alone make llvmpipe's kernel 3x slower (measured on bonsai).
+layout(constant_id = 1) const bool USE_FINE = true;
 
 layout(set = 0, binding = 8, std430) readonly buffer TfRangeMax { float tf_range_max[]; };
 
@@ -240,74 +244,123 @@ bool dda_advance(inout Dda d) {
     return all(greaterThanEqual(d.cell, ivec3(0))) && all(lessThanEqual(d.cell, d.hi));
 }
 
-// Delta tracking (ratio == false): the distance of a real collision in [t0, t1], or
-// -1 when the ray passes.  Ratio tracking (ratio == true): an unbiased estimate of
-// the transmittance (Eq. 2) over [t0, t1], with Russian roulette below 0.1.
-// Free flights restart at cell boundaries (the exponential distribution is
-// memoryless), so every cell uses its own majorant.  One loop, one bound: each
-// iteration is a tentative collision, a cell step or an empty-space jump.
-float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
-    Dda c = coarse_start(ro, rd, t0);
-    Dda f = c;
-    float t = t0, T = 1.0;
-    float maj = cell_majorant(c), fmaj = 0.0;
-    bool fine = false;
-    for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
-        float t_cell = min(dda_exit(c), t1);
-        if (!fine && maj * (t_cell - t) > FINE_THRESHOLD) {
-            fine = true;
-            f = fine_start(ro, rd, t);
-            fmaj = fine_majorant(f);
-        }
-        float m = fine ? fmaj : maj;
-        float t_seg = fine ? min(dda_exit(f), t_cell) : t_cell;
+// Tracking through one dense brick at voxel resolution, from t to t_end, sharing the
+// caller's step counter.  Returns true when the walk ended the whole track: a real
+// collision (delta tracking; t holds it) or a zero transmittance (ratio tracking).
+bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, inout float T,
+                  inout Rng rng, inout uint steps) {
+    Dda f = fine_start(ro, rd, t);
+    float m = fine_majorant(f);
+    for (; steps < MAX_TRACK_STEPS; steps++) {
+        float t_seg = min(dda_exit(f), t_end);
         if (m > 0.0) {
-            // -log(1 - u) is finite because u < 1 (rnd has 24 bits).
             float t_try = t - log(1.0 - rnd(rng)) / m;
             if (t_try < t_seg) {
                 t = t_try;
                 float s = sigma_t(ro + rd * t);
                 if (!ratio) {
-                    if (rnd(rng) * m < s) return t;
+                    if (rnd(rng) * m < s) return true;
                 } else {
-                    // sigma_t <= m by construction; the clamp keeps T >= 0 under rounding
                     T *= clamp(1.0 - s / m, 0.0, 1.0);
                     if (T < 0.1) {
-                        if (T <= 0.0 || rnd(rng) >= T * 10.0) return 0.0;
+                        if (T <= 0.0 || rnd(rng) >= T * 10.0) { T = 0.0; return true; }
                         T = 0.1;
                     }
                 }
                 continue;
             }
-        } else if (!fine) {
-            float jump = empty_skip(c, rd);
+        }
+        t = t_seg;
+        if (t >= t_end || !dda_advance(f)) { t = t_end; return false; }
+        m = fine_majorant(f);
+    }
+    return false;
+}
+
+// Delta (Woodcock) tracking in [t0, t1]: the distance of a real collision, or -1 when
+// the ray passes.  Free flights restart at cell boundaries (the exponential
+// distribution is memoryless), so each cell uses its own majorant.  Every iteration
+// (a tentative collision, a cell step, an empty-space jump, also inside
+// fine_segment) counts against one bound.
+float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    Dda d = coarse_start(ro, rd, t0);
+    float t = t0, T = 1.0;
+    float maj = cell_majorant(d);
+    for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
+        float t_cell = min(dda_exit(d), t1);
+        if (maj > 0.0) {
+            if (USE_FINE && maj * (t_cell - t) > FINE_THRESHOLD) {
+                if (fine_segment(false, ro, rd, t, t_cell, T, rng, i)) return t;
+                if (i >= MAX_TRACK_STEPS) break;
+            } else {
+                // -log(1 - u) is finite because u < 1 (rnd has 24 bits).
+                float t_try = t - log(1.0 - rnd(rng)) / maj;
+                if (t_try < t_cell) {
+                    t = t_try;
+                    if (rnd(rng) * maj < sigma_t(ro + rd * t)) return t;
+                    continue;
+                }
+            }
+        } else {
+            float jump = empty_skip(d, rd);
             if (jump > 0.0) {
                 t += jump;
-                if (t >= t1) return ratio ? T : -1.0;
-                c = coarse_start(ro, rd, t);
-                maj = cell_majorant(c);
+                if (t >= t1) return -1.0;
+                d = coarse_start(ro, rd, t);
+                maj = cell_majorant(d);
                 continue;
             }
         }
-        t = t_seg;
-        if (fine) {
-            if (t < t_cell && dda_advance(f)) { fmaj = fine_majorant(f); continue; }
-            fine = false;       // reached the end of the brick
-            t = t_cell;
-        }
-        if (t >= t1 || !dda_advance(c)) return ratio ? T : -1.0;
-        maj = cell_majorant(c);
+        t = t_cell;
+        if (t >= t1 || !dda_advance(d)) return -1.0;
+        maj = cell_majorant(d);
     }
-    truncated = true;   // bound reached: delta tracking treats it as escaping (biased, counted)
-    return ratio ? T : -1.0;
+    truncated = true;   // bound reached: treated as escaping (biased, counted)
+    return -1.0;
 }
 
-float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
-    return track(false, ro, rd, t0, t1, rng, truncated);
-}
-
+// Ratio tracking in [t0, t1]: an unbiased transmittance estimate (Eq. 2).  Russian
+// roulette below 0.1 ends long, dark paths early without bias.
 float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
-    return track(true, ro, rd, t0, t1, rng, truncated);
+    Dda d = coarse_start(ro, rd, t0);
+    float t = t0;
+    float T = 1.0;
+    float maj = cell_majorant(d);
+    for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
+        float t_cell = min(dda_exit(d), t1);
+        if (maj > 0.0) {
+            if (USE_FINE && maj * (t_cell - t) > FINE_THRESHOLD) {
+                if (fine_segment(true, ro, rd, t, t_cell, T, rng, i)) return T;
+                if (i >= MAX_TRACK_STEPS) break;
+            } else {
+                float t_try = t - log(1.0 - rnd(rng)) / maj;
+                if (t_try < t_cell) {
+                    t = t_try;
+                    // sigma_t <= maj by construction; the clamp keeps T >= 0 under rounding
+                    T *= clamp(1.0 - sigma_t(ro + rd * t) / maj, 0.0, 1.0);
+                    if (T < 0.1) {
+                        if (T <= 0.0 || rnd(rng) >= T * 10.0) return 0.0;
+                        T = 0.1;
+                    }
+                    continue;
+                }
+            }
+        } else {
+            float jump = empty_skip(d, rd);
+            if (jump > 0.0) {
+                t += jump;
+                if (t >= t1) return T;
+                d = coarse_start(ro, rd, t);
+                maj = cell_majorant(d);
+                continue;
+            }
+        }
+        t = t_cell;
+        if (t >= t1 || !dda_advance(d)) return T;
+        maj = cell_majorant(d);
+    }
+    truncated = true;
+    return T;
 }
 
 // Transmittance from x along unit w over distance dist (only the part inside the box).

@@ -279,8 +279,7 @@ void test_bad_inputs_rejected_and_state_kept(void **state) {
         snprintf(name, sizeof name, "upload_volume(float32 voxel %s)", nf_name[k]);
         ROW(t, name, PICVR_ERROR_NON_FINITE, picvr_upload_volume(ctx, &d));
         /* Explicit range: the voxels must still be checked ("float32 data must be
-           finite").  KNOWN LIBRARY FAILURE (reported): picvr_vk.c volume_range() only
-           scans for non-finite voxels when it computes the range itself. */
+           finite"), also when the range is given. */
         d.value_min = 0; d.value_max = 511;
         snprintf(name, sizeof name, "upload_volume(float32 voxel %s, range set)", nf_name[k]);
         ROW(t, name, PICVR_ERROR_NON_FINITE, picvr_upload_volume(ctx, &d));

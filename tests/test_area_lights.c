@@ -253,9 +253,9 @@ void test_rect_light_facing_closed_form_and_back_side_dark(void **state) {
    Every sample is 0.5 or 2, inside [0, 2]: analytic bound M = 2, z = 5; sys_rel 2e-3
    for the 8x8 sub-sampling of the silhouette edge pixels.  (The volume is empty and
    sits between the camera and the light: it must not matter.)
-   KNOWN LIBRARY FAILURE (reported): at 1e5 the disc is drawn several times too large
-   (float32 cancellation in the ray-sphere quadratic: |o - c|^2 - r^2 with
-   |o - c|^2 ~ 1e10 loses r^2 = 16). */
+   Regression: at 1e5 the disc used to be drawn several times too large (float32
+   cancellation in the ray-sphere quadratic: |o - c|^2 - r^2 with |o - c|^2 ~ 1e10
+   loses r^2 = 16); the shader now uses the stable closest-approach form. */
 typedef struct direct_sphere { double c[3], r, L, bg; } direct_sphere;
 
 static void direct_sphere_ray(const double o[3], const double d[3], void *user, double out[4]) {

@@ -76,10 +76,9 @@ void test_extreme_density_range_finite(void **state) {
    any single-scattering image under one sun).
    Thin (D = 1e-6) ball with background radiance 1: the image mean is the background
    within 1e-3 (the optical depth is < 3e-5). */
-/* KNOWN LIBRARY FAILURE (reported): at D = 1e5 every sample hits MAX_TRACK_STEPS while
-   crossing the empty part of a shell brick at the brick's majorant, and a truncated free
-   flight is treated as escaping: the lit surface renders black (with a background, the
-   ball becomes invisible; also at D = 1e4, see test_extreme_density_range_finite). */
+/* Regression: at D = 1e5 every sample used to hit MAX_TRACK_STEPS while crossing the
+   empty part of a shell brick at the brick's majorant, so the lit surface rendered
+   black.  Dense bricks are now tracked with voxel-level majorants. */
 void test_dense_medium_surface_lit_thin_is_background(void **state) {
     (void)state;
     picvr_context *ctx = tu_create(22);

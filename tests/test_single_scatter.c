@@ -214,9 +214,8 @@ void test_single_scatter_small_sun_closed_form(void **state) {
         fail_msg("single scattering under a small finite sun differs from the closed form");
 }
 
-/* KNOWN LIBRARY FAILURE (reported): picvr_vk.c/the shaders give the sun the radiance
-   E / Omega (as tests/cpu_reference.h documents), 6 % below the header's unit here.
-   Either the library or the header's wording has to change.
+/* Regression: the sun's radiance used to be E / Omega, 6 % below the header's unit
+   here; library and reference now use E / (pi sin^2 a).
    A wide sun (1 rad).  The header's unit: "directional: irradiance on a plane facing the
    light" = colour * intensity = E.  A cone of uniform radiance L and half-angle a gives
    that plane L pi sin^2(a), so L = E / (pi sin^2 a); the in-scattered radiance
