@@ -68,7 +68,7 @@ $(B)/picvr-bench-speed: bench/bench_speed.c examples/volume_io.c $(B)/cpu_refere
 	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
 
 test: deps check-shaders $(B)/picvr-tests $(B)/picvr-render
-	cd $(B) && PICVR_VALIDATION=1 PICVR_DATA=../$(DATA) ./picvr-tests
+	cd $(B) && PICVR_VALIDATION=1 PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
 
 demo: deps $(B)/picvr-render
 	$(B)/picvr-render --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz --tf ct-bonsai \

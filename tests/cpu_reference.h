@@ -25,8 +25,9 @@
  *   - Light selection power (luminance of colour*intensity, times): sphere
  *     pi*4*pi*r^2, rect pi*area, point 4*pi, directional pi*R^2, background
  *     4*pi*pi*R^2, with R = half the diagonal of the volume box.
- *   - A sun of angular diameter a > 0 has radiance E / Omega, Omega = 2 pi (1 -
- *     cos(a/2)), over its cone (so light sampling returns exactly E*T*f/p_select).
+ *   - A sun of angular diameter a > 0 has radiance E / (pi sin^2(a/2)) over its
+ *     cone, so that colour * intensity = E is the irradiance on a plane facing it
+ *     (picvr.h's unit).
  *
  * Nothing here is thread-safe to mutate; cref_render() only reads the scene.
  */
