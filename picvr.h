@@ -150,6 +150,29 @@ typedef struct picvr_allocator {
     void *user;
 } picvr_allocator;
 
+/* The irradiance cache (paper §4-5).  Zero fields mean the Table 1 values. */
+typedef enum picvr_cache_mode {
+    PICVR_CACHE_DEFAULT = 0,       /* currently PICVR_CACHE_NONE: the cache is being built
+                                      (issue 3) and becomes the default once validated */
+    PICVR_CACHE_NONE,              /* plain Monte Carlo, the baseline */
+    PICVR_CACHE_OBJECT_SPACE,      /* cache, object-space locking (§5.1) */
+    PICVR_CACHE_SCREEN_SPACE       /* cache, screen-space locking (§5.2; not yet built) */
+} picvr_cache_mode;
+
+typedef struct picvr_cache_config {
+    picvr_cache_mode mode;
+    float gamma;               /* Eq. 5 estimation accuracy; 0: 0.1 */
+    float epsilon;             /* Eq. 10 validity radius threshold; 0: 0.1 */
+    float delta_voxels;        /* position offset Delta in voxels (of the smallest
+                                  spacing); 0: 2 */
+    float radius_min_voxels;   /* 0: 0.01 */
+    float radius_max_voxels;   /* 0: 16 */
+    uint32_t max_entries;      /* entry pool; 0: 65536 */
+    uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries */
+    uint32_t max_refs;         /* reference pool; 0: 16 * max_entries */
+    uint32_t max_requests;     /* creation requests per round; 0: 1024 */
+} picvr_cache_config;
+
 typedef struct picvr_config {
     const char *device_name;  /* substring of the device name; NULL: PICVR_DEVICE or auto */
     int validation;           /* 1: enable the Khronos validation layer (+sync validation);
@@ -170,6 +193,8 @@ typedef struct picvr_config {
     void *vk_device;          /* VkDevice */
     void *vk_queue;           /* VkQueue */
     uint32_t vk_queue_family; /* family index of vk_queue */
+
+    picvr_cache_config cache; /* the irradiance cache; zero: defaults (see above) */
 } picvr_config;
 
 typedef struct picvr_context picvr_context;
@@ -309,6 +334,13 @@ typedef struct picvr_stats {
     double mean_luminance;       /* image mean of the pixel luminance (Rec. 709) */
     uint64_t truncated_paths;    /* samples whose tracking loop hit its iteration bound
                                     (biased; should stay 0 outside extreme media) */
+    /* irradiance cache (all 0 when the cache is off) */
+    uint32_t cache_entries;      /* entries in the cache */
+    uint32_t cache_nodes;        /* octree nodes in use */
+    uint32_t cache_refs;         /* entry references in the octree */
+    uint32_t cache_full;         /* 1 when a pool is full: the cache stops growing */
+    double cache_hit_rate;       /* fraction of scatter events served by the cache in
+                                    the last step */
     uint32_t validation_messages;/* Khronos validation messages seen by this context */
     uint32_t validation_enabled; /* 1 when the validation layer is active */
     uint32_t width, height;

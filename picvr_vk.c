@@ -31,6 +31,8 @@ typedef struct gpu_scene {
     uint32_t grid[4], image[4], dims[4];
     float background[4];
     float value_map[4];
+    float cache_params[4], cache_radii[4];
+    uint32_t cache_caps[4];
     gpu_light lights[PICVR_MAX_LIGHTS];
 } gpu_scene;
 
@@ -80,9 +82,10 @@ struct picvr_context {
     VkPipelineLayout render_layout, stats_layout;
     VkDescriptorPool desc_pool;
     VkDescriptorSet set;
-    VkShaderModule render_module, stats_module;
+    VkShaderModule render_module, stats_module, render_cache_module, create_module;
     VkPipeline render_pipe[4];       /* [USE_PHASE_MIS + 2 * USE_FINE] */
     VkPipeline stats_pipe;
+    VkPipeline render_cache_pipe[4], create_pipe[4];  /* the cache's variants, same index */
     VkSampler linear_sampler;
     VkFormat float_volume_format;    /* R32_SFLOAT, or R16_UNORM where it cannot filter */
 
@@ -95,6 +98,12 @@ struct picvr_context {
     buffer accum[3];                 /* mean rgba, Kahan terms, (lum mean, M2, n, bad) */
     buffer readback;
     buffer partials;
+    /* irradiance cache (allocated only when the cache is on) */
+    picvr_cache_config cache;        /* resolved: no zero fields */
+    int cache_on;
+    buffer cache_entries, cache_nodes, cache_refs, cache_counters, cache_requests, cache_readback;
+    uint32_t cache_prebuilt;         /* nodes of the pre-built top of the octree */
+    uint32_t cache_hits, cache_misses;
     int descriptors_dirty;
 
     /* host state */
@@ -314,10 +323,12 @@ static void barrier_all(picvr_context *ctx) {
     VkMemoryBarrier mb = {VK_STRUCTURE_TYPE_MEMORY_BARRIER};
     mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
     mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
-                       VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT | VK_ACCESS_UNIFORM_READ_BIT;
-    VkPipelineStageFlags stages = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT |
-                                  VK_PIPELINE_STAGE_HOST_BIT;
-    vkCmdPipelineBarrier(ctx->cmd, stages, stages, 0, 1, &mb, 0, NULL, 0, NULL);
+                       VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT | VK_ACCESS_UNIFORM_READ_BIT |
+                       VK_ACCESS_INDIRECT_COMMAND_READ_BIT;
+    VkPipelineStageFlags src = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT |
+                               VK_PIPELINE_STAGE_HOST_BIT;
+    VkPipelineStageFlags dst = src | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT;
+    vkCmdPipelineBarrier(ctx->cmd, src, dst, 0, 1, &mb, 0, NULL, 0, NULL);
 }
 
 static picvr_status cmd_submit_wait(picvr_context *ctx) {
@@ -533,8 +544,8 @@ static picvr_status create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPi
 
 /* Binding layout shared by all kernels (see ARCHITECTURE.md): 0 scene UBO, 1 volume,
    2 transfer function, 3 majorant grid, 4-6 accumulation planes, 7 stats partials,
-   8 opacity range-max table. */
-#define NUM_BINDINGS 9
+   8 opacity range-max table, 9-13 cache entries, nodes, refs, counters, requests. */
+#define NUM_BINDINGS 14
 static VkDescriptorType binding_type(uint32_t i) {
     return i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
          : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
@@ -579,6 +590,10 @@ static picvr_status create_pipelines(picvr_context *ctx) {
 
     picvr_status s = create_shader(ctx, picvr_spv_render, sizeof picvr_spv_render, &ctx->render_module);
     if (!s) s = create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->stats_module);
+    if (!s && ctx->cache_on) {
+        s = create_shader(ctx, picvr_spv_render_cache, sizeof picvr_spv_render_cache, &ctx->render_cache_module);
+        if (!s) s = create_shader(ctx, picvr_spv_cache_create, sizeof picvr_spv_cache_create, &ctx->create_module);
+    }
     if (s) return s;
     /* Four variants of the rendering procedure: with and without phase-sampled MIS rays
        (left out for scenes lit only by delta lights), with and without voxel-level
@@ -588,6 +603,10 @@ static picvr_status create_pipelines(picvr_context *ctx) {
         VkSpecializationMapEntry entry[2] = {{0, 0, sizeof(VkBool32)}, {1, sizeof(VkBool32), sizeof(VkBool32)}};
         VkSpecializationInfo spec = {2, entry, sizeof value, value};
         s = create_pipeline(ctx, ctx->render_module, ctx->render_layout, &spec, &ctx->render_pipe[v]);
+        if (!s && ctx->cache_on)
+            s = create_pipeline(ctx, ctx->render_cache_module, ctx->render_layout, &spec, &ctx->render_cache_pipe[v]);
+        if (!s && ctx->cache_on)
+            s = create_pipeline(ctx, ctx->create_module, ctx->render_layout, &spec, &ctx->create_pipe[v]);
         if (s) return s;
     }
     return create_pipeline(ctx, ctx->stats_module, ctx->stats_layout, NULL, &ctx->stats_pipe);
@@ -604,6 +623,8 @@ static picvr_status create_sampler(picvr_context *ctx) {
 }
 
 static picvr_status set_default_transfer_function(picvr_context *ctx);
+static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_config *in, picvr_cache_config *c);
+static picvr_status create_cache_buffers(picvr_context *ctx);
 
 static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
     picvr_status s;
@@ -644,6 +665,7 @@ static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
     VK_TRY(ctx, vkCreateFence(ctx->device, &fi, NULL, &ctx->fence));
 
     if ((s = create_pipelines(ctx)) || (s = create_sampler(ctx))) return s;
+    if (ctx->cache_on && (s = create_cache_buffers(ctx))) return s;
     if ((s = buffer_create(ctx, &ctx->scene_ubo, sizeof(gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
     if ((s = image_create(ctx, &ctx->tf_image, VK_IMAGE_TYPE_1D, VK_FORMAT_R32G32B32A32_SFLOAT, TF_SIZE, 1, 1))) return s;
     if ((s = buffer_create(ctx, &ctx->tf_staging, sizeof ctx->tf_table, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1))) return s;
@@ -672,7 +694,9 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     ctx->log_user = cfg.log_user;
     ctx->log_level = cfg.log_level ? cfg.log_level : PICVR_LOG_WARNING;
     ctx->seed = cfg.seed;
-    picvr_status s = context_init(ctx, &cfg);
+    picvr_status s = resolve_cache_config(ctx, &cfg.cache, &ctx->cache);
+    ctx->cache_on = ctx->cache.mode != PICVR_CACHE_NONE;
+    if (!s) s = context_init(ctx, &cfg);
     if (s) { picvr_destroy(ctx); return s; }
     *out = ctx;
     return PICVR_OK;
@@ -693,7 +717,19 @@ void picvr_destroy(picvr_context *ctx) {
         image_destroy(ctx, &ctx->volume);
         VkDevice d = ctx->device;
         if (ctx->linear_sampler) vkDestroySampler(d, ctx->linear_sampler, NULL);
-        for (int i = 0; i < 4; i++) if (ctx->render_pipe[i]) vkDestroyPipeline(d, ctx->render_pipe[i], NULL);
+        for (int i = 0; i < 4; i++) {
+            if (ctx->render_pipe[i]) vkDestroyPipeline(d, ctx->render_pipe[i], NULL);
+            if (ctx->render_cache_pipe[i]) vkDestroyPipeline(d, ctx->render_cache_pipe[i], NULL);
+            if (ctx->create_pipe[i]) vkDestroyPipeline(d, ctx->create_pipe[i], NULL);
+        }
+        if (ctx->render_cache_module) vkDestroyShaderModule(d, ctx->render_cache_module, NULL);
+        if (ctx->create_module) vkDestroyShaderModule(d, ctx->create_module, NULL);
+        buffer_destroy(ctx, &ctx->cache_entries);
+        buffer_destroy(ctx, &ctx->cache_nodes);
+        buffer_destroy(ctx, &ctx->cache_refs);
+        buffer_destroy(ctx, &ctx->cache_counters);
+        buffer_destroy(ctx, &ctx->cache_requests);
+        buffer_destroy(ctx, &ctx->cache_readback);
         if (ctx->stats_pipe) vkDestroyPipeline(d, ctx->stats_pipe, NULL);
         if (ctx->render_module) vkDestroyShaderModule(d, ctx->render_module, NULL);
         if (ctx->stats_module) vkDestroyShaderModule(d, ctx->stats_module, NULL);
@@ -718,6 +754,139 @@ void picvr_destroy(picvr_context *ctx) {
     mem_free(&ctx->alloc, ctx->tf_rm);
     picvr_allocator a = ctx->alloc;
     mem_free(&a, ctx);
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* irradiance cache: configuration, pools, clearing                                    */
+
+#define CACHE_MAX_DEPTH 10u        /* shaders/cache.glsl: CACHE_MAX_DEPTH */
+#define CACHE_PREBUILT_MAX_DEPTH 4u
+#define CACHE_ENTRY_BYTES 128u     /* sizeof(Entry) in shaders/cache.glsl (std430) */
+#define CACHE_COUNTER_WORDS 12u
+#ifndef CACHE_PIXELS_PER_REQUEST
+#define CACHE_PIXELS_PER_REQUEST 4096u
+#endif
+
+/* Fills in the Table 1 defaults and validates. */
+static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_config *in, picvr_cache_config *c) {
+    *c = *in;
+    if ((unsigned)c->mode > PICVR_CACHE_SCREEN_SPACE) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->mode == PICVR_CACHE_DEFAULT) c->mode = PICVR_CACHE_NONE;   /* until issue 3 is validated */
+    if (c->mode == PICVR_CACHE_SCREEN_SPACE) {
+        logf_(ctx, PICVR_LOG_ERROR, "screen-space locking is not implemented yet");
+        return PICVR_ERROR_INVALID_ARGUMENT;
+    }
+    float *f[5] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels};
+    const float def[5] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f};
+    for (int i = 0; i < 5; i++) {
+        if (!isfinite(*f[i])) return PICVR_ERROR_NON_FINITE;
+        if (*f[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+        if (*f[i] == 0.0f) *f[i] = def[i];
+    }
+    if (c->epsilon >= 1.0f || c->radius_max_voxels < c->radius_min_voxels) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (!c->max_entries) c->max_entries = 65536;
+    if (c->max_entries > (1u << 24)) return PICVR_ERROR_SIZE_OVERFLOW;   /* indices pass through floats */
+    /* at least 8192 nodes: the pre-built top of the octree takes up to 4681 */
+    if (!c->max_nodes) c->max_nodes = 8 * c->max_entries > 8192 ? 8 * c->max_entries : 8192;
+    if (!c->max_refs) c->max_refs = 16 * c->max_entries;
+    if (!c->max_requests) c->max_requests = 1024;
+    if (c->max_nodes < 4681 || c->max_refs < 2 || c->max_nodes > (1u << 28) || c->max_refs > (1u << 28))
+        return PICVR_ERROR_INVALID_ARGUMENT;
+    return PICVR_OK;
+}
+
+static picvr_status create_cache_buffers(picvr_context *ctx) {
+    const picvr_cache_config *c = &ctx->cache;
+    VkBufferUsageFlags st = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    uint64_t sizes[3] = {(uint64_t)c->max_entries * CACHE_ENTRY_BYTES, (uint64_t)c->max_nodes * 16u,
+                         (uint64_t)c->max_refs * 8u};
+    for (int i = 0; i < 3; i++)
+        if (sizes[i] > ctx->props.limits.maxStorageBufferRange) return PICVR_ERROR_SIZE_OVERFLOW;
+    picvr_status s;
+    if ((s = buffer_create(ctx, &ctx->cache_entries, sizes[0], st, 0))) return s;
+    if ((s = buffer_create(ctx, &ctx->cache_nodes, sizes[1], st, 0))) return s;
+    if ((s = buffer_create(ctx, &ctx->cache_refs, sizes[2], st, 0))) return s;
+    if ((s = buffer_create(ctx, &ctx->cache_counters, CACHE_COUNTER_WORDS * 4,
+                           st | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 0))) return s;
+    if ((s = buffer_create(ctx, &ctx->cache_requests, (uint64_t)c->max_requests * 32u, st, 0))) return s;
+    return buffer_create(ctx, &ctx->cache_readback, CACHE_COUNTER_WORDS * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1);
+}
+
+/* World-space cache parameters (Delta and the radii are given in voxels of the
+   smallest spacing) and the depth of the pre-built top of the octree: the depth at
+   which an entry of the largest radius is inserted (same rule as the shader's
+   insertion_depth), at most CACHE_PREBUILT_MAX_DEPTH.  Pre-building it lets many
+   entries be created in parallel from the start under object-space locking. */
+static uint32_t cache_update_params(picvr_context *ctx) {
+    gpu_scene *g = &ctx->scene;
+    float voxel = ctx->has_volume ? g->cell_size[3] : 1.0f;
+    g->cache_params[0] = ctx->cache.gamma;
+    g->cache_params[1] = ctx->cache.epsilon;
+    g->cache_params[2] = ctx->cache.delta_voxels * voxel;
+    g->cache_radii[0] = ctx->cache.radius_min_voxels * voxel;
+    g->cache_radii[1] = ctx->cache.radius_max_voxels * voxel;
+    g->cache_caps[0] = ctx->cache.max_entries;
+    g->cache_caps[1] = ctx->cache.max_nodes;
+    g->cache_caps[2] = ctx->cache.max_refs;
+    g->cache_caps[3] = ctx->cache.max_requests;
+    /* Fixed split until the scheduler (issue 4) budgets creation by time: at most one
+       request per CACHE_PIXELS_PER_REQUEST pixels per iteration. */
+    if (ctx->has_camera) {
+        uint32_t per = (uint32_t)(((uint64_t)ctx->camera.width * ctx->camera.height) / CACHE_PIXELS_PER_REQUEST);
+        if (per < 1) per = 1;
+        if (per < g->cache_caps[3]) g->cache_caps[3] = per;
+    }
+    float edge = g->box_size[0];
+    if (g->box_size[1] < edge) edge = g->box_size[1];
+    if (g->box_size[2] < edge) edge = g->box_size[2];
+    uint32_t depth = 0;
+    while (depth < CACHE_PREBUILT_MAX_DEPTH && edge * 0.5f >= 2.0f * g->cache_radii[1]) { edge *= 0.5f; depth++; }
+    return depth;
+}
+
+/* Empties the cache: a complete octree down to the pre-built depth (node i's children
+   are 8i+1 .. 8i+8), no entries, no references, no requests, unlocked nodes. */
+static picvr_status cache_clear(picvr_context *ctx) {
+    if (!ctx->cache_on) return PICVR_OK;
+    uint32_t depth = cache_update_params(ctx);
+    uint32_t count = 0, level = 1;
+    for (uint32_t d = 0; d <= depth; d++, level *= 8) count += level;
+    uint32_t inner = count - level / 8;            /* nodes above the deepest level */
+    uint32_t *nodes = mem_alloc(&ctx->alloc, (size_t)count * 16);
+    if (!nodes) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    memset(nodes, 0, (size_t)count * 16);
+    for (uint32_t i = 0; i < inner; i++) nodes[i * 4] = 8 * i + 1;
+    picvr_status s = cmd_begin(ctx);
+    if (!s) {
+        barrier_all(ctx);
+        vkCmdFillBuffer(ctx->cmd, ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE, 0);
+        barrier_all(ctx);
+        s = cmd_submit_wait(ctx);
+    }
+    if (!s) s = upload_buffer(ctx, &ctx->cache_nodes, nodes, (size_t)count * 16);
+    mem_free(&ctx->alloc, nodes);
+    uint32_t counters[CACHE_COUNTER_WORDS] = {0, 1, 1, 0, 0, count, 0, 0, 0, 0, 0, 0};
+    if (!s) s = upload_buffer(ctx, &ctx->cache_counters, counters, sizeof counters);
+    ctx->cache_prebuilt = count;
+    ctx->cache_hits = ctx->cache_misses = 0;
+    return s;
+}
+
+/* Reads the cache counters (entries, nodes, refs, full, hits, misses) and zeroes the
+   hit/miss counters, so the hit rate covers the last step. */
+static picvr_status cache_read_counters(picvr_context *ctx, uint32_t out[CACHE_COUNTER_WORDS]) {
+    picvr_status s = cmd_begin(ctx);
+    if (s) return s;
+    barrier_all(ctx);
+    VkBufferCopy region = {0, 0, CACHE_COUNTER_WORDS * 4};
+    vkCmdCopyBuffer(ctx->cmd, ctx->cache_counters.buf, ctx->cache_readback.buf, 1, &region);
+    barrier_all(ctx);
+    vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 8 * 4, 2 * 4, 0);
+    barrier_all(ctx);
+    if ((s = cmd_submit_wait(ctx))) return s;
+    buffer_invalidate(ctx, &ctx->cache_readback);
+    memcpy(out, ctx->cache_readback.mapped, CACHE_COUNTER_WORDS * 4);
+    return PICVR_OK;
 }
 
 /* ---------------------------------------------------------------------------------- */
@@ -870,6 +1039,7 @@ static picvr_status apply_tf(picvr_context *ctx, const picvr_tf_point *p, uint32
     picvr_status s = upload_tf_table(ctx);
     if (!s) s = upload_buffer(ctx, &ctx->tf_range_max, ctx->tf_rm, sizeof *ctx->tf_rm);
     if (!s) s = update_majorant(ctx);
+    if (!s) s = cache_clear(ctx);
     if (!s) s = clear_accumulation(ctx);
     return s;
 }
@@ -1109,6 +1279,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     ctx->has_volume = 1;
     ctx->descriptors_dirty = 1;
     s = update_majorant(ctx);
+    if (!s) s = cache_clear(ctx);
     if (!s) s = clear_accumulation(ctx);
     return s;
 }
@@ -1235,7 +1406,8 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
     if (bg_power > 0.0) mis = 1;
     ctx->scene.grid[3] = count;
     ctx->use_phase_mis = mis;
-    return clear_accumulation(ctx);
+    picvr_status s = cache_clear(ctx);
+    return s ? s : clear_accumulation(ctx);
 }
 
 /* ---------------------------------------------------------------------------------- */
@@ -1320,6 +1492,7 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
     g->image[1] = c.height;
     ctx->camera = c;
     ctx->has_camera = 1;
+    if (ctx->cache_on) cache_update_params(ctx);   /* the request cap follows the image size */
     return clear_accumulation(ctx);
 }
 
@@ -1334,7 +1507,10 @@ static void update_descriptors(picvr_context *ctx) {
     VkDescriptorBufferInfo bufs[NUM_BINDINGS - 3] = {
         {ctx->majorant.buf, 0, VK_WHOLE_SIZE}, {ctx->accum[0].buf, 0, VK_WHOLE_SIZE},
         {ctx->accum[1].buf, 0, VK_WHOLE_SIZE}, {ctx->accum[2].buf, 0, VK_WHOLE_SIZE},
-        {ctx->partials.buf, 0, VK_WHOLE_SIZE}, {ctx->tf_range_max.buf, 0, VK_WHOLE_SIZE}};
+        {ctx->partials.buf, 0, VK_WHOLE_SIZE}, {ctx->tf_range_max.buf, 0, VK_WHOLE_SIZE},
+        {ctx->cache_entries.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE},
+        {ctx->cache_refs.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_counters.buf, 0, VK_WHOLE_SIZE},
+        {ctx->cache_requests.buf, 0, VK_WHOLE_SIZE}};
     VkWriteDescriptorSet w[NUM_BINDINGS];
     memset(w, 0, sizeof w);
     for (uint32_t i = 0; i < NUM_BINDINGS; i++) {
@@ -1348,7 +1524,8 @@ static void update_descriptors(picvr_context *ctx) {
     w[0].pBufferInfo = &ubo;
     w[1].pImageInfo = &vol;
     w[2].pImageInfo = &tf;
-    vkUpdateDescriptorSets(ctx->device, NUM_BINDINGS, w, 0, NULL);
+    /* The cache bindings stay unwritten when the cache is off: no pipeline then uses them. */
+    vkUpdateDescriptorSets(ctx->device, ctx->cache_on ? NUM_BINDINGS : 9, w, 0, NULL);
     ctx->descriptors_dirty = 0;
 }
 
@@ -1367,15 +1544,26 @@ static picvr_status render_batch(picvr_context *ctx, uint32_t k) {
     picvr_status s = cmd_begin(ctx);
     if (s) return s;
     barrier_all(ctx);
-    vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-                      ctx->render_pipe[(ctx->use_phase_mis ? 1 : 0) + (ctx->use_fine ? 2 : 0)]);
+    uint32_t variant = (ctx->use_phase_mis ? 1 : 0) + (ctx->use_fine ? 2 : 0);
     vkCmdBindDescriptorSets(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->render_layout, 0, 1, &ctx->set, 0, NULL);
     uint32_t gx = (ctx->camera.width + 15) / 16, gy = (ctx->camera.height + 7) / 8;
     for (uint32_t i = 0; i < k; i++) {
         uint32_t push[2] = {ctx->iterations + i, ctx->seed};
         vkCmdPushConstants(ctx->cmd, ctx->render_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, push);
+        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                          ctx->cache_on ? ctx->render_cache_pipe[variant] : ctx->render_pipe[variant]);
         vkCmdDispatch(ctx->cmd, gx, gy, 1);
         barrier_all(ctx);
+        if (ctx->cache_on) {
+            /* Creation procedure: one workgroup per request of this iteration (indirect,
+               sized on the device), then the request queue is emptied. */
+            vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->create_pipe[variant]);
+            vkCmdDispatchIndirect(ctx->cmd, ctx->cache_counters.buf, 0);
+            barrier_all(ctx);
+            vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 0, 4, 0);       /* dispatch_x */
+            vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 3 * 4, 4, 0);   /* request_count */
+            barrier_all(ctx);
+        }
     }
     s = cmd_submit_wait(ctx);
     if (!s) { ctx->iterations += k; ctx->stats_valid = 0; }
@@ -1387,6 +1575,11 @@ static picvr_status render_batch(picvr_context *ctx, uint32_t k) {
 static picvr_status render_loop(picvr_context *ctx, double budget_ms, uint32_t max_iterations) {
     picvr_status s = prepare_render(ctx);
     if (s) return s;
+    if (ctx->cache_on) {   /* the hit rate reported is that of this step */
+        uint32_t c[CACHE_COUNTER_WORDS];
+        if ((s = cache_read_counters(ctx, c))) return s;
+        ctx->cache_hits = ctx->cache_misses = 0;
+    }
     double start = now_ms();
     uint32_t done = 0;
     while (done < max_iterations) {
@@ -1529,6 +1722,19 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.truncated_paths = counts[2];
             st.est_error = sums[3] > 0 ? sums[1] / sums[3] : 0.0;
             st.est_rel_error = sums[3] > 0 ? sums[2] / sums[3] : 0.0;
+        }
+        if (ctx->cache_on) {
+            uint32_t c[CACHE_COUNTER_WORDS];
+            picvr_status s = cache_read_counters(ctx, c);
+            if (s) return s;
+            ctx->cache_hits += c[8];
+            ctx->cache_misses += c[9];
+            st.cache_entries = c[4] < ctx->cache.max_entries ? c[4] : ctx->cache.max_entries;
+            st.cache_nodes = c[5] < ctx->cache.max_nodes ? c[5] : ctx->cache.max_nodes;
+            st.cache_refs = c[6] < ctx->cache.max_refs ? c[6] : ctx->cache.max_refs;
+            st.cache_full = c[7];
+            uint64_t events = (uint64_t)ctx->cache_hits + ctx->cache_misses;
+            st.cache_hit_rate = events ? (double)ctx->cache_hits / events : 0.0;
         }
         st.iterations = ctx->iterations;
         st.elapsed_ms = ctx->elapsed_ms;

@@ -47,6 +47,7 @@ typedef struct options {
     uint32_t seed;
     const char *device;
     int validation;
+    picvr_cache_mode cache;
     float exposure;
     float azimuth, elevation, distance, fov;
     const char *out_png, *out_pfm, *log_path, *json_path;
@@ -125,6 +126,8 @@ static void print_help(FILE *f)
         "  --iterations N         render exactly N iterations instead (deterministic)\n"
         "  --round MS             time per round between statistics (default 100)\n"
         "  --seed N               random seed (default 0)\n"
+        "  --cache none|object    irradiance cache: none (plain Monte Carlo, the default for\n"
+        "                         now) or object-space locking (screen: not built yet)\n"
         "  --device NAME          Vulkan device whose name contains NAME\n"
         "  --validation           enable the Khronos validation layer\n"
         "output\n"
@@ -277,6 +280,11 @@ static int apply_option(options *o, const char *name, const char *value)
         ok = parse_double(value, &o->round_ms) && o->round_ms > 0.0;
     } else if (!strcmp(name, "seed")) {
         ok = parse_u32(value, 0, UINT32_MAX, &o->seed);
+    } else if (!strcmp(name, "cache")) {
+        if (!strcmp(value, "none")) o->cache = PICVR_CACHE_NONE;
+        else if (!strcmp(value, "object")) o->cache = PICVR_CACHE_OBJECT_SPACE;
+        else if (!strcmp(value, "screen")) o->cache = PICVR_CACHE_SCREEN_SPACE;
+        else ok = 0;
     } else if (!strcmp(name, "device")) {
         o->device = value;
     } else if (!strcmp(name, "exposure")) {
@@ -303,7 +311,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -631,6 +639,10 @@ static int write_json(const options *o, const picvr_stats *s)
     json_string(f, o->tf_name);
     fputs(", \"lights\": ", f);
     json_string(f, o->lights_name);
+    fprintf(f, ", \"cache_entries\": %u, \"cache_nodes\": %u, \"cache_refs\": %u, "
+            "\"cache_full\": %u, \"cache_hit_rate\": ", s->cache_entries, s->cache_nodes,
+            s->cache_refs, s->cache_full);
+    json_number(f, s->cache_hit_rate);
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
         fail("cannot write %s: %s", o->json_path, strerror(errno));
@@ -649,6 +661,9 @@ static void print_summary(const options *o, const picvr_stats *s)
     if (s->truncated_paths) printf(", %llu truncated paths",
                                    (unsigned long long)s->truncated_paths);
     if (s->validation_messages) printf(", %u validation messages", s->validation_messages);
+    if (s->cache_entries)
+        printf(", cache %u entries / %u refs, hit rate %.3f%s", s->cache_entries, s->cache_refs,
+               s->cache_hit_rate, s->cache_full ? " (full)" : "");
     if (interrupted) printf(", interrupted");
     printf("\n");
 }
@@ -725,6 +740,7 @@ static int render(const options *o, const pvio_layout *layout)
     memset(&cfg, 0, sizeof cfg);
     cfg.device_name = o->device;
     cfg.validation = o->validation;
+    cfg.cache.mode = o->cache;
     cfg.seed = o->seed;
     cfg.log = log_message;
     cfg.log_user = &prog;

@@ -11,10 +11,16 @@
 
 #define PI 3.14159265358979
 #define INV_4PI 0.0795774715459477
-#define MAX_TRACK_STEPS 4096u
+#ifndef MAX_TRACK_STEPS
+#define MAX_TRACK_STEPS 4096u   // a kernel may lower it before including this file
+#endif
 #define TF_SIZE 4096.0
 #define MAX_LIGHTS 32
 #define PDF_CAP 1e18   // a light whose solid-angle pdf exceeds this acts as a delta light
+
+// Specialization: scenes whose lights are all delta lights (point, zero-size sun) and
+// that have no background need no phase-sampled rays at all.
+layout(constant_id = 0) const bool USE_PHASE_MIS = true;
 
 #define LIGHT_SPHERE 1
 #define LIGHT_RECT 2
@@ -44,6 +50,9 @@ layout(set = 0, binding = 0, std140) uniform Scene {
     uvec4 dims;        // xyz voxel dims
     vec4 background;   // rgb radiance, w = selection probability
     vec4 value_map;    // x scale, y offset: normalized value = clamp(texel * x + y, 0, 1)
+    vec4 cache_params; // x gamma (Eq. 5), y epsilon (Eq. 10), z Delta (world), w unused
+    vec4 cache_radii;  // x minimum, y maximum validity radius (world)
+    uvec4 cache_caps;  // pool capacities: entries, nodes, refs, requests
     Light lights[MAX_LIGHTS];
 } scene;
 
@@ -460,4 +469,115 @@ uint select_light(float u) {
     for (uint i = 0u; i < scene.grid.w; i++)
         if (u < scene.lights[i].p4.x) return i;
     return uint(MAX_LIGHTS);
+}
+
+// ---- direct lighting at a point (Eq. 4 integrand, single scattering) ----
+// Light-sampling strategy: one light (or the background) chosen by power.
+// Returns f * L * T * w / pdf with f = 1/(4 pi) the isotropic phase function.
+vec3 sample_one_light(vec3 x, inout Rng rng, inout bool truncated) {
+    uint li = select_light(rnd(rng));
+    float u1 = rnd(rng), u2 = rnd(rng);
+    vec3 w;
+    vec3 L;
+    float dist = 1e30;
+    float a;            // pmf * solid-angle pdf; 0 marks a delta light
+    float pmf;
+    if (li == uint(MAX_LIGHTS)) {
+        pmf = scene.background.w;
+        if (pmf <= 0.0) return vec3(0.0);
+        w = uniform_sphere(u1, u2);
+        L = scene.background.rgb;
+        a = pmf * INV_4PI;
+    } else {
+        Light l = scene.lights[li];
+        int type = int(l.p0.w);
+        pmf = l.p1.w;
+        L = l.p1.xyz;
+        if (type == LIGHT_SPHERE) {
+            vec3 to = l.p0.xyz - x;
+            float d2 = dot(to, to), r2 = l.p2.w * l.p2.w;
+            if (d2 <= r2) {
+                w = uniform_sphere(u1, u2);
+            } else {
+                float sin2 = r2 / d2;
+                float omc = sin2 / (1.0 + sqrt(max(0.0, 1.0 - sin2)));
+                w = sample_cone(to * inversesqrt(d2), omc, u1, u2);
+            }
+            int h = nearest_area_light(x, w, 1e30, dist);
+            if (h != int(li)) return vec3(0.0);      // occluded by another light (or grazing miss)
+            a = pmf * light_pdf(li, x, w, dist);
+        } else if (type == LIGHT_RECT) {
+            vec3 q = l.p0.xyz + (u1 - 0.5) * l.p2.xyz + (u2 - 0.5) * l.p3.xyz;
+            vec3 to = q - x;
+            float d = length(to);
+            if (d <= 0.0) return vec3(0.0);
+            w = to / d;
+            L = area_light_radiance(li, w);
+            // Rule: grazing samples (cos < 1e-7) carry vanishing solid angle; drop them
+            // rather than divide by ~0.
+            vec3 n = normalize(cross(l.p2.xyz, l.p3.xyz));
+            if (abs(dot(n, w)) < 1e-7 || all(equal(L, vec3(0.0)))) return vec3(0.0);
+            float th;
+            if (nearest_area_light(x, w, d * (1.0 - 1e-4), th) >= 0) return vec3(0.0);
+            dist = d;
+            a = pmf * light_pdf(li, x, w, d);
+        } else if (type == LIGHT_DIRECTIONAL) {
+            float omc = l.p2.w;
+            w = omc > 0.0 ? sample_cone(l.p0.xyz, omc, u1, u2) : l.p0.xyz;
+            a = omc > 0.0 ? pmf * light_pdf(li, x, w, 0.0) : 0.0;
+            float th;
+            if (nearest_area_light(x, w, 1e30, th) >= 0) return vec3(0.0);
+        } else {   // point light: intensity / d^2
+            vec3 to = l.p0.xyz - x;
+            // Rule: the distance is clamped to 1e-3 of the smallest voxel spacing so a
+            // light on a scatter point gives a large but finite value.
+            float min_d = 1e-3 * scene.cell_size.w;
+            float d2 = max(dot(to, to), min_d * min_d);
+            float d = sqrt(d2);
+            w = to / d;
+            float th;
+            if (nearest_area_light(x, w, d, th) >= 0) return vec3(0.0);
+            dist = d;
+            L = l.p1.xyz / d2;
+            a = 0.0;
+        }
+    }
+    if (all(equal(L, vec3(0.0)))) return vec3(0.0);
+    float T = transmittance(x, w, dist, rng, truncated);
+    if (a <= 0.0) return INV_4PI * L * T / pmf;                       // delta light
+    float mis = USE_PHASE_MIS ? power_weight(a, INV_4PI) : 1.0;
+    return INV_4PI * L * T * (mis / a);
+}
+
+// Phase-sampling strategy: f / pdf = 1 for the isotropic phase function, so the
+// estimate is L * T * w.  The direction sees the nearest area light or, escaping,
+// the background plus every sun cone that contains it.
+vec3 sample_phase(vec3 x, inout Rng rng, inout bool truncated) {
+    vec3 w = uniform_sphere(rnd(rng), rnd(rng));
+    float t_hit;
+    int hit = nearest_area_light(x, w, 1e30, t_hit);
+    vec3 Le = vec3(0.0);
+    if (hit >= 0) {
+        uint i = uint(hit);
+        Le = area_light_radiance(i, w) *
+             power_weight(INV_4PI, scene.lights[i].p1.w * light_pdf(i, x, w, t_hit));
+    } else {
+        Le = scene.background.rgb * power_weight(INV_4PI, scene.background.w * INV_4PI);
+        for (uint i = 0u; i < scene.grid.w; i++) {
+            Light l = scene.lights[i];
+            if (int(l.p0.w) != LIGHT_DIRECTIONAL || l.p2.w <= 0.0) continue;
+            if (1.0 - dot(w, l.p0.xyz) <= l.p2.w)
+                Le += l.p1.xyz * power_weight(INV_4PI, l.p1.w * light_pdf(i, x, w, 0.0));
+        }
+    }
+    if (all(equal(Le, vec3(0.0)))) return vec3(0.0);
+    return Le * transmittance(x, w, t_hit, rng, truncated);
+}
+
+// Irradiance (Eq. 4) at x from all lights: one light sample and one phase sample,
+// combined by MIS; both estimators above include f = 1/(4 pi), so E = 4 pi * (sum).
+vec3 irradiance_sample(vec3 x, inout Rng rng, inout bool truncated) {
+    vec3 s = sample_one_light(x, rng, truncated);
+    if (USE_PHASE_MIS) s += sample_phase(x, rng, truncated);
+    return 4.0 * PI * s;
 }

@@ -30,8 +30,13 @@ static int tu_validation_expected(void) {
 picvr_context *tu_create(uint32_t seed) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
-    cfg.validation = 1;
     cfg.seed = seed;
+    return tu_create_config(&cfg);
+}
+
+picvr_context *tu_create_config(picvr_config *cfg_in) {
+    picvr_config cfg = *cfg_in;
+    cfg.validation = 1;
     picvr_context *ctx = NULL;
     TU_OK(picvr_create(&cfg, &ctx));
     assert_non_null(ctx);

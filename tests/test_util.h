@@ -41,6 +41,17 @@
 
 /* ---- every test of the suite (defined in tests/test_*.c) -------------------------- */
 #define TU_ALL_TESTS(X)                                             \
+    /* test_cache_math.c */                                         \
+    X(test_cache_math_exponential_field)                            \
+    X(test_cache_math_validity_radius)                              \
+    X(test_cache_math_weights_and_average)                          \
+    X(test_cache_math_radius_reduction)                             \
+    X(test_cache_math_degenerate_inputs)                            \
+    /* test_cache.c */                                              \
+    X(test_cache_off_by_default_allocates_nothing)                  \
+    X(test_cache_homogeneous_sun_matches_closed_form)               \
+    X(test_cache_invalidation_and_camera_keeps_cache)               \
+    X(test_cache_pool_full_is_reported_and_safe)                    \
     /* test_api_errors.c */                                         \
     X(test_status_strings_non_null_and_distinct)                    \
     X(test_create_destroy_errors)                                   \
@@ -93,6 +104,8 @@ TU_ALL_TESTS(TU_DECLARE)
    unless PICVR_VALIDATION=0, that the validation layer is active).  The context is
    registered so that the per-test teardown destroys it if the test fails early. */
 picvr_context *tu_create(uint32_t seed);
+/* Same with the caller's config (validation is forced on). */
+picvr_context *tu_create_config(picvr_config *cfg);
 /* Asserts picvr_get_stats().validation_messages == 0, then destroys the context. */
 void tu_finish(picvr_context *ctx);
 /* Per-test setup/teardown: timing (printed) and destruction of leftover contexts. */

@@ -1,0 +1,185 @@
+// cache.glsl - the irradiance cache (paper §4.2-§4.4, §5.1), shared by the cached
+// rendering procedure and the entry-creation procedure: the entry, node, reference
+// and request pools, the local frame, lookup with extrapolation (Eq. 7, 8, 11 and the
+// Fig. 4 discard), insertion into the multi-reference octree, and node locks.
+// Include after common.glsl.  The scalar formulas live in cache_math.glsl, which the
+// host tests compile in double precision.
+#include "cache_math.glsl"
+
+#define CACHE_MAX_DEPTH 10u        // octree depth limit (root = 0)
+#define CACHE_MAX_REFS_PER_NODE 64u // references visited per node during a lookup
+#define CACHE_NIL 0u               // index 0 of the ref pool, and as a child index, means "none"
+#define CACHE_NO_NODE 0xffffffffu  // descend_create failed (node 0 is the root)
+
+// One entry: centre, irradiance E_0 at the centre (RGB), virtual extinction per
+// half-axis and channel (Eq. 6) and validity radius per half-axis (Eq. 9, 10).
+// Half-axis order: +t, -t, +b, -b, +n, -n of the local frame (see entry_frame).
+// RGB, not luminance plus colour: lights of different colours have different spatial
+// falloff (e.g. a red light on one side, a blue one on the other), which one shared
+// sigma_v per half-axis cannot extrapolate; the radius is the smallest over channels.
+struct Entry {
+    vec4 pos_rmax;        // xyz centre (world), w = largest of the six radii
+    vec4 e0;              // rgb E_0, w unused
+    float sigma_v[18];    // [half-axis * 3 + channel], per world unit
+    float radius[6];      // per half-axis, world units
+};
+
+struct Node { uint children; uint refs; uint lock; uint pad; };  // children: first of 8
+struct Ref { uint entry; uint next; };
+struct Request { vec4 pos; uint node; uint pad0; uint pad1; uint pad2; };
+
+layout(set = 0, binding = 9, std430) buffer CacheEntries { Entry entries[]; };
+layout(set = 0, binding = 10, std430) coherent buffer CacheNodes { Node nodes[]; };
+layout(set = 0, binding = 11, std430) coherent buffer CacheRefs { Ref refs[]; };
+layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
+    uint dispatch_x, dispatch_y, dispatch_z;   // indirect dispatch of the creation procedure
+    uint request_count;
+    uint entry_count, node_count, ref_count, full;
+    uint hits, misses, pad0, pad1;
+} cache_counters;
+layout(set = 0, binding = 13, std430) buffer CacheRequests { Request requests[]; };
+
+// ---- local frame: the normalized gradient of extinction (central differences), so
+// the frame is recomputed on demand and never stored (§4.2).  Rule: where the gradient
+// vanishes (|grad| below 1e-6 of D per voxel, e.g. a homogeneous region or D = 0) the
+// frame is the world axes.
+void entry_frame(vec3 p, out vec3 t, out vec3 b, out vec3 n) {
+    vec3 h = scene.box_size.xyz / vec3(scene.dims.xyz);
+    vec3 g = vec3(sigma_t(p + vec3(h.x, 0, 0)) - sigma_t(p - vec3(h.x, 0, 0)),
+                  sigma_t(p + vec3(0, h.y, 0)) - sigma_t(p - vec3(0, h.y, 0)),
+                  sigma_t(p + vec3(0, 0, h.z)) - sigma_t(p - vec3(0, 0, h.z))) / (2.0 * h);
+    float gl = length(g);
+    if (!(gl > 1e-6 * scene.box_min.w / scene.cell_size.w)) {
+        t = vec3(1, 0, 0); b = vec3(0, 1, 0); n = vec3(0, 0, 1);
+        return;
+    }
+    n = g / gl;
+    basis(n, t, b);
+}
+
+// ---- lookup (rendering) ----
+// Adds entry e's extrapolation at x to the log-space weighted sums of Eq. 11.
+void eval_entry(uint e, vec3 x, inout float sum_w, inout vec3 sum_wlog) {
+    vec3 dx = x - entries[e].pos_rmax.xyz;
+    float rmax = entries[e].pos_rmax.w;
+    if (dot(dx, dx) >= rmax * rmax) return;                 // cheap sphere test first
+    vec3 t, b, n;
+    entry_frame(entries[e].pos_rmax.xyz, t, b, n);
+    vec3 l = vec3(dot(dx, t), dot(dx, b), dot(dx, n));     // local coordinates
+    uvec3 half_axis = uvec3(0u, 2u, 4u) + uvec3(lessThan(l, vec3(0.0)));
+    vec3 a = abs(l);
+    float rx = entries[e].radius[half_axis.x], ry = entries[e].radius[half_axis.y];
+    float rz = entries[e].radius[half_axis.z];
+    float dist = length(l);
+    float r = CM_FN(ellipsoid_radius)(a.x, a.y, a.z, rx, ry, rz);
+    if (!(dist < r)) return;
+    float w = CM_FN(weight)(dist, r);
+    if (!(w > 0.0)) return;
+    vec3 lnE;
+    for (uint c = 0u; c < 3u; c++) {
+        float sx = entries[e].sigma_v[half_axis.x * 3u + c];
+        float sy = entries[e].sigma_v[half_axis.y * 3u + c];
+        float sz = entries[e].sigma_v[half_axis.z * 3u + c];
+        float s = CM_FN(sigma_interp)(sx, sy, sz, a.x, a.y, a.z);        // Eq. 8
+        // Fig. 4: discard beyond the validity radius of the interpolated sigma_v.
+        if (!(dist <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, scene.cache_params.z,
+                                                    scene.cache_params.y, scene.cache_radii.x,
+                                                    scene.cache_radii.y))) return;
+        lnE[c] = CM_FN(log_extrapolate)(entries[e].e0[c], s, dist);      // Eq. 7 in log space
+    }
+    sum_w += w;
+    sum_wlog += w * lnE;
+}
+
+// Looks x up in the octree: true and the extrapolated irradiance when entries cover
+// it (Eq. 11); always returns the deepest existing node enclosing x (for locking).
+bool cache_lookup(vec3 x, out vec3 E, out uint deepest) {
+    uint node = 0u;
+    vec3 lo = scene.box_min.xyz, size = scene.box_size.xyz;
+    float sum_w = 0.0;
+    vec3 sum_wlog = vec3(0.0);
+    for (uint depth = 0u; depth <= CACHE_MAX_DEPTH; depth++) {
+        uint r = nodes[node].refs;
+        for (uint k = 0u; k < CACHE_MAX_REFS_PER_NODE && r != CACHE_NIL; k++) {
+            eval_entry(refs[r].entry, x, sum_w, sum_wlog);
+            r = refs[r].next;
+        }
+        uint ch = nodes[node].children;
+        if (ch == CACHE_NIL) break;
+        size *= 0.5;
+        uvec3 o = uvec3(greaterThanEqual(x, lo + size));
+        lo += vec3(o) * size;
+        node = ch + o.x + 2u * o.y + 4u * o.z;
+    }
+    deepest = node;
+    E = vec3(0.0);
+    if (!CM_FN(log_average_valid)(sum_w)) return false;
+    for (uint c = 0u; c < 3u; c++) E[c] = CM_FN(log_average_finalize)(sum_wlog[c], sum_w);
+    return true;
+}
+
+// Object-space locking (§5.1): one creation request per node at a time; a request
+// whose node is locked, or that finds the request queue full, is dropped (the event
+// is shaded by plain Monte Carlo either way).
+void cache_request(vec3 x, uint node) {
+    if (atomicCompSwap(nodes[node].lock, 0u, 1u) != 0u) return;
+    uint slot = atomicAdd(cache_counters.request_count, 1u);
+    if (slot >= scene.cache_caps.w) {
+        atomicExchange(nodes[node].lock, 0u);
+        return;
+    }
+    requests[slot].pos = vec4(x, 0.0);
+    requests[slot].node = node;
+    atomicMax(cache_counters.dispatch_x, slot + 1u);
+}
+
+// ---- insertion (creation procedure) ----
+// The depth whose nodes are at least twice the entry's largest radius along every
+// axis, so that the entry's bounding box overlaps at most 2x2x2 nodes there.
+uint insertion_depth(float rmax) {
+    float edge = min(scene.box_size.x, min(scene.box_size.y, scene.box_size.z));
+    uint depth = 0u;
+    while (depth < CACHE_MAX_DEPTH && edge * 0.5 >= 2.0 * rmax) { edge *= 0.5; depth++; }
+    return depth;
+}
+
+// Integer cell of point q at `depth` (clamped to the box).
+uvec3 cell_at(vec3 q, uint depth) {
+    float n = float(1u << depth);
+    vec3 f = (q - scene.box_min.xyz) / scene.box_size.xyz * n;
+    return uvec3(clamp(f, vec3(0.0), vec3(n - 1.0)));
+}
+
+// The node of `cell` at `depth`, creating missing nodes on the way down.  Lock-free:
+// 8 children are allocated speculatively and published with a compare-and-swap; a
+// loser's allocation stays unused until the pools are cleared.  Returns CACHE_NO_NODE
+// (and sets `full`) when the node pool is exhausted.
+uint descend_create(uvec3 cell, uint depth) {
+    uint node = 0u;
+    for (uint d = 0u; d < depth; d++) {
+        uint shift = depth - 1u - d;
+        uvec3 o = (cell >> shift) & 1u;
+        uint ch = nodes[node].children;
+        if (ch == CACHE_NIL) {
+            uint base = atomicAdd(cache_counters.node_count, 8u);
+            if (base + 8u > scene.cache_caps.y) { atomicExchange(cache_counters.full, 1u); return CACHE_NO_NODE; }
+            uint prev = atomicCompSwap(nodes[node].children, CACHE_NIL, base);
+            ch = prev == CACHE_NIL ? base : prev;
+        }
+        node = ch + o.x + 2u * o.y + 4u * o.z;
+    }
+    return node;
+}
+
+// Pushes a reference to entry e onto node's list (CAS loop, bounded).
+void push_ref(uint node, uint e) {
+    uint r = atomicAdd(cache_counters.ref_count, 1u) + 1u;    // ref 0 is NIL
+    if (r >= scene.cache_caps.z) { atomicExchange(cache_counters.full, 1u); return; }
+    refs[r].entry = e;
+    for (uint k = 0u; k < 64u; k++) {
+        uint head = nodes[node].refs;
+        refs[r].next = head;
+        memoryBarrierBuffer();
+        if (atomicCompSwap(nodes[node].refs, head, r) == head) return;
+    }
+}

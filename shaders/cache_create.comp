@@ -1,0 +1,151 @@
+#version 450
+// cache_create.comp - the cache-entry creation procedure (paper §4.2, §7): one
+// workgroup of 128 threads per request.  Each thread estimates the irradiance (Eq. 4)
+// at the centre and at the six points offset by Delta along the local axes, by Monte
+// Carlo with MIS (one light sample + one phase sample per point and round); rounds
+// repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached.  Then
+// thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10), and eight threads insert
+// the entry into the octree; the request's node lock is released.
+#extension GL_GOOGLE_include_directive : require
+layout(local_size_x = 128) in;
+
+// Loop budget (llvmpipe truncates past 65535 loop iterations per invocation):
+// CREATE_MAX_ROUNDS * 7 points * 2 tracking loops * MAX_TRACK_STEPS = 6*7*2*512 = 43008,
+// plus the light loops.  So at most 6 * 128 = 768 samples per point (the cap).
+#define MAX_TRACK_STEPS 512u
+#define CREATE_MAX_ROUNDS 6u
+
+#include "common.glsl"
+#include "cache.glsl"
+
+layout(push_constant) uniform Push { uint iteration; uint seed; } pc;
+
+shared vec4 s_red[128];          // reduction scratch: lum sum, lum sq sum
+shared vec3 s_rgb[128];
+shared bool s_done;
+shared vec3 s_E[7];
+
+// Sums s_red over the workgroup into s_red[0].
+void reduce_red() {
+    for (uint stride = 64u; stride > 0u; stride >>= 1u) {
+        barrier();
+        if (gl_LocalInvocationID.x < stride) s_red[gl_LocalInvocationID.x] += s_red[gl_LocalInvocationID.x + stride];
+    }
+    barrier();
+}
+
+void reduce_rgb() {
+    for (uint stride = 64u; stride > 0u; stride >>= 1u) {
+        barrier();
+        if (gl_LocalInvocationID.x < stride) s_rgb[gl_LocalInvocationID.x] += s_rgb[gl_LocalInvocationID.x + stride];
+    }
+    barrier();
+}
+
+void main() {
+    uint req = gl_WorkGroupID.x;
+    uint count = min(cache_counters.request_count, scene.cache_caps.w);
+    if (req >= count) return;                       // uniform over the workgroup
+    uint lid = gl_LocalInvocationID.x;
+    vec3 x0 = requests[req].pos.xyz;
+    uint locked = requests[req].node;
+
+    vec3 t, b, n;
+    entry_frame(x0, t, b, n);
+    float delta = scene.cache_params.z;
+    vec3 axis[3] = vec3[3](t, b, n);
+    vec3 p[7];
+    p[0] = x0;
+    for (uint k = 0u; k < 3u; k++) { p[1u + 2u * k] = x0 + delta * axis[k]; p[2u + 2u * k] = x0 - delta * axis[k]; }
+
+    Rng rng = rng_init(req * 128u + lid, pc.iteration, pc.seed ^ 0x5bd1e995u);
+    vec3 sum[7];
+    float lsum[7], lsq[7];
+    for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lsum[k] = 0.0; lsq[k] = 0.0; }
+    bool truncated = false;
+    float gamma = scene.cache_params.x;
+    uint rounds = 0u;
+    for (uint round = 0u; round < CREATE_MAX_ROUNDS; round++) {
+        rounds = round + 1u;
+        for (uint k = 0u; k < 7u; k++) {
+            vec3 e = irradiance_sample(p[k], rng, truncated);
+            // Rule: a non-finite sample (only from extreme input) counts as 0.
+            if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
+            float l = dot(e, vec3(0.2126, 0.7152, 0.0722));
+            sum[k] += e; lsum[k] += l; lsq[k] += l * l;
+        }
+        // Eq. 5 at every point: 1.96 sqrt(S^2(N)/N) < gamma/(gamma+1) E(N).  Rule: a
+        // point with E = 0 and S = 0 (fully shadowed) passes; S^2 >= 0 is clamped.
+        if (lid == 0u) s_done = true;
+        float N = float(rounds * 128u);
+        for (uint k = 0u; k < 7u; k++) {
+            s_red[lid] = vec4(lsum[k], lsq[k], 0.0, 0.0);
+            reduce_red();
+            float mean = s_red[0].x / N;
+            float var = max(s_red[0].y / N - mean * mean, 0.0) * N / max(N - 1.0, 1.0);
+            bool ok = 1.96 * sqrt(var / N) <= gamma / (gamma + 1.0) * mean;
+            barrier();
+            if (lid == 0u && !ok) s_done = false;
+        }
+        barrier();
+        bool done = s_done;
+        barrier();                                   // everyone has read s_done
+        if (done) break;
+    }
+    // Mean RGB irradiance at the seven points.
+    float N = float(rounds * 128u);
+    for (uint k = 0u; k < 7u; k++) {
+        s_rgb[lid] = sum[k];
+        reduce_rgb();
+        if (lid == 0u) s_E[k] = s_rgb[0] / N;
+        barrier();
+    }
+
+    if (lid == 0u) {
+        uint e = atomicAdd(cache_counters.entry_count, 1u);
+        if (e >= scene.cache_caps.x) {
+            atomicExchange(cache_counters.full, 1u);
+            s_done = false;                              // no insertion
+        } else {
+            float eps = scene.cache_params.y;
+            float rmin = scene.cache_radii.x, rmax_cap = scene.cache_radii.y;
+            float rmax = 0.0;
+            for (uint h = 0u; h < 6u; h++) {
+                float r = rmax_cap;
+                for (uint c = 0u; c < 3u; c++) {
+                    float e0 = s_E[0][c], ed = s_E[1u + h][c];
+                    entries[e].sigma_v[h * 3u + c] = CM_FN(sigma_v)(e0, ed, delta);          // Eq. 6
+                    r = min(r, CM_FN(validity_radius)(e0, ed, delta, eps, rmin, rmax_cap)); // Eq. 9, 10
+                }
+                entries[e].radius[h] = r;
+                rmax = max(rmax, r);
+            }
+            entries[e].e0 = vec4(s_E[0], 0.0);
+            entries[e].pos_rmax = vec4(x0, rmax);
+            s_E[1] = vec3(float(e), rmax, 0.0);          // hand the index to the inserters
+            s_done = true;
+        }
+    }
+    memoryBarrierBuffer();
+    barrier();
+    if (s_done && lid < 8u) {
+        // The entry's bounding box at the insertion depth touches at most 2x2x2 nodes:
+        // one per corner; corners sharing a node are inserted once.
+        uint e = uint(s_E[1].x);
+        float rmax = s_E[1].y;
+        uint depth = insertion_depth(rmax);
+        vec3 corner = x0 + rmax * (vec3((uvec3(lid) >> uvec3(0u, 1u, 2u)) & 1u) * 2.0 - 1.0);
+        uvec3 cell = cell_at(corner, depth);
+        bool first = true;
+        for (uint j = 0u; j < lid; j++) {
+            vec3 cj = x0 + rmax * (vec3((uvec3(j) >> uvec3(0u, 1u, 2u)) & 1u) * 2.0 - 1.0);
+            if (all(equal(cell_at(cj, depth), cell))) first = false;
+        }
+        if (first) {
+            uint node = descend_create(cell, depth);
+            if (node != CACHE_NO_NODE) push_ref(node, e);
+        }
+    }
+    barrier();
+    if (lid == 0u) atomicExchange(nodes[locked].lock, 0u);
+}

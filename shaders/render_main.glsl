@@ -1,0 +1,99 @@
+// render_main.glsl - the body of the rendering procedure, compiled twice: render.comp
+// (plain Monte Carlo) and render_cache.comp (with the irradiance cache, PICVR_CACHE).
+// Two SPIR-V modules rather than a specialization constant, so that the plain
+// variant declares no cache buffers at all ("leave out what a scene does not need").
+layout(local_size_x = 16, local_size_y = 8) in;
+
+#include "common.glsl"
+#ifdef PICVR_CACHE
+#include "cache.glsl"
+#endif
+
+layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  // rgb, coverage
+layout(set = 0, binding = 5, std430) buffer AccumComp { vec4 accum_comp[]; };  // Kahan terms
+layout(set = 0, binding = 6, std430) buffer AccumStat { vec4 accum_stat[]; };  // lum mean, M2, n, bad
+
+layout(push_constant) uniform Push { uint iteration; uint seed; } pc;
+
+vec3 camera_ray(uvec2 px, inout Rng rng) {
+    float jx = rnd(rng), jy = rnd(rng);
+    float h = scene.cam_pos.w, aspect = scene.cam_fwd.w;
+    float sx = (2.0 * (float(px.x) + jx) / float(scene.image.x) - 1.0) * h * aspect;
+    float sy = (1.0 - 2.0 * (float(px.y) + jy) / float(scene.image.y)) * h;
+    return normalize(scene.cam_fwd.xyz + sx * scene.cam_right.xyz + sy * scene.cam_up.xyz);
+}
+
+// Kahan-compensated running mean (precise: no reassociation by the compiler), so
+// that after millions of samples an update of relative size 1e-7 is not lost.
+void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
+    vec4 s = accum_stat[idx];
+    uint n = floatBitsToUint(s.z) + 1u;
+    precise vec4 m = accum_mean[idx];
+    precise vec4 c = accum_comp[idx];
+    precise vec4 y = (vec4(radiance, coverage) - m) / float(n) - c;
+    precise vec4 t = m + y;
+    c = (t - m) - y;
+    accum_mean[idx] = t;
+    accum_comp[idx] = c;
+    // Welford update of the luminance mean and M2 (Eq. 5 and Eq. 12 need S^2).
+    float lum = dot(radiance, vec3(0.2126, 0.7152, 0.0722));
+    precise float delta = lum - s.x;
+    precise float mean = s.x + delta / float(n);
+    precise float m2 = s.y + delta * (lum - mean);
+    uint nbad = floatBitsToUint(s.w) + (bad ? 1u : 0u);
+    accum_stat[idx] = vec4(mean, m2, uintBitsToFloat(n), uintBitsToFloat(nbad));
+}
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= scene.image.x || px.y >= scene.image.y) return;
+    uint idx = px.y * scene.image.x + px.x;
+    Rng rng = rng_init(idx, pc.iteration, pc.seed);
+
+    vec3 ro = scene.cam_pos.xyz;
+    vec3 rd = camera_ray(px, rng);
+    bool truncated = false;
+
+    float t_light;
+    int light_hit = nearest_area_light(ro, rd, 1e30, t_light);
+    float t = -1.0, t0, t1;
+    if (box_interval(ro, rd, t0, t1)) {
+        t1 = min(t1, t_light);
+        if (t1 > t0) t = delta_track(ro, rd, t0, t1, rng, truncated);
+    }
+
+    vec3 radiance;
+    float coverage = 0.0;
+    if (t >= 0.0) {
+        vec3 x = ro + rd * t;
+        vec3 Ls;
+#ifdef PICVR_CACHE
+        vec3 E;
+        uint node;
+        if (cache_lookup(x, E, node)) {
+            Ls = E * INV_4PI;                 // isotropic phase: L_s = E / (4 pi)
+            atomicAdd(cache_counters.hits, 1u);
+        } else {
+            cache_request(x, node);
+            Ls = sample_one_light(x, rng, truncated);
+            if (USE_PHASE_MIS) Ls += sample_phase(x, rng, truncated);
+            atomicAdd(cache_counters.misses, 1u);
+        }
+#else
+        Ls = sample_one_light(x, rng, truncated);
+        if (USE_PHASE_MIS) Ls += sample_phase(x, rng, truncated);
+#endif
+        radiance = albedo_at(x) * Ls;
+        coverage = 1.0;
+    } else if (light_hit >= 0) {
+        radiance = area_light_radiance(uint(light_hit), rd);
+    } else {
+        radiance = scene.background.rgb;
+    }
+    // Rule: a non-finite sample (only possible from extreme user input overflowing
+    // float) is replaced by 0 and counted with the truncated ones; it never reaches
+    // the image.
+    bool bad = truncated;
+    if (any(isnan(radiance)) || any(isinf(radiance))) { radiance = vec3(0.0); bad = true; }
+    accumulate(idx, radiance, coverage, bad);
+}

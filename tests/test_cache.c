@@ -1,0 +1,165 @@
+/* test_cache.c - the irradiance cache end to end (paper §4.2-§4.4, §5.1).
+ *
+ * Scene: a homogeneous cube under a delta sun, whose single-scattered radiance has a
+ * closed form (a 1D integral along each pixel ray, computed here in double).  With the
+ * cache on, the image is biased by the extrapolation (Eq. 7-11) and by the Eq. 5
+ * stopping rule; both are bounded by the parameters: at the edge of an entry the
+ * extrapolated irradiance differs from the estimate by about epsilon, and Eq. 5 stops
+ * when the 95% half-width is below gamma/(1+gamma) of the estimate.  With gamma =
+ * epsilon = 0.05 the image mean must be within 5% of the closed form (the image mean
+ * averages many entries, so the observed bias is well below that).
+ */
+#include "test_util.h"
+
+typedef struct cube_sun {
+    double bmin[3], bmax[3], sigma, albedo, E, l[3];
+    double o[3], d[3], t0;
+} cube_sun;
+
+static double cube_integrand(double t, void *user) {
+    const cube_sun *s = user;
+    double x[3] = {s->o[0] + t * s->d[0], s->o[1] + t * s->d[1], s->o[2] + t * s->d[2]};
+    double T_light = exp(-s->sigma * tu_box_exit(x, s->l, s->bmin, s->bmax));
+    return s->sigma * exp(-s->sigma * (t - s->t0)) * T_light / (4 * M_PI);
+}
+
+static void cube_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    cube_sun s = *(const cube_sun *)user;
+    double t0, t1;
+    out[0] = out[1] = out[2] = out[3] = 0;
+    if (!tu_ray_box(o, d, s.bmin, s.bmax, &t0, &t1)) return;
+    memcpy(s.o, o, sizeof s.o);
+    memcpy(s.d, d, sizeof s.d);
+    s.t0 = t0;
+    double J = tu_integrate(cube_integrand, &s, t0, t1, 64);
+    for (int c = 0; c < 3; c++) out[c] = s.albedo * s.E * J;
+    out[3] = 1 - exp(-s.sigma * (t1 - t0));
+}
+
+static picvr_context *create_cached(uint32_t seed, uint32_t max_entries, float gamma, float eps) {
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = seed;
+    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    cfg.cache.max_entries = max_entries;
+    cfg.cache.gamma = gamma;
+    cfg.cache.epsilon = eps;
+    return tu_create_config(&cfg);
+}
+
+/* 16^3 cube, sigma_t = 0.15, albedo 0.8, white delta sun toward (0.6, 0.45, 0.66). */
+static void setup_cube(picvr_context *ctx, tu_vol *vol, cube_sun *s) {
+    *vol = tu_vol_new(16, 16, 16, 1.0f, 255);
+    tu_upload(ctx, vol);
+    memset(s, 0, sizeof *s);
+    tu_vol_box(vol, s->bmin, s->bmax);
+    s->sigma = 0.15;
+    s->albedo = 0.8;
+    s->E = 2.0;
+    double l[3] = {0.6, 0.45, 0.66}, ll = sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+    for (int i = 0; i < 3; i++) s->l[i] = l[i] / ll;
+    tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, 0.15f);
+    tu_sun(ctx, l[0], l[1], l[2], 1.0f, 1.0f, 1.0f, 2.0f, 0.0f);
+}
+
+void test_cache_off_by_default_allocates_nothing(void **state) {
+    (void)state;
+    picvr_context *ctx = tu_create(1);
+    tu_vol vol;
+    cube_sun s;
+    setup_cube(ctx, &vol, &s);
+    tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, 16, 16);
+    TU_OK(picvr_step_iterations(ctx, 4));
+    picvr_stats st = tu_stats_finite(ctx);
+    assert_int_equal(st.cache_entries, 0);
+    assert_int_equal(st.cache_nodes, 0);
+    assert_true(st.cache_hit_rate == 0.0);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+}
+
+void test_cache_homogeneous_sun_matches_closed_form(void **state) {
+    (void)state;
+    picvr_context *ctx = create_cached(7, 0, 0.05f, 0.05f);
+    tu_vol vol;
+    cube_sun s;
+    setup_cube(ctx, &vol, &s);
+    const uint32_t W = 48, H = 48;
+    tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
+    double *expv = tu_expected_image(&cam, 4, cube_ray, &s);
+    for (int i = 0; i < 8; i++) TU_OK(picvr_step_iterations(ctx, 16));
+    picvr_stats st = tu_stats_finite(ctx);
+    print_message("    cache: %u entries, %u nodes, %u refs, full %u, hit rate %.3f (last step)\n",
+                  st.cache_entries, st.cache_nodes, st.cache_refs, st.cache_full, st.cache_hit_rate);
+    assert_true(st.cache_entries > 0);
+    assert_true(st.cache_refs >= st.cache_entries);
+    assert_int_equal(st.cache_full, 0);
+    if (!(st.cache_hit_rate > 0.5)) fail_msg("hit rate %.3f after 128 iterations", st.cache_hit_rate);
+
+    float *img = tu_read(ctx, W, H);
+    tu_assert_finite(img, (size_t)W * H * 4, "cached image");
+    double m = 0, e = 0;
+    for (size_t p = 0; p < (size_t)W * H; p++) { m += img[4 * p + 1]; e += expv[4 * p + 1]; }
+    double rel = (m - e) / e;
+    print_message("    cached image mean %.6g, closed form %.6g, relative difference %+.4f (bound 0.05)\n",
+                  m / (W * H), e / (W * H), rel);
+    if (!(fabs(rel) < 0.05)) fail_msg("cached image off by %.4f", rel);
+    free(img);
+    free(expv);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+}
+
+void test_cache_invalidation_and_camera_keeps_cache(void **state) {
+    (void)state;
+    picvr_context *ctx = create_cached(3, 0, 0.0f, 0.0f);
+    tu_vol vol;
+    cube_sun s;
+    setup_cube(ctx, &vol, &s);
+    tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, 24, 24);
+    TU_OK(picvr_step_iterations(ctx, 32));
+    picvr_stats st = tu_stats_finite(ctx);
+    uint32_t n = st.cache_entries;
+    assert_true(n > 0);
+    tu_set_camera(ctx, 30, 0, 0, 0, 0, 0, 20, 24, 24);           /* camera: cache kept */
+    st = tu_stats_finite(ctx);
+    assert_int_equal(st.iterations, 0);
+    assert_int_equal(st.cache_entries, n);
+    tu_sun(ctx, 0.0, 1.0, 0.0, 1.0f, 1.0f, 1.0f, 1.0f, 0.0f);     /* lights: cleared */
+    st = tu_stats_finite(ctx);
+    assert_int_equal(st.cache_entries, 0);
+    TU_OK(picvr_step_iterations(ctx, 8));
+    st = tu_stats_finite(ctx);
+    assert_true(st.cache_entries > 0);
+    tu_tf_const(ctx, 0.5f, 0.5f, 0.5f, 1.0f, 0.3f);               /* transfer function: cleared */
+    st = tu_stats_finite(ctx);
+    assert_int_equal(st.cache_entries, 0);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+}
+
+/* A pool of 8 entries fills at once: the cache says so, stops growing, keeps its
+   entries, and the image stays finite and lit. */
+void test_cache_pool_full_is_reported_and_safe(void **state) {
+    (void)state;
+    picvr_context *ctx = create_cached(5, 8, 0.0f, 0.0f);
+    tu_vol vol;
+    cube_sun s;
+    setup_cube(ctx, &vol, &s);
+    const uint32_t W = 24, H = 24;
+    tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
+    TU_OK(picvr_step_iterations(ctx, 64));
+    picvr_stats st = tu_stats_finite(ctx);
+    print_message("    small pool: %u entries, full %u, hit rate %.3f\n", st.cache_entries, st.cache_full,
+                  st.cache_hit_rate);
+    assert_int_equal(st.cache_entries, 8);
+    assert_int_equal(st.cache_full, 1);
+    float *img = tu_read(ctx, W, H);
+    tu_assert_finite(img, (size_t)W * H * 4, "full cache image");
+    double m = 0;
+    for (size_t p = 0; p < (size_t)W * H; p++) m += img[4 * p + 1];
+    assert_true(m > 0.0);
+    free(img);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+}

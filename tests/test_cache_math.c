@@ -1,0 +1,725 @@
+/* test_cache_math.c - the irradiance cache's numerical core (shaders/cache_math.glsl,
+ * paper §4.2, §4.3) compiled on the host, against closed forms, in double precision
+ * (cm_*, relative tolerance 1e-12) and in float (cmf_*, the shaders' precision,
+ * relative tolerance 1e-5).  Every test runs both instantiations through one table of
+ * function pointers (float arguments are rounded from the double test values).
+ *
+ *  - exponential field: along each half-axis E(x) = E0 exp(-s x) with a different s
+ *    per half-axis; Eq. 6 recovers s, Eq. 7 reproduces the field at any distance
+ *    inside the radius, and Eq. 7 + 8 reproduce E0 exp(-s |x|) inside an octant whose
+ *    three sigmas are equal (and the axis field on an axis when they differ);
+ *  - validity radius (Eq. 9, 10): the extrapolation at R equals (1 + eps) E_delta for a
+ *    growing field and (1 - eps) E_delta for a decaying one (R equals the literal
+ *    Eq. 9); clamping to [r_min, r_max]; the Fig. 4 radius of the interpolated sigma_v;
+ *  - ellipsoid radius r(x), Eq. 11 weights (1 at the centre, 0 on the edge, monotone),
+ *    the log-space average (identical entries return their value);
+ *  - Fig. 6 radius reduction (the event ends just outside, common factor);
+ *  - degenerate inputs (zero, equal, 1e-30 / 1e30 ratios, delta 1e-20, zero and
+ *    infinite radii, a fully shadowed entry, NaN and inf everywhere): every output is
+ *    finite and equals the rule documented in cache_math.glsl.
+ * Pure arithmetic, no GPU: well under a second.
+ */
+#include "test_util.h"
+
+#include "tests/cache_math_host.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+
+/* ---- both instantiations behind one table --------------------------------------- */
+
+#define CMT_A1 double a
+#define CMT_A2 double a, double b
+#define CMT_A3 double a, double b, double c
+#define CMT_A5 double a, double b, double c, double d, double e
+#define CMT_A6 double a, double b, double c, double d, double e, double f
+#define CMT_A7 double a, double b, double c, double d, double e, double f, double g
+#define CMT_A10                                                                          \
+    double a, double b, double c, double d, double e, double f, double g, double h,      \
+        double i, double j
+#define CMT_F1 (float)a
+#define CMT_F2 (float)a, (float)b
+#define CMT_F3 (float)a, (float)b, (float)c
+#define CMT_F5 (float)a, (float)b, (float)c, (float)d, (float)e
+#define CMT_F6 (float)a, (float)b, (float)c, (float)d, (float)e, (float)f
+#define CMT_F7 (float)a, (float)b, (float)c, (float)d, (float)e, (float)f, (float)g
+#define CMT_F10                                                                          \
+    (float)a, (float)b, (float)c, (float)d, (float)e, (float)f, (float)g, (float)h,      \
+        (float)i, (float)j
+
+#define CMT_FUNCS(X)                                                                     \
+    X(1, ln_irradiance)                                                                  \
+    X(1, irradiance_from_ln)                                                             \
+    X(1, san_ln)                                                                         \
+    X(1, san_len)                                                                        \
+    X(1, san_coord)                                                                      \
+    X(1, san_sigma)                                                                      \
+    X(3, half_axis)                                                                      \
+    X(3, sigma_v_ln)                                                                     \
+    X(3, sigma_v)                                                                        \
+    X(3, ln_extrapolate)                                                                 \
+    X(3, log_extrapolate)                                                                \
+    X(3, extrapolate)                                                                    \
+    X(6, sigma_interp)                                                                   \
+    X(5, validity_radius_sigma)                                                          \
+    X(6, validity_radius)                                                                \
+    X(10, interp_validity_radius)                                                        \
+    X(3, length3)                                                                        \
+    X(7, log_extrapolate_octant)                                                         \
+    X(6, ellipsoid_norm)                                                                 \
+    X(6, ellipsoid_radius)                                                               \
+    X(1, weight_norm)                                                                    \
+    X(2, weight)                                                                         \
+    X(2, weighted_ln)                                                                    \
+    X(2, log_average_finalize)                                                           \
+    X(6, reduce_factor)                                                                  \
+    X(3, reduced_radius)
+
+#define CMT_MEMBER(n, name) double (*name)(CMT_A##n);
+#define CMT_WRAP(n, name) \
+    static double cmt_f_##name(CMT_A##n) { return (double)cmf_##name(CMT_F##n); }
+#define CMT_INIT_D(n, name) .name = cm_##name,
+#define CMT_INIT_F(n, name) .name = cmt_f_##name,
+
+typedef struct cmt_impl {
+    const char *prec;
+    double tol;         /* relative tolerance of the exact closed forms */
+    double ulp;         /* machine epsilon of the instantiation */
+    bool (*log_average_valid)(double);
+    CMT_FUNCS(CMT_MEMBER)
+} cmt_impl;
+
+CMT_FUNCS(CMT_WRAP)
+static bool cmt_f_log_average_valid(double a) { return cmf_log_average_valid((float)a); }
+
+static const cmt_impl cmt_impls[2] = {
+    {.prec = "double", .tol = 1e-12, .ulp = DBL_EPSILON,
+     .log_average_valid = cm_log_average_valid, CMT_FUNCS(CMT_INIT_D)},
+    {.prec = "float", .tol = 1e-5, .ulp = FLT_EPSILON,
+     .log_average_valid = cmt_f_log_average_valid, CMT_FUNCS(CMT_INIT_F)},
+};
+
+/* Deterministic random numbers (splitmix64), uniform in [0, 1). */
+static double cmt_rand01(uint64_t *state) {
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* ---- checks ----------------------------------------------------------------------- */
+
+static double cmt_max_rel[2];   /* largest relative error seen per precision (printed) */
+
+#define CMT_FINITE(im, what, v)                                                          \
+    do {                                                                                 \
+        double v_ = (v);                                                                 \
+        if (!isfinite(v_)) fail_msg("[%s] %s = %g is not finite", (im)->prec, what, v_); \
+    } while (0)
+
+/* |got - want| <= tol (|want| + floor) */
+static void cmt_close(const cmt_impl *im, const char *what, double got, double want,
+                      double tol, double floor) {
+    if (!isfinite(got)) fail_msg("[%s] %s = %g is not finite", im->prec, what, got);
+    double err = fabs(got - want) / (fabs(want) + floor);
+    int k = im == &cmt_impls[0] ? 0 : 1;
+    if (err > cmt_max_rel[k] && floor == 0 && tol <= im->tol) cmt_max_rel[k] = err;
+    if (!(err <= tol))
+        fail_msg("[%s] %s = %.17g, expected %.17g (relative error %.3g > %.3g)", im->prec,
+                 what, got, want, err, tol);
+}
+#define CMT_REL(im, what, got, want) cmt_close(im, what, got, want, (im)->tol, 0)
+
+/* |got - want| <= atol */
+static void cmt_abs(const cmt_impl *im, const char *what, double got, double want, double atol) {
+    if (!(fabs(got - want) <= atol))
+        fail_msg("[%s] %s = %.17g, expected %.17g (absolute error %.3g > %.3g)", im->prec, what,
+                 got, want, fabs(got - want), atol);
+}
+
+static void cmt_exact(const cmt_impl *im, const char *what, double got, double want) {
+    if (!(got == want))
+        fail_msg("[%s] %s = %.17g, expected exactly %.17g", im->prec, what, got, want);
+}
+
+/* The constants rounded to the instantiation's precision. */
+static double cmt_r(const cmt_impl *im, double v) {
+    return im == &cmt_impls[0] ? v : (double)(float)v;
+}
+
+/* ---- 1. exponential field: Eq. 6, 7, 8 --------------------------------------------- */
+
+static void exponential_field(const cmt_impl *im) {
+    const double E0s[3] = {1.0, 3.7e-3, 250.0};
+    /* s per half-axis +x, -x, +y, -y, +z, -z: decaying, growing, weak, steep, flat */
+    const double s[6] = {0.7, -0.3, 0.05, -1.2, 0.0, 2.5};
+    const double delta = 2.0, eps = 0.1, rmin = 0.01, rmax = 16.0;
+    char what[160];
+    for (int k = 0; k < 3; k++) {
+        double E0 = E0s[k];
+        double sig[6], R[6];
+        for (int h = 0; h < 6; h++) {
+            double Ed = E0 * exp(-s[h] * delta);
+            sig[h] = im->sigma_v(E0, Ed, delta);
+            snprintf(what, sizeof what, "E0 %g half-axis %d: sigma_v", E0, h);
+            /* absolute error of a difference of logs: scale by 1 + |s| */
+            cmt_close(im, what, sig[h], s[h], im->tol, 1.0);
+            if (s[h] == 0.0) cmt_exact(im, "sigma_v of a flat field", sig[h], 0.0);
+            R[h] = im->validity_radius(E0, Ed, delta, eps, rmin, rmax);
+            CMT_FINITE(im, "radius", R[h]);
+            if (!(R[h] >= delta * (1 - 4 * im->ulp) && R[h] <= rmax))
+                fail_msg("[%s] radius %g outside [delta, r_max]", im->prec, R[h]);
+            /* Eq. 7 at distances up to the radius */
+            for (int j = 0; j <= 16; j++) {
+                double x = R[h] * j / 16.0;
+                double want = E0 * exp(-s[h] * x);
+                snprintf(what, sizeof what, "E0 %g half-axis %d: E(%g)", E0, h, x);
+                CMT_REL(im, what, im->extrapolate(E0, sig[h], x), want);
+                snprintf(what, sizeof what, "E0 %g half-axis %d: ln E(%g)", E0, h, x);
+                cmt_close(im, what, im->log_extrapolate(E0, sig[h], x), log(want), im->tol,
+                          1.0);
+                /* the same with the point on the axis, through Eq. 8 (other sigmas
+                   deliberately different): on an axis sigma_interp is that axis's */
+                double p[3] = {0, 0, 0};
+                p[h / 2] = (h % 2) ? -x : x;
+                double sx = sig[0 + (p[0] < 0)], sy = sig[2 + (p[1] < 0)],
+                       sz = sig[4 + (p[2] < 0)];
+                if (x > 0) {
+                    snprintf(what, sizeof what, "E0 %g half-axis %d: octant E(%g)", E0, h, x);
+                    CMT_REL(im, what,
+                            im->irradiance_from_ln(im->log_extrapolate_octant(
+                                E0, sx, sy, sz, p[0], p[1], p[2])),
+                            want);
+                }
+            }
+        }
+        /* Eq. 8 with three equal sigmas: E0 exp(-s |x|) anywhere in the octant */
+        const double sc[3] = {0.4, -0.25, 1.5};
+        uint64_t rng = 12345u + (uint64_t)k;
+        for (int c = 0; c < 3; c++) {
+            double Ed = E0 * exp(-sc[c] * delta);
+            double sv = im->sigma_v(E0, Ed, delta);
+            double Rc = im->validity_radius(E0, Ed, delta, eps, rmin, rmax);
+            for (int t = 0; t < 200; t++) {
+                double u[3], n2 = 0;
+                for (int i = 0; i < 3; i++) {
+                    u[i] = 2 * cmt_rand01(&rng) - 1;
+                    n2 += u[i] * u[i];
+                }
+                double rr = Rc * cmt_rand01(&rng) / sqrt(n2 > 1e-12 ? n2 : 1e-12);
+                double p[3] = {u[0] * rr, u[1] * rr, u[2] * rr};
+                double dist = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+                double want = E0 * exp(-sc[c] * dist);
+                snprintf(what, sizeof what, "E0 %g equal sigma %g: octant E at |x| %g", E0,
+                         sc[c], dist);
+                CMT_REL(im, what,
+                        im->irradiance_from_ln(
+                            im->log_extrapolate_octant(E0, sv, sv, sv, p[0], p[1], p[2])),
+                        want);
+                snprintf(what, sizeof what, "equal sigma %g: sigma_interp", sc[c]);
+                cmt_close(im, what, im->sigma_interp(sv, sv, sv, p[0], p[1], p[2]), sc[c],
+                          im->tol, 1.0);
+            }
+        }
+    }
+    /* Eq. 8 with different sigmas against the formula, signs of coordinates ignored */
+    const double q[4][3] = {{1, 2, 3}, {-1, 0.5, -4}, {0, -2, 0}, {1e-3, 1e3, -7}};
+    for (int t = 0; t < 4; t++) {
+        double a = fabs(q[t][0]), b = fabs(q[t][1]), c = fabs(q[t][2]);
+        double want = (0.3 * a - 1.1 * b + 2.0 * c) / (a + b + c);
+        snprintf(what, sizeof what, "Eq. 8 at (%g, %g, %g)", q[t][0], q[t][1], q[t][2]);
+        cmt_close(im, what, im->sigma_interp(0.3, -1.1, 2.0, q[t][0], q[t][1], q[t][2]), want,
+                  im->tol, 1.0);
+    }
+    /* centre: the mean of the three */
+    cmt_close(im, "Eq. 8 at the centre", im->sigma_interp(0.3, -1.1, 2.0, 0, 0, 0),
+              (0.3 - 1.1 + 2.0) / 3, im->tol, 1.0);
+    cmt_close(im, "Eq. 8 at 1e-35 from the centre", im->sigma_interp(0.3, -1.1, 2.0, 1e-35, 0, 0),
+              (0.3 - 1.1 + 2.0) / 3, im->tol, 1.0);
+}
+
+/* ---- 2. validity radius: Eq. 9, 10 and Fig. 4 --------------------------------------- */
+
+static void validity_radius(const cmt_impl *im) {
+    const double delta = 2.0;
+    const double lo = 1e-12, hi = 1e12;   /* no clamping */
+    const double eps_list[3] = {0.1, 0.01, 0.5};
+    const double s_list[8] = {0.7, -0.3, 1e-3, -1e-3, 2.5, -2.5, 10.0, -20.0};
+    const double E0s[3] = {1.0, 2e-6, 4e3};
+    char what[160];
+    for (int ie = 0; ie < 3; ie++)
+        for (int is = 0; is < 8; is++)
+            for (int k = 0; k < 3; k++) {
+                double eps = eps_list[ie], s = s_list[is], E0 = E0s[k];
+                double Ed = E0 * exp(-s * delta);
+                double sv = im->sigma_v(E0, Ed, delta);
+                double R = im->validity_radius(E0, Ed, delta, eps, lo, hi);
+                /* the defining property: E(R) = (1 + eps) E_delta if E0 <= E_delta,
+                   (1 - eps) E_delta otherwise, for the extrapolation and (the field being
+                   exactly exponential) for the field itself */
+                double ER = (E0 <= Ed ? 1 + eps : 1 - eps) * Ed;
+                snprintf(what, sizeof what, "eps %g s %g E0 %g: extrapolation at R = %g", eps,
+                         s, E0, R);
+                CMT_REL(im, what, im->extrapolate(E0, sv, R), ER);
+                /* the field itself at the radius of the exact sigma_v = s (with the
+                   estimated one, float's error of sigma_v, ~1e-7 |ln E0| / delta, would
+                   move R by L / s^2 times that) */
+                double Rs = im->validity_radius_sigma(s, delta, eps, lo, hi);
+                snprintf(what, sizeof what, "eps %g s %g E0 %g: field at R(s) = %g", eps, s,
+                         E0, Rs);
+                CMT_REL(im, what, E0 * exp(-s * Rs), ER);
+                /* the literal Eq. 9 */
+                double eq9 = delta * log(ER / E0) / log(Ed / E0);
+                snprintf(what, sizeof what, "eps %g s %g E0 %g: R vs Eq. 9", eps, s, E0);
+                /* the float radius inherits sigma_v's error amplified by L / (sigma R) */
+                double tol = im->tol * (1 + 1 / (fabs(s) * delta));
+                cmt_close(im, what, R, eq9, tol, 0);
+                if (!(R >= delta)) fail_msg("[%s] R = %g < delta", im->prec, R);
+                /* same from sigma_v directly */
+                cmt_exact(im, "validity_radius vs validity_radius_sigma",
+                          im->validity_radius_sigma(sv, delta, eps, lo, hi), R);
+            }
+    /* steeper fields give smaller radii (eps 0.1), both signs */
+    double prev_d = INFINITY, prev_g = INFINITY;
+    for (int j = 0; j <= 40; j++) {
+        double s = 1e-4 * pow(10.0, j / 8.0);
+        double Rd = im->validity_radius_sigma(s, delta, 0.1, lo, hi);
+        double Rg = im->validity_radius_sigma(-s, delta, 0.1, lo, hi);
+        if (!(Rd <= prev_d && Rg <= prev_g && Rd > Rg))
+            fail_msg("[%s] radius not monotone in |sigma_v| at %g (%g, %g)", im->prec, s, Rd,
+                     Rg);
+        prev_d = Rd;
+        prev_g = Rg;
+    }
+    /* Table 1 clamping (voxels): flat -> 16, steep -> just above delta, small delta and a
+       steep field -> r_min */
+    double rmin = CM_R_MIN_VOXELS, rmax = CM_R_MAX_VOXELS;
+    cmt_exact(im, "flat field radius", im->validity_radius(3, 3, 2, 0.1, rmin, rmax),
+              cmt_r(im, rmax));
+    cmt_exact(im, "weak field radius (>= r_max)",
+              im->validity_radius_sigma(1e-3, 2, 0.1, rmin, rmax), cmt_r(im, rmax));
+    CMT_REL(im, "steep field radius", im->validity_radius_sigma(50, 2, 0.1, rmin, rmax),
+            2 + -log(0.9) / 50);
+    cmt_exact(im, "tiny delta, steep field: r_min",
+              im->validity_radius_sigma(100, 1e-3, 0.1, rmin, rmax), cmt_r(im, rmin));
+    cmt_exact(im, "delta >= r_max: r_max", im->validity_radius_sigma(5, 20, 0.1, rmin, rmax),
+              cmt_r(im, rmax));
+    cmt_exact(im, "eps 0, decaying: R = delta",
+              im->validity_radius_sigma(0.5, 2, 0, rmin, rmax), 2);
+    cmt_exact(im, "eps 0, flat: r_max", im->validity_radius_sigma(0, 2, 0, rmin, rmax),
+              cmt_r(im, rmax));
+
+    /* Fig. 4: the radius of the interpolated sigma_v */
+    {
+        double sx = 0.01, sy = 5.0, sz = -0.2, d = 2.0, eps = 0.1;
+        /* on an axis: the axis radius */
+        cmt_exact(im, "interp radius on +x",
+                  im->interp_validity_radius(sx, sy, sz, 3, 0, 0, d, eps, rmin, rmax),
+                  im->validity_radius_sigma(sx, d, eps, rmin, rmax));
+        cmt_exact(im, "interp radius on -y",
+                  im->interp_validity_radius(sx, sy, sz, 0, -1, 0, d, eps, rmin, rmax),
+                  im->validity_radius_sigma(sy, d, eps, rmin, rmax));
+        /* equal sigmas: the common radius everywhere */
+        cmt_close(im, "interp radius, equal sigmas",
+                  im->interp_validity_radius(0.8, 0.8, 0.8, 1, -2, 0.5, d, eps, rmin, rmax),
+                  im->validity_radius_sigma(0.8, d, eps, rmin, rmax), im->tol, 0);
+        /* a high ratio (Fig. 4 left): smaller than the ellipsoid in between the axes */
+        double rx = im->validity_radius_sigma(sx, d, eps, rmin, rmax);
+        double ry = im->validity_radius_sigma(sy, d, eps, rmin, rmax);
+        double rz = im->validity_radius_sigma(sz, d, eps, rmin, rmax);
+        double Ri = im->interp_validity_radius(sx, sy, sz, 1, 1, 0, d, eps, rmin, rmax);
+        double Re = im->ellipsoid_radius(1, 1, 0, rx, ry, rz);
+        if (!(Ri < Re)) fail_msg("[%s] Fig. 4: interp radius %g >= ellipsoid %g", im->prec, Ri, Re);
+        /* its defining property along the direction u: ln E(R u) - ln E(delta u) =
+           ln(1 -+ eps), the extrapolation itself at delta standing for E_delta */
+        const double dirs[3][3] = {{1, 1, 0}, {0.3, -2, 1}, {-1, 0.2, -0.7}};
+        for (int t = 0; t < 3; t++) {
+            double n = sqrt(dirs[t][0] * dirs[t][0] + dirs[t][1] * dirs[t][1] +
+                            dirs[t][2] * dirs[t][2]);
+            double u[3] = {dirs[t][0] / n, dirs[t][1] / n, dirs[t][2] / n};
+            double s = im->sigma_interp(sx, sy, sz, u[0], u[1], u[2]);
+            double R = im->interp_validity_radius(sx, sy, sz, u[0], u[1], u[2], d, eps, 1e-12,
+                                                  1e12);
+            double lR = im->log_extrapolate_octant(1.0, sx, sy, sz, R * u[0], R * u[1], R * u[2]);
+            double ld = im->log_extrapolate_octant(1.0, sx, sy, sz, d * u[0], d * u[1], d * u[2]);
+            snprintf(what, sizeof what, "Fig. 4 radius along (%g, %g, %g)", u[0], u[1], u[2]);
+            cmt_close(im, what, exp(lR - ld), s <= 0 ? 1 + eps : 1 - eps, 10 * im->tol, 0);
+        }
+    }
+}
+
+/* ---- 3. ellipsoid radius, weights, log-space average ------------------------------- */
+
+static void weights_and_average(const cmt_impl *im) {
+    char what[160];
+    const double rx = 3, ry = 1.5, rz = 8;
+    /* axes */
+    cmt_close(im, "r(x) on x", im->ellipsoid_radius(2, 0, 0, rx, ry, rz), rx, im->tol, 0);
+    cmt_close(im, "r(x) on y", im->ellipsoid_radius(0, -0.1, 0, rx, ry, rz), ry, im->tol, 0);
+    cmt_close(im, "r(x) on z", im->ellipsoid_radius(0, 0, 1e6, rx, ry, rz), rz, im->tol, 0);
+    cmt_close(im, "r(x) on the diagonal of xy", im->ellipsoid_radius(1, 1, 0, rx, ry, rz),
+              1 / sqrt(0.5 / (rx * rx) + 0.5 / (ry * ry)), im->tol, 0);
+    cmt_exact(im, "r(x) at the centre: the smallest radius",
+              im->ellipsoid_radius(0, 0, 0, rx, ry, rz), ry);
+    /* consistency: rho = |x| / r(x); the point r(x) x / |x| lies on the boundary */
+    uint64_t rng = 777;
+    for (int t = 0; t < 300; t++) {
+        double p[3];
+        for (int i = 0; i < 3; i++) p[i] = 20 * (cmt_rand01(&rng) - 0.5);
+        double len = im->length3(p[0], p[1], p[2]);
+        cmt_close(im, "length3", len, sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]), im->tol, 0);
+        double r = im->ellipsoid_radius(p[0], p[1], p[2], rx, ry, rz);
+        double rho = im->ellipsoid_norm(p[0], p[1], p[2], rx, ry, rz);
+        double want = sqrt(p[0] * p[0] / (rx * rx) + p[1] * p[1] / (ry * ry) +
+                           p[2] * p[2] / (rz * rz));
+        cmt_close(im, "ellipsoid_norm", rho, want, im->tol, 0);
+        cmt_close(im, "|x| / r(x)", len / r, want, 4 * im->tol, 0);
+        double b = r / len;
+        cmt_close(im, "norm of the boundary point",
+                  im->ellipsoid_norm(b * p[0], b * p[1], b * p[2], rx, ry, rz), 1, 4 * im->tol, 0);
+        /* the two forms of the weight agree */
+        cmt_abs(im, "weight(dist, r) vs weight_norm(rho)", im->weight(len, r),
+                im->weight_norm(rho), 10 * im->tol);
+    }
+    /* weights: 1 at the centre, 0 on and beyond the edge, 1/2 halfway, monotone */
+    cmt_exact(im, "w at the centre", im->weight(0, 2.5), 1);
+    cmt_exact(im, "w on the edge", im->weight(2.5, 2.5), 0);
+    cmt_exact(im, "w beyond the edge", im->weight(7, 2.5), 0);
+    cmt_exact(im, "w halfway", im->weight_norm(0.5), 0.5);
+    cmt_exact(im, "w(rho 0)", im->weight_norm(0), 1);
+    cmt_exact(im, "w(rho 1)", im->weight_norm(1), 0);
+    double prev = 2;
+    for (int j = 0; j <= 1200; j++) {
+        double rho = j / 1000.0;
+        double w = im->weight_norm(rho);
+        double d = rho < 1 ? 1 - rho : 0;
+        snprintf(what, sizeof what, "w(%g)", rho);
+        cmt_abs(im, what, w, 3 * d * d - 2 * d * d * d, 4 * im->ulp);
+        if (!(w <= prev && w >= 0 && w <= 1))
+            fail_msg("[%s] weight not monotone in [0, 1] at rho %g: %g after %g", im->prec, rho,
+                     w, prev);
+        prev = w;
+    }
+    /* log-space average: identical entries return their value, whatever the weights */
+    const double Es[4] = {1.0, 3.25e-7, 812.5, 1e25};
+    for (int k = 0; k < 4; k++) {
+        double sw = 0, swl = 0;
+        for (int j = 0; j < 9; j++) {
+            double w = im->weight_norm(0.1 * j);
+            sw += w;
+            swl += im->weighted_ln(w, im->ln_irradiance(Es[k]));
+        }
+        snprintf(what, sizeof what, "average of identical %g", Es[k]);
+        CMT_REL(im, what, im->log_average_finalize(swl, sw), Es[k]);
+        if (!im->log_average_valid(sw)) fail_msg("[%s] %s: not a hit", im->prec, what);
+    }
+    /* two entries, equal weights: the geometric mean; weights 3:1 */
+    CMT_REL(im, "geometric mean of 2 and 8",
+            im->log_average_finalize(im->weighted_ln(0.5, log(2)) + im->weighted_ln(0.5, log(8)), 1.0),
+            4.0);
+    CMT_REL(im, "weighted 3:1 of 2 and 32",
+            im->log_average_finalize(im->weighted_ln(0.75, log(2)) + im->weighted_ln(0.25, log(32)),
+                                     1.0),
+            pow(2, 0.75) * pow(32, 0.25));
+    /* no hit: sum_w = 0, tiny, negative, NaN, inf -> 0 */
+    const double bad_w[6] = {0, 1e-13, -1, NAN, INFINITY, -INFINITY};
+    for (int j = 0; j < 6; j++) {
+        snprintf(what, sizeof what, "finalize with sum_w %g", bad_w[j]);
+        cmt_exact(im, what, im->log_average_finalize(3.0, bad_w[j]), 0);
+        if (im->log_average_valid(bad_w[j]))
+            fail_msg("[%s] sum_w %g counted as a hit", im->prec, bad_w[j]);
+    }
+    /* overflowing or NaN numerators */
+    cmt_exact(im, "finalize(1e30, 1)", im->log_average_finalize(1e30, 1),
+              im->irradiance_from_ln(CM_LN_E_MAX));
+    cmt_exact(im, "finalize(-1e30, 1e-6)", im->log_average_finalize(-1e30, 1e-6), 0);
+    cmt_exact(im, "finalize(NaN, 1)", im->log_average_finalize(NAN, 1), 0);
+    cmt_exact(im, "finalize(-inf, 1)", im->log_average_finalize(-INFINITY, 1), 0);
+    CMT_FINITE(im, "finalize(+inf, 1)", im->log_average_finalize(INFINITY, 1));
+    /* weighted_ln sanitizes: weight clamped to [0, 1], NaN -> 0 */
+    cmt_exact(im, "weighted_ln(NaN, 5)", im->weighted_ln(NAN, 5), 0);
+    cmt_exact(im, "weighted_ln(2, 5)", im->weighted_ln(2, 5), 5);
+    cmt_exact(im, "weighted_ln(-1, 5)", im->weighted_ln(-1, 5), 0);
+    cmt_exact(im, "weighted_ln(1, NaN)", im->weighted_ln(1, NAN), cmt_r(im, CM_LN_E_MIN));
+}
+
+/* ---- 4. Fig. 6 radius reduction ---------------------------------------------------- */
+
+static void radius_reduction(const cmt_impl *im) {
+    const double rx = 3, ry = 1.5, rz = 8, rmin = 0.01;
+    uint64_t rng = 4242;
+    char what[160];
+    for (int t = 0; t < 300; t++) {
+        double p[3];
+        for (int i = 0; i < 3; i++) p[i] = 2 * cmt_rand01(&rng) - 1;
+        double rho0 = sqrt(p[0] * p[0] / (rx * rx) + p[1] * p[1] / (ry * ry) +
+                           p[2] * p[2] / (rz * rz));
+        double f = im->reduce_factor(p[0], p[1], p[2], rx, ry, rz);
+        double nx = im->reduced_radius(rx, f, rmin), ny = im->reduced_radius(ry, f, rmin),
+               nz = im->reduced_radius(rz, f, rmin);
+        if (rho0 >= 1) {
+            cmt_exact(im, "factor for a point outside", f, 1);
+            cmt_exact(im, "unchanged radius", nx, rx);
+            continue;
+        }
+        snprintf(what, sizeof what, "factor at rho %g", rho0);
+        cmt_close(im, what, f, rho0 * (1 - 1e-4), 4 * im->tol, 0);
+        if (nx > rmin && ny > rmin && nz > rmin) {
+            /* common factor: the shape is kept */
+            cmt_close(im, "ratio x/y kept", nx / ny, rx / ry, 4 * im->tol, 0);
+            cmt_close(im, "ratio x/z kept", nx / nz, rx / rz, 4 * im->tol, 0);
+            /* the event ends just outside: rho' = 1 / (1 - 1e-4), weight 0 */
+            double rho1 = im->ellipsoid_norm(p[0], p[1], p[2], nx, ny, nz);
+            snprintf(what, sizeof what, "event's rho after the reduction (rho0 %g)", rho0);
+            cmt_close(im, what, rho1, 1 / (1 - 1e-4), 8 * im->tol, 0);
+            if (!(rho1 > 1)) fail_msg("[%s] event still inside: rho %g", im->prec, rho1);
+            cmt_exact(im, "weight of the event after the reduction",
+                      im->weight(im->length3(p[0], p[1], p[2]),
+                                 im->ellipsoid_radius(p[0], p[1], p[2], nx, ny, nz)),
+                      0);
+        }
+        if (!(nx <= rx && ny <= ry && nz <= rz && nx >= cmt_r(im, rmin) * (1 - im->ulp)))
+            fail_msg("[%s] reduced radii (%g %g %g) not in [r_min, r]", im->prec, nx, ny, nz);
+    }
+    /* the event at the centre: every radius -> r_min */
+    double f0 = im->reduce_factor(0, 0, 0, rx, ry, rz);
+    cmt_exact(im, "factor at the centre", f0, 0);
+    cmt_exact(im, "radius after an event at the centre", im->reduced_radius(rx, f0, rmin),
+              cmt_r(im, rmin));
+    /* never grows: a radius already below r_min stays */
+    cmt_exact(im, "radius below r_min", im->reduced_radius(0.005, 0.5, rmin), cmt_r(im, 0.005));
+    /* NaN coordinates: far away, no change; NaN factor: no change */
+    cmt_exact(im, "factor for a NaN event", im->reduce_factor(NAN, 0, 0, rx, ry, rz), 1);
+    cmt_exact(im, "radius with a NaN factor", im->reduced_radius(rx, NAN, rmin), rx);
+}
+
+/* ---- 5. degenerate inputs ------------------------------------------------------------ */
+
+static void degenerate(const cmt_impl *im) {
+    const double LNMIN = cmt_r(im, CM_LN_E_MIN), LNMAX = cmt_r(im, CM_LN_E_MAX);
+    const double rmin = CM_R_MIN_VOXELS, rmax = CM_R_MAX_VOXELS, eps = CM_EPS;
+    const double L_up = log(1 + eps), L_dn = -log(1 - eps);
+    char what[160];
+
+    /* E0 = 0 and E_delta = 0, both 0, equal */
+    cmt_exact(im, "sigma_v(0, 0)", im->sigma_v(0, 0, 2), 0);
+    cmt_exact(im, "radius(0, 0)", im->validity_radius(0, 0, 2, eps, rmin, rmax), cmt_r(im, rmax));
+    cmt_exact(im, "sigma_v(5, 5)", im->sigma_v(5, 5, 2), 0);
+    cmt_exact(im, "radius(5, 5)", im->validity_radius(5, 5, 2, eps, rmin, rmax), cmt_r(im, rmax));
+    {   /* E0 = 0 < E_delta = 1: growing from the floor, through E_delta at delta */
+        double s = im->sigma_v(0, 1, 2);
+        cmt_exact(im, "sigma_v(0, 1)", s, LNMIN / 2);
+        cmt_exact(im, "E(0) from E0 = 0", im->extrapolate(0, s, 0), 0);
+        cmt_exact(im, "ln E(0) from E0 = 0", im->log_extrapolate(0, s, 0), LNMIN);
+        cmt_close(im, "E(delta) from E0 = 0", im->extrapolate(0, s, 2), 1, 100 * im->tol, 0);
+        cmt_close(im, "radius(0, 1)", im->validity_radius(0, 1, 2, eps, 1e-12, 1e12),
+                  2 + L_up / (-LNMIN / 2), im->tol, 0);
+    }
+    {   /* E0 = 1 > E_delta = 0: decaying to the code for 0 at delta */
+        double s = im->sigma_v(1, 0, 2);
+        cmt_exact(im, "sigma_v(1, 0)", s, -LNMIN / 2);
+        cmt_exact(im, "E(delta) with E_delta = 0", im->extrapolate(1, s, 2), 0);
+        cmt_exact(im, "E(5) with E_delta = 0", im->extrapolate(1, s, 5), 0);
+        cmt_close(im, "radius(1, 0)", im->validity_radius(1, 0, 2, eps, 1e-12, 1e12),
+                  2 + L_dn / (-LNMIN / 2), im->tol, 0);
+    }
+    /* ratios 1e-30 and 1e30 (irradiances inside (1e-30, 1e30)) */
+    {
+        double s = im->sigma_v(1e10, 1e-20, 2);
+        cmt_close(im, "sigma_v for ratio 1e-30", s, log(1e30) / 2, im->tol, 0);
+        CMT_REL(im, "E(delta) for ratio 1e-30", im->extrapolate(1e10, s, 2), 1e-20);
+        cmt_close(im, "radius for ratio 1e-30", im->validity_radius(1e10, 1e-20, 2, eps, 1e-12, 1e12),
+                  2 + L_dn / (log(1e30) / 2), im->tol, 0);
+        s = im->sigma_v(1e-20, 1e10, 2);
+        cmt_close(im, "sigma_v for ratio 1e30", s, -log(1e30) / 2, im->tol, 0);
+        CMT_REL(im, "E(delta) for ratio 1e30", im->extrapolate(1e-20, s, 2), 1e10);
+        /* at the bounds: 1 -> 1e30 and 1 -> 1e-30 (the latter is the code for 0) */
+        cmt_exact(im, "sigma_v(1, 1e30)", im->sigma_v(1, 1e30, 2), -LNMAX / 2);
+        cmt_exact(im, "sigma_v(1, 1e-30)", im->sigma_v(1, 1e-30, 2), -LNMIN / 2);
+        cmt_exact(im, "sigma_v(1e-30, 1e30)", im->sigma_v(1e-30, 1e30, 2), (LNMIN - LNMAX) / 2);
+        /* beyond the bounds: clamped */
+        cmt_exact(im, "sigma_v(1e-40, 1e35)", im->sigma_v(1e-40, 1e35, 2), (LNMIN - LNMAX) / 2);
+    }
+    /* delta 1e-20 (and 0, negative, NaN): delta is taken as 1e-12 */
+    {
+        const double bad_d[4] = {1e-20, 0, -1, NAN};
+        for (int j = 0; j < 4; j++) {
+            double s = im->sigma_v(1, exp(-1), bad_d[j]);
+            snprintf(what, sizeof what, "sigma_v with delta %g", bad_d[j]);
+            cmt_close(im, what, s, 1 / 1e-12, im->tol, 0);
+            snprintf(what, sizeof what, "radius with delta %g", bad_d[j]);
+            cmt_exact(im, what, im->validity_radius(1, exp(-1), bad_d[j], eps, rmin, rmax),
+                      cmt_r(im, rmin));
+            snprintf(what, sizeof what, "E(16) with delta %g", bad_d[j]);
+            cmt_exact(im, what, im->extrapolate(1, s, 16), 0);
+            snprintf(what, sizeof what, "E(0) with delta %g", bad_d[j]);
+            cmt_exact(im, what, im->extrapolate(1, s, 0), 1);
+        }
+        /* delta inf -> 1e12 >= r_max: r_max; sigma ~ 1e-12 */
+        cmt_exact(im, "radius with delta inf", im->validity_radius(1, 0.5, INFINITY, eps, rmin, rmax),
+                  cmt_r(im, rmax));
+        cmt_close(im, "sigma_v with delta inf", im->sigma_v(1, exp(-1), INFINITY), 1e-12, im->tol, 0);
+    }
+    /* NaN and inf irradiances: NaN/negative -> 0, +inf -> 1e30 */
+    cmt_exact(im, "ln_irradiance(NaN)", im->ln_irradiance(NAN), LNMIN);
+    cmt_exact(im, "ln_irradiance(-3)", im->ln_irradiance(-3), LNMIN);
+    cmt_exact(im, "ln_irradiance(-inf)", im->ln_irradiance(-INFINITY), LNMIN);
+    cmt_exact(im, "ln_irradiance(inf)", im->ln_irradiance(INFINITY), LNMAX);
+    cmt_exact(im, "ln_irradiance(1e-30)", im->ln_irradiance(1e-30), LNMIN);
+    cmt_exact(im, "irradiance_from_ln(code for 0)", im->irradiance_from_ln(LNMIN), 0);
+    cmt_exact(im, "irradiance_from_ln(NaN)", im->irradiance_from_ln(NAN), 0);
+    cmt_exact(im, "irradiance_from_ln(-inf)", im->irradiance_from_ln(-INFINITY), 0);
+    cmt_close(im, "irradiance_from_ln(+inf)", im->irradiance_from_ln(INFINITY), 1e30, 1e-6, 0);
+    cmt_close(im, "irradiance_from_ln(1000)", im->irradiance_from_ln(1000), 1e30, 1e-6, 0);
+    cmt_exact(im, "sigma_v(NaN, 1)", im->sigma_v(NAN, 1, 2), LNMIN / 2);
+    cmt_exact(im, "sigma_v(1, NaN)", im->sigma_v(1, NAN, 2), -LNMIN / 2);
+    cmt_exact(im, "sigma_v(inf, 1)", im->sigma_v(INFINITY, 1, 2), LNMAX / 2);
+    cmt_exact(im, "sigma_v(NaN, NaN)", im->sigma_v(NAN, NAN, 2), 0);
+    /* NaN sigma, eps, distance */
+    cmt_exact(im, "radius with sigma NaN: delta", im->validity_radius_sigma(NAN, 2, eps, rmin, rmax), 2);
+    cmt_exact(im, "radius with sigma inf: delta", im->validity_radius_sigma(INFINITY, 2, eps, rmin, rmax), 2);
+    cmt_exact(im, "radius with sigma NaN, delta < r_min", im->validity_radius_sigma(NAN, 1e-5, eps, rmin, rmax),
+              cmt_r(im, rmin));
+    cmt_exact(im, "radius with eps NaN", im->validity_radius_sigma(0.5, 2, NAN, rmin, rmax), 2);
+    cmt_exact(im, "radius with eps NaN, flat", im->validity_radius_sigma(0, 2, NAN, rmin, rmax), cmt_r(im, rmax));
+    cmt_exact(im, "radius with r_max NaN", im->validity_radius_sigma(0, 2, eps, rmin, NAN), cmt_r(im, rmin));
+    /* r_min NaN -> 1e-12: R = delta + L / sigma below Table 1's r_min is kept */
+    cmt_close(im, "radius with r_min NaN", im->validity_radius_sigma(100, 1e-3, eps, NAN, rmax),
+              1e-3 + L_dn / 100, im->tol, 0);
+    cmt_exact(im, "ln_extrapolate at a NaN distance, decaying", im->ln_extrapolate(1.5, 0.5, NAN), LNMIN);
+    cmt_exact(im, "ln_extrapolate at a NaN distance, growing", im->ln_extrapolate(1.5, -0.5, NAN), LNMAX);
+    cmt_exact(im, "ln_extrapolate with sigma NaN", im->ln_extrapolate(1.5, NAN, 3), 1.5);
+    cmt_exact(im, "ln_extrapolate with ln E0 NaN", im->ln_extrapolate(NAN, 0, 3), LNMIN);
+    cmt_exact(im, "sigma_interp with a NaN sigma", im->sigma_interp(NAN, 1, 1, 1, 1, 0), 0.5);
+
+    /* zero and infinite radii */
+    cmt_exact(im, "r(x) with a zero radius", im->ellipsoid_radius(1, 0, 0, 0, 1, 1), cmt_r(im, 1e-12));
+    cmt_exact(im, "w with a zero radius", im->weight(1, 0), 0);
+    cmt_exact(im, "w at the centre with a zero radius", im->weight(0, 0), 1);
+    cmt_exact(im, "r(x) with infinite radii", im->ellipsoid_radius(1, 1, 1, INFINITY, INFINITY, INFINITY),
+              cmt_r(im, 1e12));
+    cmt_abs(im, "w with infinite radii",
+            im->weight_norm(im->ellipsoid_norm(1, 1, 1, INFINITY, INFINITY, INFINITY)), 1,
+            10 * im->ulp);
+    cmt_exact(im, "r(x) with NaN radius", im->ellipsoid_radius(1, 0, 0, NAN, 1, 1), cmt_r(im, 1e-12));
+    cmt_exact(im, "w of a NaN point", im->weight_norm(im->ellipsoid_norm(NAN, 0, 0, 1, 1, 1)), 0);
+    cmt_exact(im, "w(NaN, 1)", im->weight(NAN, 1), 0);
+    cmt_exact(im, "w_norm(NaN)", im->weight_norm(NAN), 0);
+
+    /* a fully shadowed entry: all seven irradiances 0 */
+    {
+        double sig[6], R[6];
+        for (int h = 0; h < 6; h++) {
+            sig[h] = im->sigma_v(0, 0, 2);
+            R[h] = im->validity_radius(0, 0, 2, eps, rmin, rmax);
+            cmt_exact(im, "shadowed sigma_v", sig[h], 0);
+            cmt_exact(im, "shadowed radius", R[h], cmt_r(im, rmax));
+        }
+        uint64_t rng = 99;
+        double sw = 0, swl = 0;
+        for (int t = 0; t < 200; t++) {
+            double p[3];
+            for (int i = 0; i < 3; i++) p[i] = 30 * (cmt_rand01(&rng) - 0.5);
+            double sx = sig[0 + (p[0] < 0)], sy = sig[2 + (p[1] < 0)], sz = sig[4 + (p[2] < 0)];
+            double l = im->log_extrapolate_octant(0, sx, sy, sz, p[0], p[1], p[2]);
+            cmt_exact(im, "shadowed ln E", l, LNMIN);
+            cmt_exact(im, "shadowed E", im->irradiance_from_ln(l), 0);
+            double r = im->ellipsoid_radius(p[0], p[1], p[2], R[0 + (p[0] < 0)],
+                                            R[2 + (p[1] < 0)], R[4 + (p[2] < 0)]);
+            double w = im->weight(im->length3(p[0], p[1], p[2]), r);
+            sw += w;
+            swl += im->weighted_ln(w, l);
+        }
+        cmt_exact(im, "shadowed average", im->log_average_finalize(swl, sw), 0);
+        /* next to a lit entry: the geometric mean is dragged to ~0, not dropped */
+        double E = im->log_average_finalize(im->weighted_ln(0.5, LNMIN) + im->weighted_ln(0.5, 0), 1);
+        cmt_close(im, "shadowed + lit (E 1), equal weights", E, 1e-15, 1e-5, 0);
+    }
+
+    /* every function, every argument from a list of specials: finite outputs within
+       their documented ranges */
+    const double sp[] = {0,     -0.0,  1e-45, 1e-38, 1e-30,    1e-20,     1e-12, 0.01,
+                         0.5,   1,     2,     16,    1e12,     1e20,      1e30,  1e38,
+                         -1e-30, -1,   -16,   -1e30, INFINITY, -INFINITY, NAN};
+    const int ns = (int)(sizeof sp / sizeof sp[0]);
+    uint64_t rng = 2024;
+#define CMT_PICK sp[(int)(cmt_rand01(&rng) * ns) % ns]
+    for (int t = 0; t < 20000; t++) {
+        double a = CMT_PICK, b = CMT_PICK, c = CMT_PICK, d = CMT_PICK, e = CMT_PICK;
+        double f = CMT_PICK, g = CMT_PICK, h = CMT_PICK, i = CMT_PICK, j = CMT_PICK;
+        double v;
+#define CMT_IN(what, val, lo_, hi_)                                                     \
+    do {                                                                                \
+        v = (val);                                                                      \
+        if (!isfinite(v) || v < (lo_) || v > (hi_))                                     \
+            fail_msg("[%s] %s(%g, %g, %g, %g, %g, %g, %g, %g, %g, %g) = %g not in "     \
+                     "[%g, %g]", im->prec, what, a, b, c, d, e, f, g, h, i, j, v,        \
+                     (double)(lo_), (double)(hi_));                                     \
+    } while (0)
+        const double SMAX = CM_SIGMA_V_MAX * (1 + 1e-6), BIG = 1e300;
+        CMT_IN("ln_irradiance", im->ln_irradiance(a), LNMIN, LNMAX);
+        CMT_IN("irradiance_from_ln", im->irradiance_from_ln(a), 0, 1.0001e30);
+        CMT_IN("san_ln", im->san_ln(a), LNMIN, LNMAX);
+        CMT_IN("san_len", im->san_len(a), 0.99e-12, 1.0001e12);
+        CMT_IN("san_coord", im->san_coord(a), 0, 1.0001e12);
+        CMT_IN("san_sigma", im->san_sigma(a), -SMAX, SMAX);
+        CMT_IN("half_axis", im->half_axis(a, 1, 2), 1, 2);
+        CMT_IN("sigma_v_ln", im->sigma_v_ln(a, b, c), -SMAX, SMAX);
+        CMT_IN("sigma_v", im->sigma_v(a, b, c), -SMAX, SMAX);
+        CMT_IN("ln_extrapolate", im->ln_extrapolate(a, b, c), LNMIN, LNMAX);
+        CMT_IN("log_extrapolate", im->log_extrapolate(a, b, c), LNMIN, LNMAX);
+        CMT_IN("extrapolate", im->extrapolate(a, b, c), 0, 1.0001e30);
+        CMT_IN("sigma_interp", im->sigma_interp(a, b, c, d, e, f), -SMAX, SMAX);
+        CMT_IN("validity_radius_sigma", im->validity_radius_sigma(a, b, c, d, e), 0.99e-12, 1.0001e12);
+        CMT_IN("validity_radius", im->validity_radius(a, b, c, d, e, f), 0.99e-12, 1.0001e12);
+        CMT_IN("validity_radius (Table 1)", im->validity_radius(a, b, c, eps, rmin, rmax),
+               cmt_r(im, rmin), cmt_r(im, rmax));
+        CMT_IN("interp_validity_radius", im->interp_validity_radius(a, b, c, d, e, f, g, h, i, j),
+               0.99e-12, 1.0001e12);
+        CMT_IN("length3", im->length3(a, b, c), 0, 1.8e12);
+        CMT_IN("log_extrapolate_octant", im->log_extrapolate_octant(a, b, c, d, e, f, g), LNMIN, LNMAX);
+        CMT_IN("ellipsoid_norm", im->ellipsoid_norm(a, b, c, d, e, f), 0, 1.8e24);
+        CMT_IN("ellipsoid_radius", im->ellipsoid_radius(a, b, c, d, e, f), 0.99e-12, 1.0001e12);
+        CMT_IN("weight_norm", im->weight_norm(a), 0, 1);
+        CMT_IN("weight", im->weight(a, b), 0, 1);
+        CMT_IN("weighted_ln", im->weighted_ln(a, b), LNMIN, LNMAX);
+        CMT_IN("log_average_finalize", im->log_average_finalize(a, b), 0, 1.0001e30);
+        CMT_IN("reduce_factor", im->reduce_factor(a, b, c, d, e, f), 0, 1);
+        CMT_IN("reduced_radius", im->reduced_radius(a, b, c), 0.99e-12, 1.0001e12);
+        (void)BIG;
+#undef CMT_IN
+    }
+#undef CMT_PICK
+}
+
+/* ---- the cmocka tests ---------------------------------------------------------------- */
+
+void test_cache_math_exponential_field(void **state) {
+    (void)state;
+    for (int k = 0; k < 2; k++) exponential_field(&cmt_impls[k]);
+}
+
+void test_cache_math_validity_radius(void **state) {
+    (void)state;
+    for (int k = 0; k < 2; k++) validity_radius(&cmt_impls[k]);
+}
+
+void test_cache_math_weights_and_average(void **state) {
+    (void)state;
+    for (int k = 0; k < 2; k++) weights_and_average(&cmt_impls[k]);
+}
+
+void test_cache_math_radius_reduction(void **state) {
+    (void)state;
+    for (int k = 0; k < 2; k++) radius_reduction(&cmt_impls[k]);
+}
+
+void test_cache_math_degenerate_inputs(void **state) {
+    (void)state;
+    for (int k = 0; k < 2; k++) degenerate(&cmt_impls[k]);
+    print_message("    largest relative error in the checks at the base tolerance: "
+                  "double %.2g, float %.2g\n",
+                  cmt_max_rel[0], cmt_max_rel[1]);
+}
