@@ -167,10 +167,14 @@ typedef struct picvr_cache_config {
                                   spacing); 0: 2 */
     float radius_min_voxels;   /* 0: 0.01 */
     float radius_max_voxels;   /* 0: 16 */
+    float update_threshold;    /* §4.3: predictions conflict when they differ by more than
+                                  this relative amount; 0: 0.1 */
+    float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */
     uint32_t max_entries;      /* entry pool; 0: 65536 */
     uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries */
     uint32_t max_refs;         /* reference pool; 0: 16 * max_entries */
-    uint32_t max_requests;     /* creation requests per round; 0: 1024 */
+    uint32_t max_requests;     /* creation requests per iteration; 0: one per 4096 pixels
+                                  (a fixed split until the scheduler exists), at most 1024 */
 } picvr_cache_config;
 
 typedef struct picvr_config {

@@ -82,10 +82,11 @@ struct picvr_context {
     VkPipelineLayout render_layout, stats_layout;
     VkDescriptorPool desc_pool;
     VkDescriptorSet set;
-    VkShaderModule render_module, stats_module, render_cache_module, create_module;
+    VkShaderModule render_module, stats_module, render_cache_module, create_module, update_module, rebuild_module;
     VkPipeline render_pipe[4];       /* [USE_PHASE_MIS + 2 * USE_FINE] */
     VkPipeline stats_pipe;
-    VkPipeline render_cache_pipe[4], create_pipe[4];  /* the cache's variants, same index */
+    VkPipeline render_cache_pipe[4], create_pipe[4], update_pipe[4];  /* the cache's variants */
+    VkPipeline rebuild_pipe;
     VkSampler linear_sampler;
     VkFormat float_volume_format;    /* R32_SFLOAT, or R16_UNORM where it cannot filter */
 
@@ -101,7 +102,11 @@ struct picvr_context {
     /* irradiance cache (allocated only when the cache is on) */
     picvr_cache_config cache;        /* resolved: no zero fields */
     int cache_on;
+    int cache_requests_set;          /* the application chose max_requests */
     buffer cache_entries, cache_nodes, cache_refs, cache_counters, cache_requests, cache_readback;
+    buffer cache_prebuilt_nodes;     /* the pre-built top of the octree, copied on rebuild */
+    double cache_since_rebuild_ms;
+    uint32_t cache_entry_count;      /* as read at the start of the last step */
     uint32_t cache_prebuilt;         /* nodes of the pre-built top of the octree */
     uint32_t cache_hits, cache_misses;
     int descriptors_dirty;
@@ -593,6 +598,9 @@ static picvr_status create_pipelines(picvr_context *ctx) {
     if (!s && ctx->cache_on) {
         s = create_shader(ctx, picvr_spv_render_cache, sizeof picvr_spv_render_cache, &ctx->render_cache_module);
         if (!s) s = create_shader(ctx, picvr_spv_cache_create, sizeof picvr_spv_cache_create, &ctx->create_module);
+        if (!s) s = create_shader(ctx, picvr_spv_cache_update, sizeof picvr_spv_cache_update, &ctx->update_module);
+        if (!s) s = create_shader(ctx, picvr_spv_cache_rebuild, sizeof picvr_spv_cache_rebuild, &ctx->rebuild_module);
+        if (!s) s = create_pipeline(ctx, ctx->rebuild_module, ctx->render_layout, NULL, &ctx->rebuild_pipe);
     }
     if (s) return s;
     /* Four variants of the rendering procedure: with and without phase-sampled MIS rays
@@ -607,6 +615,8 @@ static picvr_status create_pipelines(picvr_context *ctx) {
             s = create_pipeline(ctx, ctx->render_cache_module, ctx->render_layout, &spec, &ctx->render_cache_pipe[v]);
         if (!s && ctx->cache_on)
             s = create_pipeline(ctx, ctx->create_module, ctx->render_layout, &spec, &ctx->create_pipe[v]);
+        if (!s && ctx->cache_on)
+            s = create_pipeline(ctx, ctx->update_module, ctx->render_layout, &spec, &ctx->update_pipe[v]);
         if (s) return s;
     }
     return create_pipeline(ctx, ctx->stats_module, ctx->stats_layout, NULL, &ctx->stats_pipe);
@@ -694,6 +704,7 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     ctx->log_user = cfg.log_user;
     ctx->log_level = cfg.log_level ? cfg.log_level : PICVR_LOG_WARNING;
     ctx->seed = cfg.seed;
+    ctx->cache_requests_set = cfg.cache.max_requests != 0;
     picvr_status s = resolve_cache_config(ctx, &cfg.cache, &ctx->cache);
     ctx->cache_on = ctx->cache.mode != PICVR_CACHE_NONE;
     if (!s) s = context_init(ctx, &cfg);
@@ -721,7 +732,12 @@ void picvr_destroy(picvr_context *ctx) {
             if (ctx->render_pipe[i]) vkDestroyPipeline(d, ctx->render_pipe[i], NULL);
             if (ctx->render_cache_pipe[i]) vkDestroyPipeline(d, ctx->render_cache_pipe[i], NULL);
             if (ctx->create_pipe[i]) vkDestroyPipeline(d, ctx->create_pipe[i], NULL);
+            if (ctx->update_pipe[i]) vkDestroyPipeline(d, ctx->update_pipe[i], NULL);
         }
+        if (ctx->rebuild_pipe) vkDestroyPipeline(d, ctx->rebuild_pipe, NULL);
+        if (ctx->update_module) vkDestroyShaderModule(d, ctx->update_module, NULL);
+        if (ctx->rebuild_module) vkDestroyShaderModule(d, ctx->rebuild_module, NULL);
+        buffer_destroy(ctx, &ctx->cache_prebuilt_nodes);
         if (ctx->render_cache_module) vkDestroyShaderModule(d, ctx->render_cache_module, NULL);
         if (ctx->create_module) vkDestroyShaderModule(d, ctx->create_module, NULL);
         buffer_destroy(ctx, &ctx->cache_entries);
@@ -776,9 +792,10 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
         logf_(ctx, PICVR_LOG_ERROR, "screen-space locking is not implemented yet");
         return PICVR_ERROR_INVALID_ARGUMENT;
     }
-    float *f[5] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels};
-    const float def[5] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f};
-    for (int i = 0; i < 5; i++) {
+    float *f[7] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels,
+                   &c->update_threshold, &c->rebuild_interval_ms};
+    const float def[7] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f, 0.1f, 1000.0f};
+    for (int i = 0; i < 7; i++) {
         if (!isfinite(*f[i])) return PICVR_ERROR_NON_FINITE;
         if (*f[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
         if (*f[i] == 0.0f) *f[i] = def[i];
@@ -809,6 +826,8 @@ static picvr_status create_cache_buffers(picvr_context *ctx) {
     if ((s = buffer_create(ctx, &ctx->cache_counters, CACHE_COUNTER_WORDS * 4,
                            st | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 0))) return s;
     if ((s = buffer_create(ctx, &ctx->cache_requests, (uint64_t)c->max_requests * 32u, st, 0))) return s;
+    if ((s = buffer_create(ctx, &ctx->cache_prebuilt_nodes, 4681u * 16u,
+                           VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
     return buffer_create(ctx, &ctx->cache_readback, CACHE_COUNTER_WORDS * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1);
 }
 
@@ -823,15 +842,17 @@ static uint32_t cache_update_params(picvr_context *ctx) {
     g->cache_params[0] = ctx->cache.gamma;
     g->cache_params[1] = ctx->cache.epsilon;
     g->cache_params[2] = ctx->cache.delta_voxels * voxel;
+    g->cache_params[3] = ctx->cache.update_threshold;
     g->cache_radii[0] = ctx->cache.radius_min_voxels * voxel;
     g->cache_radii[1] = ctx->cache.radius_max_voxels * voxel;
     g->cache_caps[0] = ctx->cache.max_entries;
     g->cache_caps[1] = ctx->cache.max_nodes;
     g->cache_caps[2] = ctx->cache.max_refs;
     g->cache_caps[3] = ctx->cache.max_requests;
-    /* Fixed split until the scheduler (issue 4) budgets creation by time: at most one
-       request per CACHE_PIXELS_PER_REQUEST pixels per iteration. */
-    if (ctx->has_camera) {
+    /* Fixed split until the scheduler (issue 4) budgets creation by time: unless the
+       application set max_requests, at most one request per CACHE_PIXELS_PER_REQUEST
+       pixels per iteration. */
+    if (ctx->has_camera && !ctx->cache_requests_set) {
         uint32_t per = (uint32_t)(((uint64_t)ctx->camera.width * ctx->camera.height) / CACHE_PIXELS_PER_REQUEST);
         if (per < 1) per = 1;
         if (per < g->cache_caps[3]) g->cache_caps[3] = per;
@@ -864,11 +885,14 @@ static picvr_status cache_clear(picvr_context *ctx) {
         s = cmd_submit_wait(ctx);
     }
     if (!s) s = upload_buffer(ctx, &ctx->cache_nodes, nodes, (size_t)count * 16);
+    if (!s) s = upload_buffer(ctx, &ctx->cache_prebuilt_nodes, nodes, (size_t)count * 16);
     mem_free(&ctx->alloc, nodes);
     uint32_t counters[CACHE_COUNTER_WORDS] = {0, 1, 1, 0, 0, count, 0, 0, 0, 0, 0, 0};
     if (!s) s = upload_buffer(ctx, &ctx->cache_counters, counters, sizeof counters);
     ctx->cache_prebuilt = count;
     ctx->cache_hits = ctx->cache_misses = 0;
+    ctx->cache_since_rebuild_ms = 0.0;
+    ctx->cache_entry_count = 0;
     return s;
 }
 
@@ -887,6 +911,30 @@ static picvr_status cache_read_counters(picvr_context *ctx, uint32_t out[CACHE_C
     buffer_invalidate(ctx, &ctx->cache_readback);
     memcpy(out, ctx->cache_readback.mapped, CACHE_COUNTER_WORDS * 4);
     return PICVR_OK;
+}
+
+/* Rebuilds the octree from the entries (§4.4): empty node and reference pools (the
+   pre-built top copied back), then cache_rebuild.comp re-inserts every entry with its
+   current radii, so references that shrunk entries no longer need disappear. */
+static picvr_status cache_rebuild(picvr_context *ctx, uint32_t entries) {
+    if (entries > ctx->cache.max_entries) entries = ctx->cache.max_entries;
+    picvr_status s = cmd_begin(ctx);
+    if (s) return s;
+    barrier_all(ctx);
+    vkCmdFillBuffer(ctx->cmd, ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE, 0);
+    barrier_all(ctx);
+    VkBufferCopy region = {0, 0, (VkDeviceSize)ctx->cache_prebuilt * 16};
+    vkCmdCopyBuffer(ctx->cmd, ctx->cache_prebuilt_nodes.buf, ctx->cache_nodes.buf, 1, &region);
+    uint32_t counts[2] = {ctx->cache_prebuilt, 0};                  /* node_count, ref_count */
+    vkCmdUpdateBuffer(ctx->cmd, ctx->cache_counters.buf, 5 * 4, sizeof counts, counts);
+    barrier_all(ctx);
+    if (entries > 0) {
+        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->rebuild_pipe);
+        vkCmdBindDescriptorSets(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->render_layout, 0, 1, &ctx->set, 0, NULL);
+        vkCmdDispatch(ctx->cmd, (entries + 63) / 64, 1, 1);
+        barrier_all(ctx);
+    }
+    return cmd_submit_wait(ctx);
 }
 
 /* ---------------------------------------------------------------------------------- */
@@ -1563,6 +1611,12 @@ static picvr_status render_batch(picvr_context *ctx, uint32_t k) {
             vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 0, 4, 0);       /* dispatch_x */
             vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 3 * 4, 4, 0);   /* request_count */
             barrier_all(ctx);
+            /* Update procedure: a fixed 1/16 of the image's blocks per iteration until the
+               scheduler (issue 4) budgets it by time. */
+            uint32_t update_groups = (gx * gy + 15) / 16;
+            vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->update_pipe[variant]);
+            vkCmdDispatch(ctx->cmd, update_groups, 1, 1);
+            barrier_all(ctx);
         }
     }
     s = cmd_submit_wait(ctx);
@@ -1579,6 +1633,11 @@ static picvr_status render_loop(picvr_context *ctx, double budget_ms, uint32_t m
         uint32_t c[CACHE_COUNTER_WORDS];
         if ((s = cache_read_counters(ctx, c))) return s;
         ctx->cache_hits = ctx->cache_misses = 0;
+        ctx->cache_entry_count = c[4];
+        if (ctx->cache_since_rebuild_ms >= ctx->cache.rebuild_interval_ms) {
+            if ((s = cache_rebuild(ctx, c[4]))) return s;
+            ctx->cache_since_rebuild_ms = 0.0;
+        }
     }
     double start = now_ms();
     uint32_t done = 0;
@@ -1603,6 +1662,7 @@ static picvr_status render_loop(picvr_context *ctx, double budget_ms, uint32_t m
         done += k;
     }
     ctx->elapsed_ms += now_ms() - start;
+    ctx->cache_since_rebuild_ms += now_ms() - start;
     return PICVR_OK;
 }
 

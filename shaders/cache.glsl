@@ -21,7 +21,9 @@ struct Entry {
     vec4 pos_rmax;        // xyz centre (world), w = largest of the six radii
     vec4 e0;              // rgb E_0, w unused
     float sigma_v[18];    // [half-axis * 3 + channel], per world unit
-    float radius[6];      // per half-axis, world units
+    uint radius[6];       // per half-axis, world units, as float bits: positive floats
+                          // order like their bits, so the update procedure can shrink
+                          // a radius with atomicMin
 };
 
 struct Node { uint children; uint refs; uint lock; uint pad; };  // children: first of 8
@@ -38,6 +40,8 @@ layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
     uint hits, misses, pad0, pad1;
 } cache_counters;
 layout(set = 0, binding = 13, std430) buffer CacheRequests { Request requests[]; };
+
+float entry_radius(uint e, uint h) { return uintBitsToFloat(entries[e].radius[h]); }
 
 // ---- local frame: the normalized gradient of extinction (central differences), so
 // the frame is recomputed on demand and never stored (§4.2).  Rule: where the gradient
@@ -58,24 +62,31 @@ void entry_frame(vec3 p, out vec3 t, out vec3 b, out vec3 n) {
 }
 
 // ---- lookup (rendering) ----
-// Adds entry e's extrapolation at x to the log-space weighted sums of Eq. 11.
-void eval_entry(uint e, vec3 x, inout float sum_w, inout vec3 sum_wlog) {
+// Entry e's prediction at x: its Eq. 11 weight (0: x outside its zone), ln E per
+// channel (Eq. 7, 8), and x's local coordinates (for the update procedure).
+struct Prediction { float w; vec3 lnE; vec3 local; };
+
+Prediction predict(uint e, vec3 x) {
+    Prediction pr;
+    pr.w = 0.0;
+    pr.lnE = vec3(0.0);
+    pr.local = vec3(0.0);
     vec3 dx = x - entries[e].pos_rmax.xyz;
     float rmax = entries[e].pos_rmax.w;
-    if (dot(dx, dx) >= rmax * rmax) return;                 // cheap sphere test first
+    if (dot(dx, dx) >= rmax * rmax) return pr;               // cheap sphere test first
     vec3 t, b, n;
     entry_frame(entries[e].pos_rmax.xyz, t, b, n);
-    vec3 l = vec3(dot(dx, t), dot(dx, b), dot(dx, n));     // local coordinates
+    vec3 l = vec3(dot(dx, t), dot(dx, b), dot(dx, n));      // local coordinates
+    pr.local = l;
     uvec3 half_axis = uvec3(0u, 2u, 4u) + uvec3(lessThan(l, vec3(0.0)));
     vec3 a = abs(l);
-    float rx = entries[e].radius[half_axis.x], ry = entries[e].radius[half_axis.y];
-    float rz = entries[e].radius[half_axis.z];
+    float rx = entry_radius(e, half_axis.x), ry = entry_radius(e, half_axis.y);
+    float rz = entry_radius(e, half_axis.z);
     float dist = length(l);
     float r = CM_FN(ellipsoid_radius)(a.x, a.y, a.z, rx, ry, rz);
-    if (!(dist < r)) return;
+    if (!(dist < r)) return pr;
     float w = CM_FN(weight)(dist, r);
-    if (!(w > 0.0)) return;
-    vec3 lnE;
+    if (!(w > 0.0)) return pr;
     for (uint c = 0u; c < 3u; c++) {
         float sx = entries[e].sigma_v[half_axis.x * 3u + c];
         float sy = entries[e].sigma_v[half_axis.y * 3u + c];
@@ -84,11 +95,19 @@ void eval_entry(uint e, vec3 x, inout float sum_w, inout vec3 sum_wlog) {
         // Fig. 4: discard beyond the validity radius of the interpolated sigma_v.
         if (!(dist <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, scene.cache_params.z,
                                                     scene.cache_params.y, scene.cache_radii.x,
-                                                    scene.cache_radii.y))) return;
-        lnE[c] = CM_FN(log_extrapolate)(entries[e].e0[c], s, dist);      // Eq. 7 in log space
+                                                    scene.cache_radii.y))) return pr;
+        pr.lnE[c] = CM_FN(log_extrapolate)(entries[e].e0[c], s, dist);   // Eq. 7 in log space
     }
-    sum_w += w;
-    sum_wlog += w * lnE;
+    pr.w = w;
+    return pr;
+}
+
+// Adds entry e's extrapolation at x to the log-space weighted sums of Eq. 11.
+void eval_entry(uint e, vec3 x, inout float sum_w, inout vec3 sum_wlog) {
+    Prediction pr = predict(e, x);
+    if (!(pr.w > 0.0)) return;
+    sum_w += pr.w;
+    sum_wlog += pr.w * pr.lnE;
 }
 
 // Looks x up in the octree: true and the extrapolated irradiance when entries cover
@@ -182,4 +201,21 @@ void push_ref(uint node, uint e) {
         memoryBarrierBuffer();
         if (atomicCompSwap(nodes[node].refs, head, r) == head) return;
     }
+}
+
+vec3 bbox_corner(vec3 x0, float rmax, uint k) {
+    return x0 + rmax * (vec3((uvec3(k) >> uvec3(0u, 1u, 2u)) & 1u) * 2.0 - 1.0);
+}
+
+// Inserts entry e (centre x0, largest radius rmax) into the node at corner k (0..7) of
+// its bounding box at the insertion depth; corners sharing a node insert once (the
+// lowest k).  The creation procedure runs the 8 corners on 8 threads, the rebuild on
+// one thread per entry.
+void insert_corner(uint e, vec3 x0, float rmax, uint k) {
+    uint depth = insertion_depth(rmax);
+    uvec3 cell = cell_at(bbox_corner(x0, rmax, k), depth);
+    for (uint j = 0u; j < k; j++)
+        if (all(equal(cell_at(bbox_corner(x0, rmax, j), depth), cell))) return;
+    uint node = descend_create(cell, depth);
+    if (node != CACHE_NO_NODE) push_ref(node, e);
 }

@@ -5,7 +5,8 @@
 // Carlo with MIS (one light sample + one phase sample per point and round); rounds
 // repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached.  Then
 // thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10), and eight threads insert
-// the entry into the octree; the request's node lock is released.
+// the entry into the octree (one per corner of its bounding box); the request's node
+// lock is released.
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 128) in;
 
@@ -117,7 +118,7 @@ void main() {
                     entries[e].sigma_v[h * 3u + c] = CM_FN(sigma_v)(e0, ed, delta);          // Eq. 6
                     r = min(r, CM_FN(validity_radius)(e0, ed, delta, eps, rmin, rmax_cap)); // Eq. 9, 10
                 }
-                entries[e].radius[h] = r;
+                entries[e].radius[h] = floatBitsToUint(r);
                 rmax = max(rmax, r);
             }
             entries[e].e0 = vec4(s_E[0], 0.0);
@@ -128,24 +129,7 @@ void main() {
     }
     memoryBarrierBuffer();
     barrier();
-    if (s_done && lid < 8u) {
-        // The entry's bounding box at the insertion depth touches at most 2x2x2 nodes:
-        // one per corner; corners sharing a node are inserted once.
-        uint e = uint(s_E[1].x);
-        float rmax = s_E[1].y;
-        uint depth = insertion_depth(rmax);
-        vec3 corner = x0 + rmax * (vec3((uvec3(lid) >> uvec3(0u, 1u, 2u)) & 1u) * 2.0 - 1.0);
-        uvec3 cell = cell_at(corner, depth);
-        bool first = true;
-        for (uint j = 0u; j < lid; j++) {
-            vec3 cj = x0 + rmax * (vec3((uvec3(j) >> uvec3(0u, 1u, 2u)) & 1u) * 2.0 - 1.0);
-            if (all(equal(cell_at(cj, depth), cell))) first = false;
-        }
-        if (first) {
-            uint node = descend_create(cell, depth);
-            if (node != CACHE_NO_NODE) push_ref(node, e);
-        }
-    }
+    if (s_done && lid < 8u) insert_corner(uint(s_E[1].x), x0, s_E[1].y, lid);
     barrier();
     if (lid == 0u) atomicExchange(nodes[locked].lock, 0u);
 }

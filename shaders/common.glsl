@@ -471,6 +471,15 @@ uint select_light(float u) {
     return uint(MAX_LIGHTS);
 }
 
+// ---- camera: the pinhole model documented in picvr.h ----
+vec3 camera_ray(uvec2 px, inout Rng rng) {
+    float jx = rnd(rng), jy = rnd(rng);
+    float h = scene.cam_pos.w, aspect = scene.cam_fwd.w;
+    float sx = (2.0 * (float(px.x) + jx) / float(scene.image.x) - 1.0) * h * aspect;
+    float sy = (1.0 - 2.0 * (float(px.y) + jy) / float(scene.image.y)) * h;
+    return normalize(scene.cam_fwd.xyz + sx * scene.cam_right.xyz + sy * scene.cam_up.xyz);
+}
+
 // ---- direct lighting at a point (Eq. 4 integrand, single scattering) ----
 // Light-sampling strategy: one light (or the background) chosen by power.
 // Returns f * L * T * w / pdf with f = 1/(4 pi) the isotropic phase function.

@@ -15,14 +15,6 @@ layout(set = 0, binding = 6, std430) buffer AccumStat { vec4 accum_stat[]; };  /
 
 layout(push_constant) uniform Push { uint iteration; uint seed; } pc;
 
-vec3 camera_ray(uvec2 px, inout Rng rng) {
-    float jx = rnd(rng), jy = rnd(rng);
-    float h = scene.cam_pos.w, aspect = scene.cam_fwd.w;
-    float sx = (2.0 * (float(px.x) + jx) / float(scene.image.x) - 1.0) * h * aspect;
-    float sy = (1.0 - 2.0 * (float(px.y) + jy) / float(scene.image.y)) * h;
-    return normalize(scene.cam_fwd.xyz + sx * scene.cam_right.xyz + sy * scene.cam_up.xyz);
-}
-
 // Kahan-compensated running mean (precise: no reassociation by the compiler), so
 // that after millions of samples an update of relative size 1e-7 is not lost.
 void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {

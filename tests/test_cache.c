@@ -44,6 +44,7 @@ static picvr_context *create_cached(uint32_t seed, uint32_t max_entries, float g
     cfg.cache.max_entries = max_entries;
     cfg.cache.gamma = gamma;
     cfg.cache.epsilon = eps;
+    cfg.cache.max_requests = 16;   /* per iteration: fills the cache of these tiny images fast */
     return tu_create_config(&cfg);
 }
 

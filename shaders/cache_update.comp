@@ -1,0 +1,99 @@
+#version 450
+// cache_update.comp - the cache update procedure (paper §4.3, §7).  A work package is
+// a 16x8 block of the image; each thread picks a random pixel in it, finds a scatter
+// event like the rendering procedure, and collects the predictions of all entries
+// covering it.  While the predictions conflict (largest over smallest luminance
+// irradiance above 1 + update threshold), the entry of lowest weight is removed from
+// the event by shrinking its radii in that octant proportionally to the event's local
+// coordinates (Fig. 6), until the remaining predictions agree or one is left.
+#extension GL_GOOGLE_include_directive : require
+layout(local_size_x = 16, local_size_y = 8) in;
+
+#include "common.glsl"
+#include "cache.glsl"
+
+layout(push_constant) uniform Push { uint iteration; uint seed; } pc;
+
+#define UPDATE_MAX_CANDIDATES 16u
+
+void main() {
+    uint lid = gl_LocalInvocationIndex;
+    // The block: a hash of (work package, iteration), the same for the whole group.
+    uint blocks_x = (scene.image.x + 15u) / 16u, blocks_y = (scene.image.y + 7u) / 8u;
+    uint block = pcg_hash(gl_WorkGroupID.x ^ pcg_hash(pc.iteration ^ pcg_hash(pc.seed + 0x27d4eb2du)))
+                 % (blocks_x * blocks_y);
+    Rng rng = rng_init(block * 128u + lid, pc.iteration, pc.seed ^ 0x165667b1u);
+    // A random pixel of the block (random, so neighbouring threads update entries at
+    // different object-space positions, §7).
+    uvec2 px = uvec2((block % blocks_x) * 16u + min(uint(rnd(rng) * 16.0), 15u),
+                     (block / blocks_x) * 8u + min(uint(rnd(rng) * 8.0), 7u));
+    if (px.x >= scene.image.x || px.y >= scene.image.y) return;   // no barriers below
+
+    vec3 ro = scene.cam_pos.xyz;
+    vec3 rd = camera_ray(px, rng);
+    float t0, t1;
+    if (!box_interval(ro, rd, t0, t1)) return;
+    bool truncated = false;
+    float t = delta_track(ro, rd, t0, t1, rng, truncated);
+    if (t < 0.0) return;
+    vec3 x = ro + rd * t;
+
+    // Candidates: every entry whose zone contains x (octree walk as in cache_lookup).
+    uint cand[UPDATE_MAX_CANDIDATES];
+    float weight[UPDATE_MAX_CANDIDATES], lnE[UPDATE_MAX_CANDIDATES];
+    vec3 local[UPDATE_MAX_CANDIDATES];
+    uint count = 0u;
+    uint node = 0u;
+    vec3 lo = scene.box_min.xyz, size = scene.box_size.xyz;
+    for (uint depth = 0u; depth <= CACHE_MAX_DEPTH; depth++) {
+        uint r = nodes[node].refs;
+        for (uint k = 0u; k < CACHE_MAX_REFS_PER_NODE && r != CACHE_NIL && count < UPDATE_MAX_CANDIDATES; k++) {
+            uint e = refs[r].entry;
+            Prediction p = predict(e, x);
+            if (p.w > 0.0) {
+                cand[count] = e;
+                weight[count] = p.w;
+                lnE[count] = dot(p.lnE, vec3(0.2126, 0.7152, 0.0722));   // ln of luminance-weighted
+                local[count] = p.local;
+                count++;
+            }
+            r = refs[r].next;
+        }
+        uint ch = nodes[node].children;
+        if (ch == CACHE_NIL) break;
+        size *= 0.5;
+        uvec3 o = uvec3(greaterThanEqual(x, lo + size));
+        lo += vec3(o) * size;
+        node = ch + o.x + 2u * o.y + 4u * o.z;
+    }
+
+    // Resolve conflicts: at most count - 1 removals.
+    float ln_threshold = log(1.0 + scene.cache_params.w);
+    for (uint iter = 0u; iter < UPDATE_MAX_CANDIDATES && count > 1u; iter++) {
+        float lmin = 1e30, lmax = -1e30, wmin = 2.0;
+        uint kmin = 0u;
+        for (uint k = 0u; k < count; k++) {
+            lmin = min(lmin, lnE[k]);
+            lmax = max(lmax, lnE[k]);
+            if (weight[k] < wmin) { wmin = weight[k]; kmin = k; }
+        }
+        if (lmax - lmin <= ln_threshold) break;
+        // Shrink the lowest-weight entry's three half-axes of this octant (Fig. 6).
+        uint e = cand[kmin];
+        vec3 l = local[kmin];
+        uvec3 h = uvec3(0u, 2u, 4u) + uvec3(lessThan(l, vec3(0.0)));
+        vec3 a = abs(l);
+        float rx = entry_radius(e, h.x), ry = entry_radius(e, h.y), rz = entry_radius(e, h.z);
+        float f = CM_FN(reduce_factor)(a.x, a.y, a.z, rx, ry, rz);
+        float rmin = scene.cache_radii.x;
+        atomicMin(entries[e].radius[h.x], floatBitsToUint(CM_FN(reduced_radius)(rx, f, rmin)));
+        atomicMin(entries[e].radius[h.y], floatBitsToUint(CM_FN(reduced_radius)(ry, f, rmin)));
+        atomicMin(entries[e].radius[h.z], floatBitsToUint(CM_FN(reduced_radius)(rz, f, rmin)));
+        // Remove it from the candidates (swap with the last).
+        count--;
+        cand[kmin] = cand[count];
+        weight[kmin] = weight[count];
+        lnE[kmin] = lnE[count];
+        local[kmin] = local[count];
+    }
+}
