@@ -343,6 +343,11 @@ typedef struct picvr_stats {
     uint32_t cache_nodes;        /* octree nodes in use */
     uint32_t cache_refs;         /* entry references in the octree */
     uint32_t cache_full;         /* 1 when a pool is full: the cache stops growing */
+    double cache_refs_per_entry; /* references / entries (the paper measured 6 to 7) */
+    uint32_t cache_requests;     /* creation requests issued in the last step */
+    uint32_t cache_pending;      /* requests and locks outstanding when the step ended
+                                    (0 today: each iteration completes its requests) */
+    uint64_t cache_bytes;        /* device memory of the cache pools */
     double cache_hit_rate;       /* fraction of scatter events served by the cache in
                                     the last step */
     uint32_t validation_messages;/* Khronos validation messages seen by this context */

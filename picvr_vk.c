@@ -108,7 +108,7 @@ struct picvr_context {
     double cache_since_rebuild_ms;
     uint32_t cache_entry_count;      /* as read at the start of the last step */
     uint32_t cache_prebuilt;         /* nodes of the pre-built top of the octree */
-    uint32_t cache_hits, cache_misses;
+    uint32_t cache_hits, cache_misses, cache_requests_issued;
     int descriptors_dirty;
 
     /* host state */
@@ -905,7 +905,7 @@ static picvr_status cache_read_counters(picvr_context *ctx, uint32_t out[CACHE_C
     VkBufferCopy region = {0, 0, CACHE_COUNTER_WORDS * 4};
     vkCmdCopyBuffer(ctx->cmd, ctx->cache_counters.buf, ctx->cache_readback.buf, 1, &region);
     barrier_all(ctx);
-    vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 8 * 4, 2 * 4, 0);
+    vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 8 * 4, 3 * 4, 0);   /* hits, misses, requests */
     barrier_all(ctx);
     if ((s = cmd_submit_wait(ctx))) return s;
     buffer_invalidate(ctx, &ctx->cache_readback);
@@ -1632,7 +1632,7 @@ static picvr_status render_loop(picvr_context *ctx, double budget_ms, uint32_t m
     if (ctx->cache_on) {   /* the hit rate reported is that of this step */
         uint32_t c[CACHE_COUNTER_WORDS];
         if ((s = cache_read_counters(ctx, c))) return s;
-        ctx->cache_hits = ctx->cache_misses = 0;
+        ctx->cache_hits = ctx->cache_misses = ctx->cache_requests_issued = 0;
         ctx->cache_entry_count = c[4];
         if (ctx->cache_since_rebuild_ms >= ctx->cache.rebuild_interval_ms) {
             if ((s = cache_rebuild(ctx, c[4]))) return s;
@@ -1789,10 +1789,16 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             if (s) return s;
             ctx->cache_hits += c[8];
             ctx->cache_misses += c[9];
+            ctx->cache_requests_issued += c[10];
+            st.cache_requests = ctx->cache_requests_issued;
+            st.cache_pending = 0;
+            st.cache_bytes = ctx->cache_entries.size + ctx->cache_nodes.size + ctx->cache_refs.size +
+                             ctx->cache_counters.size + ctx->cache_requests.size + ctx->cache_prebuilt_nodes.size;
             st.cache_entries = c[4] < ctx->cache.max_entries ? c[4] : ctx->cache.max_entries;
             st.cache_nodes = c[5] < ctx->cache.max_nodes ? c[5] : ctx->cache.max_nodes;
             st.cache_refs = c[6] < ctx->cache.max_refs ? c[6] : ctx->cache.max_refs;
             st.cache_full = c[7];
+            st.cache_refs_per_entry = st.cache_entries ? (double)st.cache_refs / st.cache_entries : 0.0;
             uint64_t events = (uint64_t)ctx->cache_hits + ctx->cache_misses;
             st.cache_hit_rate = events ? (double)ctx->cache_hits / events : 0.0;
         }

@@ -126,7 +126,7 @@ static void print_help(FILE *f)
         "  --iterations N         render exactly N iterations instead (deterministic)\n"
         "  --round MS             time per round between statistics (default 100)\n"
         "  --seed N               random seed (default 0)\n"
-        "  --cache none|object    irradiance cache: none (plain Monte Carlo, the default for\n"
+        "  --cache off|object     irradiance cache: off (plain Monte Carlo, the default for\n"
         "                         now) or object-space locking (screen: not built yet)\n"
         "  --device NAME          Vulkan device whose name contains NAME\n"
         "  --validation           enable the Khronos validation layer\n"
@@ -281,7 +281,7 @@ static int apply_option(options *o, const char *name, const char *value)
     } else if (!strcmp(name, "seed")) {
         ok = parse_u32(value, 0, UINT32_MAX, &o->seed);
     } else if (!strcmp(name, "cache")) {
-        if (!strcmp(value, "none")) o->cache = PICVR_CACHE_NONE;
+        if (!strcmp(value, "none") || !strcmp(value, "off")) o->cache = PICVR_CACHE_NONE;
         else if (!strcmp(value, "object")) o->cache = PICVR_CACHE_OBJECT_SPACE;
         else if (!strcmp(value, "screen")) o->cache = PICVR_CACHE_SCREEN_SPACE;
         else ok = 0;
@@ -640,8 +640,14 @@ static int write_json(const options *o, const picvr_stats *s)
     fputs(", \"lights\": ", f);
     json_string(f, o->lights_name);
     fprintf(f, ", \"cache_entries\": %u, \"cache_nodes\": %u, \"cache_refs\": %u, "
-            "\"cache_full\": %u, \"cache_hit_rate\": ", s->cache_entries, s->cache_nodes,
-            s->cache_refs, s->cache_full);
+            "\"cache_references\": %u, \"cache_full\": %u, \"cache_requests\": %u, "
+            "\"pending_requests\": %u, \"cache_bytes\": %llu, \"cache_refs_per_entry\": ",
+            s->cache_entries, s->cache_nodes, s->cache_refs, s->cache_refs, s->cache_full,
+            s->cache_requests, s->cache_pending, (unsigned long long)s->cache_bytes);
+    json_number(f, s->cache_refs_per_entry);
+    fputs(", \"cache_hit_rate\": ", f);
+    json_number(f, s->cache_hit_rate);
+    fputs(", \"hit_rate\": ", f);
     json_number(f, s->cache_hit_rate);
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
@@ -662,8 +668,8 @@ static void print_summary(const options *o, const picvr_stats *s)
                                    (unsigned long long)s->truncated_paths);
     if (s->validation_messages) printf(", %u validation messages", s->validation_messages);
     if (s->cache_entries)
-        printf(", cache %u entries / %u refs, hit rate %.3f%s", s->cache_entries, s->cache_refs,
-               s->cache_hit_rate, s->cache_full ? " (full)" : "");
+        printf(", cache %u entries, %.2f refs/entry, hit rate %.3f%s", s->cache_entries,
+               s->cache_refs_per_entry, s->cache_hit_rate, s->cache_full ? " (full)" : "");
     if (interrupted) printf(", interrupted");
     printf("\n");
 }

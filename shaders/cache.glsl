@@ -37,7 +37,7 @@ layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
     uint dispatch_x, dispatch_y, dispatch_z;   // indirect dispatch of the creation procedure
     uint request_count;
     uint entry_count, node_count, ref_count, full;
-    uint hits, misses, pad0, pad1;
+    uint hits, misses, requests, pad1;
 } cache_counters;
 layout(set = 0, binding = 13, std430) buffer CacheRequests { Request requests[]; };
 
@@ -147,6 +147,7 @@ void cache_request(vec3 x, uint node) {
         atomicExchange(nodes[node].lock, 0u);
         return;
     }
+    atomicAdd(cache_counters.requests, 1u);
     requests[slot].pos = vec4(x, 0.0);
     requests[slot].node = node;
     atomicMax(cache_counters.dispatch_x, slot + 1u);
