@@ -156,7 +156,7 @@ typedef enum picvr_cache_mode {
                                       (issue 3) and becomes the default once validated */
     PICVR_CACHE_NONE,              /* plain Monte Carlo, the baseline */
     PICVR_CACHE_OBJECT_SPACE,      /* cache, object-space locking (§5.1) */
-    PICVR_CACHE_SCREEN_SPACE       /* cache, screen-space locking (§5.2; not yet built) */
+    PICVR_CACHE_SCREEN_SPACE       /* cache, screen-space locking (§5.2) */
 } picvr_cache_mode;
 
 typedef struct picvr_cache_config {
@@ -170,6 +170,8 @@ typedef struct picvr_cache_config {
     float update_threshold;    /* §4.3: predictions conflict when they differ by more than
                                   this relative amount; 0: 0.1 */
     float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */
+    uint32_t superpixel_size;  /* screen-space locking: side of a square superpixel in
+                                  pixels; 0: 32 */
     uint32_t max_entries;      /* entry pool; 0: 65536 */
     uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries */
     uint32_t max_refs;         /* reference pool; 0: 16 * max_entries */

@@ -32,7 +32,7 @@ typedef struct gpu_scene {
     float background[4];
     float value_map[4];
     float cache_params[4], cache_radii[4];
-    uint32_t cache_caps[4];
+    uint32_t cache_caps[4], cache_screen[4];
     gpu_light lights[PICVR_MAX_LIGHTS];
 } gpu_scene;
 
@@ -105,6 +105,8 @@ struct picvr_context {
     int cache_requests_set;          /* the application chose max_requests */
     buffer cache_entries, cache_nodes, cache_refs, cache_counters, cache_requests, cache_readback;
     buffer cache_prebuilt_nodes;     /* the pre-built top of the octree, copied on rebuild */
+    buffer cache_superpixels;        /* screen-space locking: locks + ray/miss counters */
+    uint32_t superpixel_count;
     double cache_since_rebuild_ms;
     uint32_t cache_entry_count;      /* as read at the start of the last step */
     uint32_t cache_prebuilt;         /* nodes of the pre-built top of the octree */
@@ -549,8 +551,9 @@ static picvr_status create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPi
 
 /* Binding layout shared by all kernels (see ARCHITECTURE.md): 0 scene UBO, 1 volume,
    2 transfer function, 3 majorant grid, 4-6 accumulation planes, 7 stats partials,
-   8 opacity range-max table, 9-13 cache entries, nodes, refs, counters, requests. */
-#define NUM_BINDINGS 14
+   8 opacity range-max table, 9-13 cache entries, nodes, refs, counters, requests,
+   14 superpixels (screen-space locking). */
+#define NUM_BINDINGS 15
 static VkDescriptorType binding_type(uint32_t i) {
     return i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
          : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
@@ -738,6 +741,7 @@ void picvr_destroy(picvr_context *ctx) {
         if (ctx->update_module) vkDestroyShaderModule(d, ctx->update_module, NULL);
         if (ctx->rebuild_module) vkDestroyShaderModule(d, ctx->rebuild_module, NULL);
         buffer_destroy(ctx, &ctx->cache_prebuilt_nodes);
+        buffer_destroy(ctx, &ctx->cache_superpixels);
         if (ctx->render_cache_module) vkDestroyShaderModule(d, ctx->render_cache_module, NULL);
         if (ctx->create_module) vkDestroyShaderModule(d, ctx->create_module, NULL);
         buffer_destroy(ctx, &ctx->cache_entries);
@@ -788,10 +792,8 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
     *c = *in;
     if ((unsigned)c->mode > PICVR_CACHE_SCREEN_SPACE) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->mode == PICVR_CACHE_DEFAULT) c->mode = PICVR_CACHE_NONE;   /* until issue 3 is validated */
-    if (c->mode == PICVR_CACHE_SCREEN_SPACE) {
-        logf_(ctx, PICVR_LOG_ERROR, "screen-space locking is not implemented yet");
-        return PICVR_ERROR_INVALID_ARGUMENT;
-    }
+    if (!c->superpixel_size) c->superpixel_size = 32;
+    if (c->superpixel_size > 4096) return PICVR_ERROR_INVALID_ARGUMENT;
     float *f[7] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels,
                    &c->update_threshold, &c->rebuild_interval_ms};
     const float def[7] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f, 0.1f, 1000.0f};
@@ -849,6 +851,13 @@ static uint32_t cache_update_params(picvr_context *ctx) {
     g->cache_caps[1] = ctx->cache.max_nodes;
     g->cache_caps[2] = ctx->cache.max_refs;
     g->cache_caps[3] = ctx->cache.max_requests;
+    if (ctx->has_camera) {
+        uint32_t side = ctx->cache.superpixel_size;
+        g->cache_screen[0] = side;
+        g->cache_screen[1] = (ctx->camera.width + side - 1) / side;
+        g->cache_screen[2] = ctx->superpixel_count;
+        g->cache_screen[3] = ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE;
+    }
     /* Fixed split until the scheduler (issue 4) budgets creation by time: unless the
        application set max_requests, at most one request per CACHE_PIXELS_PER_REQUEST
        pixels per iteration. */
@@ -881,6 +890,7 @@ static picvr_status cache_clear(picvr_context *ctx) {
     if (!s) {
         barrier_all(ctx);
         vkCmdFillBuffer(ctx->cmd, ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE, 0);
+        if (ctx->cache_superpixels.buf) vkCmdFillBuffer(ctx->cmd, ctx->cache_superpixels.buf, 0, VK_WHOLE_SIZE, 0);
         barrier_all(ctx);
         s = cmd_submit_wait(ctx);
     }
@@ -1485,6 +1495,23 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
         buffer_destroy(ctx, &part);
         return s;
     }
+    if (ctx->cache_on) {
+        /* superpixel locks and counters: the real thing in screen-space mode, a stub
+           (the shader module declares the binding) in object-space mode */
+        uint32_t side = ctx->cache.superpixel_size;
+        uint32_t n = ((w + side - 1) / side) * ((h + side - 1) / side);
+        buffer sp;
+        uint64_t bytes = ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE ? (uint64_t)n * 5 * 4 : 16;
+        if ((s = buffer_create(ctx, &sp, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) {
+            for (int i = 0; i < 3; i++) buffer_destroy(ctx, &acc[i]);
+            buffer_destroy(ctx, &rb);
+            buffer_destroy(ctx, &part);
+            return s;
+        }
+        buffer_destroy(ctx, &ctx->cache_superpixels);
+        ctx->cache_superpixels = sp;
+        ctx->superpixel_count = n;
+    }
     for (int i = 0; i < 3; i++) { buffer_destroy(ctx, &ctx->accum[i]); ctx->accum[i] = acc[i]; }
     buffer_destroy(ctx, &ctx->readback);
     buffer_destroy(ctx, &ctx->partials);
@@ -1540,7 +1567,14 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
     g->image[1] = c.height;
     ctx->camera = c;
     ctx->has_camera = 1;
-    if (ctx->cache_on) cache_update_params(ctx);   /* the request cap follows the image size */
+    if (ctx->cache_on) {
+        cache_update_params(ctx);   /* the request cap and superpixels follow the image size */
+        if ((s = cmd_begin(ctx))) return s;
+        barrier_all(ctx);
+        vkCmdFillBuffer(ctx->cmd, ctx->cache_superpixels.buf, 0, VK_WHOLE_SIZE, 0);
+        barrier_all(ctx);
+        if ((s = cmd_submit_wait(ctx))) return s;
+    }
     return clear_accumulation(ctx);
 }
 
@@ -1558,7 +1592,7 @@ static void update_descriptors(picvr_context *ctx) {
         {ctx->partials.buf, 0, VK_WHOLE_SIZE}, {ctx->tf_range_max.buf, 0, VK_WHOLE_SIZE},
         {ctx->cache_entries.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE},
         {ctx->cache_refs.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_counters.buf, 0, VK_WHOLE_SIZE},
-        {ctx->cache_requests.buf, 0, VK_WHOLE_SIZE}};
+        {ctx->cache_requests.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_superpixels.buf, 0, VK_WHOLE_SIZE}};
     VkWriteDescriptorSet w[NUM_BINDINGS];
     memset(w, 0, sizeof w);
     for (uint32_t i = 0; i < NUM_BINDINGS; i++) {
@@ -1610,6 +1644,12 @@ static picvr_status render_batch(picvr_context *ctx, uint32_t k) {
             barrier_all(ctx);
             vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 0, 4, 0);       /* dispatch_x */
             vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 3 * 4, 4, 0);   /* request_count */
+            if (ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE) {
+                /* superpixel counters: the set read this iteration is written next */
+                VkDeviceSize n = ctx->superpixel_count;
+                VkDeviceSize set = (ctx->iterations + i + 1) & 1;
+                vkCmdFillBuffer(ctx->cmd, ctx->cache_superpixels.buf, (n + 2 * n * set) * 4, 2 * n * 4, 0);
+            }
             barrier_all(ctx);
             /* Update procedure: a fixed 1/16 of the image's blocks per iteration until the
                scheduler (issue 4) budgets it by time. */
@@ -1793,7 +1833,8 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_requests = ctx->cache_requests_issued;
             st.cache_pending = 0;
             st.cache_bytes = ctx->cache_entries.size + ctx->cache_nodes.size + ctx->cache_refs.size +
-                             ctx->cache_counters.size + ctx->cache_requests.size + ctx->cache_prebuilt_nodes.size;
+                             ctx->cache_counters.size + ctx->cache_requests.size + ctx->cache_prebuilt_nodes.size +
+                             ctx->cache_superpixels.size;
             st.cache_entries = c[4] < ctx->cache.max_entries ? c[4] : ctx->cache.max_entries;
             st.cache_nodes = c[5] < ctx->cache.max_nodes ? c[5] : ctx->cache.max_nodes;
             st.cache_refs = c[6] < ctx->cache.max_refs ? c[6] : ctx->cache.max_refs;

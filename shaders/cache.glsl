@@ -40,6 +40,11 @@ layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
     uint hits, misses, requests, pad1;
 } cache_counters;
 layout(set = 0, binding = 13, std430) buffer CacheRequests { Request requests[]; };
+// Screen-space locking (§5.2): per superpixel a lock, then two sets of (rays, misses)
+// counters: iteration i counts into set i & 1 and reads the ratio of the other set
+// (the previous iteration), which the host then clears for iteration i + 1.
+layout(set = 0, binding = 14, std430) coherent buffer CacheSuperpixels { uint superpixels[]; };
+#define LOCK_SUPERPIXEL 0x80000000u   // request.node: a superpixel index, not a node
 
 float entry_radius(uint e, uint h) { return uintBitsToFloat(entries[e].radius[h]); }
 
@@ -137,20 +142,58 @@ bool cache_lookup(vec3 x, out vec3 E, out uint deepest) {
     return true;
 }
 
-// Object-space locking (§5.1): one creation request per node at a time; a request
-// whose node is locked, or that finds the request queue full, is dropped (the event
-// is shaded by plain Monte Carlo either way).
-void cache_request(vec3 x, uint node) {
-    if (atomicCompSwap(nodes[node].lock, 0u, 1u) != 0u) return;
+void cache_unlock(uint locked) {
+    if ((locked & LOCK_SUPERPIXEL) != 0u) atomicExchange(superpixels[locked & ~LOCK_SUPERPIXEL], 0u);
+    else atomicExchange(nodes[locked].lock, 0u);
+}
+
+// Queues a creation request for x holding `locked`; released again when the queue of
+// this iteration is full.
+void queue_request(vec3 x, uint locked) {
     uint slot = atomicAdd(cache_counters.request_count, 1u);
     if (slot >= scene.cache_caps.w) {
-        atomicExchange(nodes[node].lock, 0u);
+        cache_unlock(locked);
         return;
     }
     atomicAdd(cache_counters.requests, 1u);
     requests[slot].pos = vec4(x, 0.0);
-    requests[slot].node = node;
+    requests[slot].node = locked;
     atomicMax(cache_counters.dispatch_x, slot + 1u);
+}
+
+uint superpixel_of(uvec2 px) {
+    uvec2 sp = px / scene.cache_screen.x;
+    return sp.y * scene.cache_screen.y + sp.x;
+}
+
+// Counts a scatter event of this iteration in its superpixel (screen-space locking).
+void count_ray(uvec2 px, bool miss, uint iteration) {
+    uint n = scene.cache_screen.z;
+    uint base = n + 2u * n * (iteration & 1u) + 2u * superpixel_of(px);
+    atomicAdd(superpixels[base], 1u);
+    if (miss) atomicAdd(superpixels[base + 1u], 1u);
+}
+
+// A cache miss at x (pixel px): asks for a new entry under the chosen locking.
+// Object space (§5.1): lock the deepest node enclosing x; one request per node.
+// Screen space (§5.2): one request per superpixel at a time, and only if a random
+// number falls below the superpixel's ratio of misses to rays in the previous
+// iteration, so well-covered regions rarely ask (the first iteration, with no history,
+// always asks).  Either way a refused request is simply dropped: the event is shaded
+// by plain Monte Carlo.
+void cache_request(vec3 x, uint node, uvec2 px, uint iteration, float u) {
+    if (scene.cache_screen.w == 0u) {
+        if (atomicCompSwap(nodes[node].lock, 0u, 1u) != 0u) return;
+        queue_request(x, node);
+        return;
+    }
+    uint n = scene.cache_screen.z, sp = superpixel_of(px);
+    uint prev = n + 2u * n * ((iteration + 1u) & 1u) + 2u * sp;
+    uint rays = superpixels[prev], misses = superpixels[prev + 1u];
+    float ratio = rays > 0u ? float(misses) / float(rays) : 1.0;
+    if (!(u < ratio)) return;
+    if (atomicCompSwap(superpixels[sp], 0u, 1u) != 0u) return;
+    queue_request(x, sp | LOCK_SUPERPIXEL);
 }
 
 // ---- insertion (creation procedure) ----

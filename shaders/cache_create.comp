@@ -131,5 +131,5 @@ void main() {
     barrier();
     if (s_done && lid < 8u) insert_corner(uint(s_E[1].x), x0, s_E[1].y, lid);
     barrier();
-    if (lid == 0u) atomicExchange(nodes[locked].lock, 0u);
+    if (lid == 0u) cache_unlock(locked);
 }

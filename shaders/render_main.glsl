@@ -62,11 +62,13 @@ void main() {
 #ifdef PICVR_CACHE
         vec3 E;
         uint node;
-        if (cache_lookup(x, E, node)) {
+        bool hit = cache_lookup(x, E, node);
+        if (scene.cache_screen.w != 0u) count_ray(px, !hit, pc.iteration);
+        if (hit) {
             Ls = E * INV_4PI;                 // isotropic phase: L_s = E / (4 pi)
             atomicAdd(cache_counters.hits, 1u);
         } else {
-            cache_request(x, node);
+            cache_request(x, node, px, pc.iteration, rnd(rng));
             Ls = sample_one_light(x, rng, truncated);
             if (USE_PHASE_MIS) Ls += sample_phase(x, rng, truncated);
             atomicAdd(cache_counters.misses, 1u);

@@ -36,16 +36,21 @@ static void cube_ray(const double o[3], const double d[3], void *user, double ou
     out[3] = 1 - exp(-s.sigma * (t1 - t0));
 }
 
-static picvr_context *create_cached(uint32_t seed, uint32_t max_entries, float gamma, float eps) {
+static picvr_context *create_cached_mode(picvr_cache_mode mode, uint32_t seed, uint32_t max_entries,
+                                        float gamma, float eps) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
-    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    cfg.cache.mode = mode;
     cfg.cache.max_entries = max_entries;
     cfg.cache.gamma = gamma;
     cfg.cache.epsilon = eps;
     cfg.cache.max_requests = 16;   /* per iteration: fills the cache of these tiny images fast */
     return tu_create_config(&cfg);
+}
+
+static picvr_context *create_cached(uint32_t seed, uint32_t max_entries, float gamma, float eps) {
+    return create_cached_mode(PICVR_CACHE_OBJECT_SPACE, seed, max_entries, gamma, eps);
 }
 
 /* 16^3 cube, sigma_t = 0.15, albedo 0.8, white delta sun toward (0.6, 0.45, 0.66). */
@@ -79,9 +84,8 @@ void test_cache_off_by_default_allocates_nothing(void **state) {
     tu_finish(ctx);
 }
 
-void test_cache_homogeneous_sun_matches_closed_form(void **state) {
-    (void)state;
-    picvr_context *ctx = create_cached(7, 0, 0.05f, 0.05f);
+static void cached_cube_matches_closed_form(picvr_cache_mode mode) {
+    picvr_context *ctx = create_cached_mode(mode, 7, 0, 0.05f, 0.05f);
     tu_vol vol;
     cube_sun s;
     setup_cube(ctx, &vol, &s);
@@ -109,6 +113,16 @@ void test_cache_homogeneous_sun_matches_closed_form(void **state) {
     free(expv);
     tu_vol_free(&vol);
     tu_finish(ctx);
+}
+
+void test_cache_homogeneous_sun_matches_closed_form(void **state) {
+    (void)state;
+    cached_cube_matches_closed_form(PICVR_CACHE_OBJECT_SPACE);
+}
+
+void test_cache_screen_space_locking_matches_closed_form(void **state) {
+    (void)state;
+    cached_cube_matches_closed_form(PICVR_CACHE_SCREEN_SPACE);
 }
 
 void test_cache_invalidation_and_camera_keeps_cache(void **state) {
