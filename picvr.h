@@ -315,6 +315,17 @@ picvr_status picvr_step(picvr_context *ctx, double milliseconds);
    offline rendering). */
 picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations);
 
+typedef enum picvr_debug_view {
+    PICVR_VIEW_IMAGE = 0,      /* the rendered image */
+    PICVR_VIEW_CACHE = 1       /* where the cache is: per pixel the fraction of scatter
+                                  events served by the cache (green) or missed (red),
+                                  entry centres white, background black; needs the
+                                  cache on (PICVR_ERROR_NOT_READY otherwise) */
+} picvr_debug_view;
+
+/* Selects what picvr_step renders; resets accumulation. */
+picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view);
+
 /* Discards the accumulated image (iterations back to 0). */
 picvr_status picvr_reset(picvr_context *ctx);
 

@@ -32,7 +32,7 @@ typedef struct gpu_scene {
     float background[4];
     float value_map[4];
     float cache_params[4], cache_radii[4];
-    uint32_t cache_caps[4], cache_screen[4];
+    uint32_t cache_caps[4], cache_screen[4], view[4];
     gpu_light lights[PICVR_MAX_LIGHTS];
 } gpu_scene;
 
@@ -965,6 +965,14 @@ static picvr_status clear_accumulation(picvr_context *ctx) {
     for (int i = 0; i < 3; i++) vkCmdFillBuffer(ctx->cmd, ctx->accum[i].buf, 0, VK_WHOLE_SIZE, 0);
     barrier_all(ctx);
     return cmd_submit_wait(ctx);
+}
+
+picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if ((unsigned)view > PICVR_VIEW_CACHE) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (view == PICVR_VIEW_CACHE && !ctx->cache_on) return PICVR_ERROR_NOT_READY;
+    ctx->scene.view[0] = (uint32_t)view;
+    return clear_accumulation(ctx);
 }
 
 picvr_status picvr_reset(picvr_context *ctx) {

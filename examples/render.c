@@ -48,6 +48,7 @@ typedef struct options {
     const char *device;
     int validation;
     picvr_cache_mode cache;
+    const char *debug_view;
     float exposure;
     float azimuth, elevation, distance, fov;
     const char *out_png, *out_pfm, *log_path, *json_path;
@@ -128,6 +129,8 @@ static void print_help(FILE *f)
         "  --seed N               random seed (default 0)\n"
         "  --cache off|object|screen  irradiance cache: off (plain Monte Carlo, the default\n"
         "                         for now), object- or screen-space locking\n"
+        "  --debug-view cache     show where the cache is: hits green, misses red, entry\n"
+        "                         centres white (needs --cache object|screen)\n"
         "  --device NAME          Vulkan device whose name contains NAME\n"
         "  --validation           enable the Khronos validation layer\n"
         "output\n"
@@ -280,6 +283,9 @@ static int apply_option(options *o, const char *name, const char *value)
         ok = parse_double(value, &o->round_ms) && o->round_ms > 0.0;
     } else if (!strcmp(name, "seed")) {
         ok = parse_u32(value, 0, UINT32_MAX, &o->seed);
+    } else if (!strcmp(name, "debug-view")) {
+        o->debug_view = value;
+        ok = !strcmp(value, "cache") || !strcmp(value, "image");
     } else if (!strcmp(name, "cache")) {
         if (!strcmp(value, "none") || !strcmp(value, "off")) o->cache = PICVR_CACHE_NONE;
         else if (!strcmp(value, "object")) o->cache = PICVR_CACHE_OBJECT_SPACE;
@@ -311,7 +317,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "debug-view", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -713,6 +719,8 @@ static int set_up_scene(picvr_context *ctx, const options *o)
         return 0;
     }
     if (!check(picvr_set_camera(ctx, &cam), "picvr_set_camera")) return 0;
+    if (o->debug_view && !strcmp(o->debug_view, "cache") &&
+        !check(picvr_set_view(ctx, PICVR_VIEW_CACHE), "picvr_set_view")) return 0;
 
     pvp_tf tf;
     if ((ps = pvp_tf_preset(o->tf_name, &tf)) != PVP_OK) {

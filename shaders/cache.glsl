@@ -117,7 +117,8 @@ void eval_entry(uint e, vec3 x, inout float sum_w, inout vec3 sum_wlog) {
 
 // Looks x up in the octree: true and the extrapolated irradiance when entries cover
 // it (Eq. 11); always returns the deepest existing node enclosing x (for locking).
-bool cache_lookup(vec3 x, out vec3 E, out uint deepest) {
+bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
+    near_centre = false;
     uint node = 0u;
     vec3 lo = scene.box_min.xyz, size = scene.box_size.xyz;
     float sum_w = 0.0;
@@ -126,6 +127,10 @@ bool cache_lookup(vec3 x, out vec3 E, out uint deepest) {
         uint r = nodes[node].refs;
         for (uint k = 0u; k < CACHE_MAX_REFS_PER_NODE && r != CACHE_NIL; k++) {
             eval_entry(refs[r].entry, x, sum_w, sum_wlog);
+            if (scene.view.x != 0u) {   // debug view: is x within a voxel of a centre?
+                vec3 d = x - entries[refs[r].entry].pos_rmax.xyz;
+                near_centre = near_centre || dot(d, d) < scene.cell_size.w * scene.cell_size.w;
+            }
             r = refs[r].next;
         }
         uint ch = nodes[node].children;

@@ -55,6 +55,7 @@ layout(set = 0, binding = 0, std140) uniform Scene {
     uvec4 cache_caps;  // pool capacities: entries, nodes, refs, requests
     uvec4 cache_screen;// x superpixel side, y superpixels per row, z superpixel count,
                        // w locking: 0 object space, 1 screen space
+    uvec4 view;        // x: 0 image, 1 cache debug view
     Light lights[MAX_LIGHTS];
 } scene;
 

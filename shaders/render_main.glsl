@@ -62,7 +62,8 @@ void main() {
 #ifdef PICVR_CACHE
         vec3 E;
         uint node;
-        bool hit = cache_lookup(x, E, node);
+        bool near_centre;
+        bool hit = cache_lookup(x, E, node, near_centre);
         if (scene.cache_screen.w != 0u) count_ray(px, !hit, pc.iteration);
         if (hit) {
             Ls = E * INV_4PI;                 // isotropic phase: L_s = E / (4 pi)
@@ -79,6 +80,14 @@ void main() {
 #endif
         radiance = albedo_at(x) * Ls;
         coverage = 1.0;
+#ifdef PICVR_CACHE
+        if (scene.view.x == 1u)
+            radiance = near_centre ? vec3(1.0) : hit ? vec3(0.1, 0.8, 0.2) : vec3(0.8, 0.1, 0.1);
+#endif
+#ifdef PICVR_CACHE
+    } else if (scene.view.x == 1u) {
+        radiance = vec3(0.0);
+#endif
     } else if (light_hit >= 0) {
         radiance = area_light_radiance(uint(light_hit), rd);
     } else {

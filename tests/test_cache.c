@@ -178,3 +178,37 @@ void test_cache_pool_full_is_reported_and_safe(void **state) {
     tu_vol_free(&vol);
     tu_finish(ctx);
 }
+
+/* The debug view: refused without the cache, and with it every covered pixel shows
+   the hit (green) / miss (red) fraction, which sums with the centre marks to 1. */
+void test_cache_debug_view(void **state) {
+    (void)state;
+    picvr_context *plain = tu_create(2);
+    assert_int_equal(picvr_set_view(plain, PICVR_VIEW_CACHE), PICVR_ERROR_NOT_READY);
+    assert_int_equal(picvr_set_view(plain, (picvr_debug_view)7), PICVR_ERROR_INVALID_ARGUMENT);
+    assert_int_equal(picvr_set_view(NULL, PICVR_VIEW_IMAGE), PICVR_ERROR_NULL_POINTER);
+    tu_finish(plain);
+
+    picvr_context *ctx = create_cached(9, 0, 0.0f, 0.0f);
+    tu_vol vol;
+    cube_sun s;
+    setup_cube(ctx, &vol, &s);
+    const uint32_t W = 24, H = 24;
+    tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
+    TU_OK(picvr_step_iterations(ctx, 32));            /* fill the cache first */
+    TU_OK(picvr_set_view(ctx, PICVR_VIEW_CACHE));
+    TU_OK(picvr_step_iterations(ctx, 16));
+    float *img = tu_read(ctx, W, H);
+    tu_assert_finite(img, (size_t)W * H * 4, "debug view");
+    double green = 0, red = 0;
+    for (size_t p = 0; p < (size_t)W * H; p++) {
+        green += img[4 * p + 1];
+        red += img[4 * p + 0];
+    }
+    print_message("    debug view: mean green %.3f, red %.3f\n", green / (W * H), red / (W * H));
+    assert_true(green > red);   /* the cube's cache is mostly hits after 32 iterations */
+    free(img);
+    TU_OK(picvr_set_view(ctx, PICVR_VIEW_IMAGE));
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+}

@@ -53,6 +53,7 @@
     X(test_cache_screen_space_locking_matches_closed_form)          \
     X(test_cache_invalidation_and_camera_keeps_cache)               \
     X(test_cache_pool_full_is_reported_and_safe)                    \
+    X(test_cache_debug_view)                                        \
     /* test_api_errors.c */                                         \
     X(test_status_strings_non_null_and_distinct)                    \
     X(test_create_destroy_errors)                                   \
