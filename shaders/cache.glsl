@@ -115,6 +115,15 @@ void eval_entry(uint e, vec3 x, inout float sum_w, inout vec3 sum_wlog) {
     sum_wlog += pr.w * pr.lnE;
 }
 
+// One step down the octree: the child of first-child index ch whose octant of the
+// node [lo, lo + size] contains x; lo and size become the child's.
+uint child_containing(uint ch, vec3 x, inout vec3 lo, inout vec3 size) {
+    size *= 0.5;
+    uvec3 o = uvec3(greaterThanEqual(x, lo + size));
+    lo += vec3(o) * size;
+    return ch + o.x + 2u * o.y + 4u * o.z;
+}
+
 // Looks x up in the octree: true and the extrapolated irradiance when entries cover
 // it (Eq. 11); always returns the deepest existing node enclosing x (for locking).
 bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
@@ -135,10 +144,7 @@ bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
         }
         uint ch = nodes[node].children;
         if (ch == CACHE_NIL) break;
-        size *= 0.5;
-        uvec3 o = uvec3(greaterThanEqual(x, lo + size));
-        lo += vec3(o) * size;
-        node = ch + o.x + 2u * o.y + 4u * o.z;
+        node = child_containing(ch, x, lo, size);
     }
     deepest = node;
     E = vec3(0.0);

@@ -21,8 +21,7 @@ layout(local_size_x = 128) in;
 
 layout(push_constant) uniform Push { uint iteration; uint seed; } pc;
 
-shared vec4 s_red[128];          // reduction scratch: lum sum, lum sq sum
-shared vec3 s_rgb[128];
+shared vec4 s_red[128];          // reduction scratch: (lum sum, lum sq sum) or RGB sums
 shared bool s_done;
 shared vec3 s_E[7];
 
@@ -31,14 +30,6 @@ void reduce_red() {
     for (uint stride = 64u; stride > 0u; stride >>= 1u) {
         barrier();
         if (gl_LocalInvocationID.x < stride) s_red[gl_LocalInvocationID.x] += s_red[gl_LocalInvocationID.x + stride];
-    }
-    barrier();
-}
-
-void reduce_rgb() {
-    for (uint stride = 64u; stride > 0u; stride >>= 1u) {
-        barrier();
-        if (gl_LocalInvocationID.x < stride) s_rgb[gl_LocalInvocationID.x] += s_rgb[gl_LocalInvocationID.x + stride];
     }
     barrier();
 }
@@ -96,9 +87,9 @@ void main() {
     // Mean RGB irradiance at the seven points.
     float N = float(rounds * 128u);
     for (uint k = 0u; k < 7u; k++) {
-        s_rgb[lid] = sum[k];
-        reduce_rgb();
-        if (lid == 0u) s_E[k] = s_rgb[0] / N;
+        s_red[lid] = vec4(sum[k], 0.0);
+        reduce_red();
+        if (lid == 0u) s_E[k] = s_red[0].xyz / N;
         barrier();
     }
 

@@ -61,10 +61,7 @@ void main() {
         }
         uint ch = nodes[node].children;
         if (ch == CACHE_NIL) break;
-        size *= 0.5;
-        uvec3 o = uvec3(greaterThanEqual(x, lo + size));
-        lo += vec3(o) * size;
-        node = ch + o.x + 2u * o.y + 4u * o.z;
+        node = child_containing(ch, x, lo, size);
     }
 
     // Resolve conflicts: at most count - 1 removals.

@@ -147,19 +147,6 @@ void test_stats_counters_and_step_time(void **state) {
    random two-level structure is checked pixel by pixel against the exact absorption
    (albedo 0, background 1: Bernoulli samples, see test_beer_lambert.c): a voxel placed
    with the wrong spacing or offset changes the per-pixel transmittance. */
-typedef struct aniso {
-    const tu_vol *vol;
-    double bmin[3], bmax[3], D;
-} aniso;
-
-static void aniso_ray(const double o[3], const double d[3], void *user, double out[4]) {
-    const aniso *a = user;
-    double t0, t1, T = 1;
-    if (tu_ray_box(o, d, a->bmin, a->bmax, &t0, &t1))
-        T = exp(-a->D * tu_value_integral(a->vol, o, d, t0, t1));
-    out[0] = out[1] = out[2] = T;
-    out[3] = 1 - T;
-}
 
 void test_volume_box_and_anisotropic_spacing(void **state) {
     (void)state;
@@ -195,7 +182,7 @@ void test_volume_box_and_anisotropic_spacing(void **state) {
     uint64_t rs = 777;
     for (size_t i = 0; i < (size_t)16 * 8 * 32; i++) vol.v[i] = (tu_rand_u64(&rs) & 1) ? 255 : 32;
     tu_upload(ctx, &vol);
-    aniso a;
+    tu_absorption a;
     a.vol = &vol;
     tu_vol_box(&vol, a.bmin, a.bmax);
     a.D = (double)(float)(1.5 / (16 * 0.5 * (1 + 32.0 / 255)));
@@ -204,7 +191,7 @@ void test_volume_box_and_anisotropic_spacing(void **state) {
     const uint32_t Wd = 48, Ht = 48, N = 256;
     /* distance 22 to the front face, half-extent 22 tan 15 deg = 5.9 < 8: no silhouette */
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 30, Wd, Ht);
-    double *expv = tu_expected_image(&cam, 4, aniso_ray, &a);
+    double *expv = tu_expected_image(&cam, 4, tu_absorption_ray, &a);
     TU_OK(picvr_step_iterations(ctx, N));
     float *img = tu_read(ctx, Wd, Ht);
     tu_assert_finite(img, (size_t)Wd * Ht * 4, "anisotropic");

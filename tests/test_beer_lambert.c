@@ -28,19 +28,6 @@ static void homog_ray(const double o[3], const double d[3], void *user, double o
     out[3] = 1 - T;
 }
 
-typedef struct structured {
-    const tu_vol *vol;
-    double bmin[3], bmax[3], D;
-} structured;
-
-static void structured_ray(const double o[3], const double d[3], void *user, double out[4]) {
-    const structured *s = user;
-    double t0, t1, T = 1;
-    if (tu_ray_box(o, d, s->bmin, s->bmax, &t0, &t1))
-        T = exp(-s->D * tu_value_integral(s->vol, o, d, t0, t1));
-    out[0] = out[1] = out[2] = T;
-    out[3] = 1 - T;
-}
 
 /* Renders n iterations, checks the image mean (RGB, alpha), the four quadrants, that
    R == G == B bit for bit (each sample is 0 or 1 in all channels), truncated_paths == 0.
@@ -181,7 +168,7 @@ void test_beer_lambert_loose_majorant_and_brick_apron(void **state) {
             for (uint32_t x = 0; x < 8; x++)
                 *tu_vox(&vol, x, y, z) = (tu_rand_u64(&rs) & 1) ? 255 : 32;
     tu_upload(ctx, &vol);
-    structured s;
+    tu_absorption s;
     s.vol = &vol;
     tu_vol_box(&vol, s.bmin, s.bmax);
     s.D = (double)(float)(3.0 / (32.0 * 0.5 * (1.0 + 32.0 / 255.0)));
@@ -189,7 +176,7 @@ void test_beer_lambert_loose_majorant_and_brick_apron(void **state) {
     tu_background_only(ctx, 1, 1, 1, 1);
     const uint32_t W = 64, H = 64, N = 256;
     tu_cam cam = tu_set_camera(ctx, 0, 0, 400, 0, 0, 0, 4, W, H);
-    double *expv = tu_expected_image(&cam, 4, structured_ray, &s);
+    double *expv = tu_expected_image(&cam, 4, tu_absorption_ray, &s);
     /* sys_rel 5e-3: the device may interpolate a UNORM8 texture with 8-bit fixed-point
        weights (Vulkan subTexelPrecisionBits); in this 8x-contrast volume that moves
        sigma_t by up to ~0.2 % locally.  The 5-sigma bounds are 1-2 % (image) and

@@ -11,31 +11,6 @@
  */
 #include "test_util.h"
 
-typedef struct cube_sun {
-    double bmin[3], bmax[3], sigma, albedo, E, l[3];
-    double o[3], d[3], t0;
-} cube_sun;
-
-static double cube_integrand(double t, void *user) {
-    const cube_sun *s = user;
-    double x[3] = {s->o[0] + t * s->d[0], s->o[1] + t * s->d[1], s->o[2] + t * s->d[2]};
-    double T_light = exp(-s->sigma * tu_box_exit(x, s->l, s->bmin, s->bmax));
-    return s->sigma * exp(-s->sigma * (t - s->t0)) * T_light / (4 * M_PI);
-}
-
-static void cube_ray(const double o[3], const double d[3], void *user, double out[4]) {
-    cube_sun s = *(const cube_sun *)user;
-    double t0, t1;
-    out[0] = out[1] = out[2] = out[3] = 0;
-    if (!tu_ray_box(o, d, s.bmin, s.bmax, &t0, &t1)) return;
-    memcpy(s.o, o, sizeof s.o);
-    memcpy(s.d, d, sizeof s.d);
-    s.t0 = t0;
-    double J = tu_integrate(cube_integrand, &s, t0, t1, 64);
-    for (int c = 0; c < 3; c++) out[c] = s.albedo * s.E * J;
-    out[3] = 1 - exp(-s.sigma * (t1 - t0));
-}
-
 static picvr_context *create_cached_mode(picvr_cache_mode mode, uint32_t seed, uint32_t max_entries,
                                         float gamma, float eps) {
     picvr_config cfg;
@@ -54,16 +29,18 @@ static picvr_context *create_cached(uint32_t seed, uint32_t max_entries, float g
 }
 
 /* 16^3 cube, sigma_t = 0.15, albedo 0.8, white delta sun toward (0.6, 0.45, 0.66). */
-static void setup_cube(picvr_context *ctx, tu_vol *vol, cube_sun *s) {
+static void setup_cube(picvr_context *ctx, tu_vol *vol, tu_sun_scene *s) {
     *vol = tu_vol_new(16, 16, 16, 1.0f, 255);
     tu_upload(ctx, vol);
     memset(s, 0, sizeof *s);
     tu_vol_box(vol, s->bmin, s->bmax);
     s->sigma = 0.15;
-    s->albedo = 0.8;
-    s->E = 2.0;
     double l[3] = {0.6, 0.45, 0.66}, ll = sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
-    for (int i = 0; i < 3; i++) s->l[i] = l[i] / ll;
+    for (int i = 0; i < 3; i++) {
+        s->l[i] = l[i] / ll;
+        s->albedo[i] = 0.8;
+        s->E[i] = 2.0;
+    }
     tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, 0.15f);
     tu_sun(ctx, l[0], l[1], l[2], 1.0f, 1.0f, 1.0f, 2.0f, 0.0f);
 }
@@ -72,7 +49,7 @@ void test_cache_off_by_default_allocates_nothing(void **state) {
     (void)state;
     picvr_context *ctx = tu_create(1);
     tu_vol vol;
-    cube_sun s;
+    tu_sun_scene s;
     setup_cube(ctx, &vol, &s);
     tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, 16, 16);
     TU_OK(picvr_step_iterations(ctx, 4));
@@ -87,11 +64,11 @@ void test_cache_off_by_default_allocates_nothing(void **state) {
 static void cached_cube_matches_closed_form(picvr_cache_mode mode) {
     picvr_context *ctx = create_cached_mode(mode, 7, 0, 0.05f, 0.05f);
     tu_vol vol;
-    cube_sun s;
+    tu_sun_scene s;
     setup_cube(ctx, &vol, &s);
     const uint32_t W = 48, H = 48;
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
-    double *expv = tu_expected_image(&cam, 4, cube_ray, &s);
+    double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
     for (int i = 0; i < 8; i++) TU_OK(picvr_step_iterations(ctx, 16));
     picvr_stats st = tu_stats_finite(ctx);
     print_message("    cache: %u entries, %u nodes, %u refs, full %u, hit rate %.3f (last step)\n",
@@ -129,7 +106,7 @@ void test_cache_invalidation_and_camera_keeps_cache(void **state) {
     (void)state;
     picvr_context *ctx = create_cached(3, 0, 0.0f, 0.0f);
     tu_vol vol;
-    cube_sun s;
+    tu_sun_scene s;
     setup_cube(ctx, &vol, &s);
     tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, 24, 24);
     TU_OK(picvr_step_iterations(ctx, 32));
@@ -159,7 +136,7 @@ void test_cache_pool_full_is_reported_and_safe(void **state) {
     (void)state;
     picvr_context *ctx = create_cached(5, 8, 0.0f, 0.0f);
     tu_vol vol;
-    cube_sun s;
+    tu_sun_scene s;
     setup_cube(ctx, &vol, &s);
     const uint32_t W = 24, H = 24;
     tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
@@ -191,7 +168,7 @@ void test_cache_debug_view(void **state) {
 
     picvr_context *ctx = create_cached(9, 0, 0.0f, 0.0f);
     tu_vol vol;
-    cube_sun s;
+    tu_sun_scene s;
     setup_cube(ctx, &vol, &s);
     const uint32_t W = 24, H = 24;
     tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);

@@ -16,64 +16,6 @@
  */
 #include "test_util.h"
 
-typedef struct sun_scene {
-    double bmin[3], bmax[3], sigma, l[3], albedo[3], E[3];
-    double half_angle;      /* 0: delta sun */
-    double e1[3], e2[3];    /* frame around l (finite sun) */
-    /* per ray */
-    double o[3], d[3], t0;
-} sun_scene;
-
-/* Finite sun of half-angle a: uniform radiance L over the cone with
-   irradiance on a plane facing the sun = L pi sin^2(a) = E (the header's unit), so
-   L = E / (pi sin^2 a) and the in-scattered radiance is L / (4 pi) int_cone T dw.
-   The cone integral: 4-point Gauss-Legendre in cos(theta) x 16 midpoints in phi. */
-static double cone_transmittance_integral(const sun_scene *s, const double x[3]) {
-    static const double gx[4] = {-0.8611363115940526, -0.3399810435848563,
-                                 0.3399810435848563, 0.8611363115940526};
-    static const double gw[4] = {0.3478548451374538, 0.6521451548625461,
-                                 0.6521451548625461, 0.3478548451374538};
-    const int nphi = 16;
-    double cmin = cos(s->half_angle), sum = 0;
-    for (int i = 0; i < 4; i++) {
-        double u = 0.5 * (1 + cmin) + 0.5 * (1 - cmin) * gx[i], sn = sqrt(1 - u * u);
-        double wu = 0.5 * (1 - cmin) * gw[i];
-        for (int j = 0; j < nphi; j++) {
-            double ph = 2 * M_PI * (j + 0.5) / nphi, w[3];
-            for (int k = 0; k < 3; k++)
-                w[k] = u * s->l[k] + sn * (cos(ph) * s->e1[k] + sin(ph) * s->e2[k]);
-            sum += wu * (2 * M_PI / nphi) * exp(-s->sigma * tu_box_exit(x, w, s->bmin, s->bmax));
-        }
-    }
-    return sum;
-}
-
-static double sun_integrand(double t, void *user) {
-    const sun_scene *s = user;
-    double x[3] = {s->o[0] + t * s->d[0], s->o[1] + t * s->d[1], s->o[2] + t * s->d[2]};
-    double in; /* int over directions of (radiance / E) * T, i.e. in-scatter per unit E */
-    if (s->half_angle > 0) {
-        double sa = sin(s->half_angle);
-        in = cone_transmittance_integral(s, x) / (M_PI * sa * sa);
-    } else {
-        in = exp(-s->sigma * tu_box_exit(x, s->l, s->bmin, s->bmax));
-    }
-    return s->sigma * exp(-s->sigma * (t - s->t0)) * in / (4 * M_PI);
-}
-
-static void sun_ray(const double o[3], const double d[3], void *user, double out[4]) {
-    sun_scene s = *(const sun_scene *)user;
-    double t0, t1;
-    out[0] = out[1] = out[2] = out[3] = 0;
-    if (!tu_ray_box(o, d, s.bmin, s.bmax, &t0, &t1)) return;
-    memcpy(s.o, o, sizeof s.o);
-    memcpy(s.d, d, sizeof s.d);
-    s.t0 = t0;
-    double J = tu_integrate(sun_integrand, &s, t0, t1, s.half_angle > 0 ? 8 : 64);
-    for (int c = 0; c < 3; c++) out[c] = s.albedo[c] * s.E[c] * J;
-    out[3] = 1 - exp(-s.sigma * (t1 - t0));
-}
-
 /* Homogeneous 16^3 cube (box [-8,8]^3), sigma_t = 0.15 (optical depth 2.4 along an
    axis), albedo (1, 0.8, 0.5), sun toward (0.6, 0.45, 0.66) with colour (1, 0.6, 0.3)
    and intensity 2.  Camera on the +z axis at 30, fov 20: every pixel sees the front
@@ -85,7 +27,7 @@ void test_single_scatter_delta_sun_coloured(void **state) {
     picvr_context *ctx = tu_create(4);
     tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
     tu_upload(ctx, &vol);
-    sun_scene s;
+    tu_sun_scene s;
     memset(&s, 0, sizeof s);
     tu_vol_box(&vol, s.bmin, s.bmax);
     const float alb[3] = {1.0f, 0.8f, 0.5f}, col[3] = {1.0f, 0.6f, 0.3f}, inten = 2.0f;
@@ -101,7 +43,7 @@ void test_single_scatter_delta_sun_coloured(void **state) {
     tu_sun(ctx, l[0], l[1], l[2], col[0], col[1], col[2], inten, 0.0f);
     const uint32_t W = 64, H = 64, N = 256;
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
-    double *expv = tu_expected_image(&cam, 4, sun_ray, &s);
+    double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
 
     TU_OK(picvr_step_iterations(ctx, N));
     float *img = tu_read(ctx, W, H);
@@ -152,7 +94,7 @@ static int finite_sun_case(double angular_diameter, uint32_t seed, const char *n
     picvr_context *ctx = tu_create(seed);
     tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
     tu_upload(ctx, &vol);
-    sun_scene s;
+    tu_sun_scene s;
     memset(&s, 0, sizeof s);
     tu_vol_box(&vol, s.bmin, s.bmax);
     const float D = 0.15f, inten = 3.0f;
@@ -181,7 +123,7 @@ static int finite_sun_case(double angular_diameter, uint32_t seed, const char *n
     TU_OK(picvr_set_lights(ctx, &sun, 1, NULL));
     const uint32_t W = 32, H = 32, N = 512;
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
-    double *expv = tu_expected_image(&cam, 2, sun_ray, &s);
+    double *expv = tu_expected_image(&cam, 2, tu_sun_ray, &s);
     TU_OK(picvr_step_iterations(ctx, N));
     float *img = tu_read(ctx, W, H);
     tu_assert_finite(img, (size_t)W * H * 4, name);

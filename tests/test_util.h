@@ -191,6 +191,26 @@ void tu_cam_dir(const tu_cam *c, double sx, double sy, double dir[3]);
 typedef void (*tu_ray_fn)(const double o[3], const double d[3], void *user, double out[4]);
 double *tu_expected_image(const tu_cam *c, int sub, tu_ray_fn fn, void *user);
 
+/* Single scattering of a homogeneous box under a sun (closed form, tu_ray_fn): albedo
+   and E per channel, half_angle 0 for a delta sun (e1, e2: a frame around l for a
+   finite one).  Radiance = albedo E int sigma e^{-sigma (t - t0)} (1/4pi) T_sun dt. */
+typedef struct tu_sun_scene {
+    double bmin[3], bmax[3], sigma, l[3], albedo[3], E[3];
+    double half_angle;      /* 0: delta sun */
+    double e1[3], e2[3];    /* frame around l (finite sun) */
+    /* per ray */
+    double o[3], d[3], t0;
+} tu_sun_scene;
+void tu_sun_ray(const double o[3], const double d[3], void *user, double out[4]);
+
+/* Pure absorption of a volume (albedo 0, background 1): T = exp(-D int value dt),
+   alpha 1 - T (tu_ray_fn). */
+typedef struct tu_absorption {
+    const tu_vol *vol;
+    double bmin[3], bmax[3], D;
+} tu_absorption;
+void tu_absorption_ray(const double o[3], const double d[3], void *user, double out[4]);
+
 /* ---- geometry, quadrature ------------------------------------------------------------ */
 
 /* Slab test: returns 1 and the overlap [*t0, *t1] of t >= 0 with the box, else 0. */
