@@ -108,7 +108,6 @@ struct picvr_context {
     buffer cache_superpixels;        /* screen-space locking: locks + ray/miss counters */
     uint32_t superpixel_count;
     double cache_since_rebuild_ms;
-    uint32_t cache_entry_count;      /* as read at the start of the last step */
     uint32_t cache_prebuilt;         /* nodes of the pre-built top of the octree */
     uint32_t cache_hits, cache_misses, cache_requests_issued;
     int descriptors_dirty;
@@ -779,7 +778,6 @@ void picvr_destroy(picvr_context *ctx) {
 /* ---------------------------------------------------------------------------------- */
 /* irradiance cache: configuration, pools, clearing                                    */
 
-#define CACHE_MAX_DEPTH 10u        /* shaders/cache.glsl: CACHE_MAX_DEPTH */
 #define CACHE_PREBUILT_MAX_DEPTH 4u
 #define CACHE_ENTRY_BYTES 128u     /* sizeof(Entry) in shaders/cache.glsl (std430) */
 #define CACHE_COUNTER_WORDS 12u
@@ -902,7 +900,6 @@ static picvr_status cache_clear(picvr_context *ctx) {
     ctx->cache_prebuilt = count;
     ctx->cache_hits = ctx->cache_misses = 0;
     ctx->cache_since_rebuild_ms = 0.0;
-    ctx->cache_entry_count = 0;
     return s;
 }
 
@@ -1681,7 +1678,6 @@ static picvr_status render_loop(picvr_context *ctx, double budget_ms, uint32_t m
         uint32_t c[CACHE_COUNTER_WORDS];
         if ((s = cache_read_counters(ctx, c))) return s;
         ctx->cache_hits = ctx->cache_misses = ctx->cache_requests_issued = 0;
-        ctx->cache_entry_count = c[4];
         if (ctx->cache_since_rebuild_ms >= ctx->cache.rebuild_interval_ms) {
             if ((s = cache_rebuild(ctx, c[4]))) return s;
             ctx->cache_since_rebuild_ms = 0.0;

@@ -385,7 +385,6 @@ float transmittance(vec3 x, vec3 w, float dist, inout Rng rng, inout bool trunca
 }
 
 // ---- lights ----
-int light_type(uint i) { return int(scene.lights[i].p0.w); }
 
 // Nearest hit of the ray with any sphere or rect light in (0, tmax): the light's
 // index or -1; *t_hit is its distance.  Area lights are opaque emitters.
