@@ -179,6 +179,24 @@ typedef struct picvr_cache_config {
                                   (a fixed split until the scheduler exists), at most 1024 */
 } picvr_cache_config;
 
+/* The scheduler (paper §6, §7): how picvr_step splits device time between rendering,
+   cache-entry creation and cache update.  Zero fields mean the Table 1 values. */
+typedef enum picvr_switch {
+    PICVR_SWITCH_DEFAULT = 0,      /* the documented default of the field */
+    PICVR_SWITCH_ON,
+    PICVR_SWITCH_OFF
+} picvr_switch;
+
+typedef struct picvr_scheduler_config {
+    picvr_switch priorities;   /* Eq. 12 per-block rendering priorities; default ON */
+    float create_min, create_max; /* t_c,min and t_c,max: creation's share of device time
+                                  when the hit rate is 1 and 0; 0: 0.05 and 0.15 */
+    float update_min, update_max; /* the same for the update procedure; 0: 0.01, 0.02 */
+    float exponent;            /* e_c in t = t_min + (1 - h^e_c)(t_max - t_min); 0: 3 */
+    float rounds_per_second;   /* scheduling rounds (one submission each); 0: 20 */
+    float hit_rate_window_ms;  /* the hit rate h is measured over this window; 0: 100 */
+} picvr_scheduler_config;
+
 typedef struct picvr_config {
     const char *device_name;  /* substring of the device name; NULL: PICVR_DEVICE or auto */
     int validation;           /* 1: enable the Khronos validation layer (+sync validation);
@@ -201,6 +219,7 @@ typedef struct picvr_config {
     uint32_t vk_queue_family; /* family index of vk_queue */
 
     picvr_cache_config cache; /* the irradiance cache; zero: defaults (see above) */
+    picvr_scheduler_config scheduler; /* zero: defaults (see above) */
 } picvr_config;
 
 typedef struct picvr_context picvr_context;
@@ -363,6 +382,9 @@ typedef struct picvr_stats {
     uint64_t cache_bytes;        /* device memory of the cache pools */
     double cache_hit_rate;       /* fraction of scatter events served by the cache in
                                     the last step */
+    /* scheduler: measured shares of device time over the last second, and the §6 targets */
+    double fraction_render, fraction_create, fraction_update;
+    double target_create, target_update;
     uint32_t validation_messages;/* Khronos validation messages seen by this context */
     uint32_t validation_enabled; /* 1 when the validation layer is active */
     uint32_t width, height;
