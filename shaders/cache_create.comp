@@ -50,7 +50,6 @@ void main() {
     p[0] = x0;
     for (uint k = 0u; k < 3u; k++) { p[1u + 2u * k] = x0 + delta * axis[k]; p[2u + 2u * k] = x0 - delta * axis[k]; }
 
-    Rng rng = rng_init(req * 128u + lid, pc.iteration, pc.seed ^ 0x5bd1e995u);
     vec3 sum[7];
     float lsum[7], lsq[7];
     for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lsum[k] = 0.0; lsq[k] = 0.0; }
@@ -59,8 +58,16 @@ void main() {
     uint rounds = 0u;
     for (uint round = 0u; round < CREATE_MAX_ROUNDS; round++) {
         rounds = round + 1u;
+        // Common random numbers: in one round a thread estimates all seven points with
+        // the same random streams (same light, point on it and phase direction), so the
+        // ratios E_Delta / E_0 of Eq. 6 and 10 are far less noisy than the points'
+        // errors and a smooth field is not mistaken for a steep one.  Each point's
+        // estimate stays unbiased.  Two streams, so that the phase sample does not
+        // depend on how many numbers the light sample's tracking consumed.
+        Rng light_rng = rng_init(req * 128u + lid, pc.iteration * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x5bd1e995u);
+        Rng phase_rng = rng_init(req * 128u + lid, pc.iteration * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u);
         for (uint k = 0u; k < 7u; k++) {
-            vec3 e = irradiance_sample(p[k], rng, truncated);
+            vec3 e = irradiance_sample(p[k], light_rng, phase_rng, truncated);
             // Rule: a non-finite sample (only from extreme input) counts as 0.
             if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
             float l = dot(e, vec3(0.2126, 0.7152, 0.0722));

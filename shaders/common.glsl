@@ -587,8 +587,10 @@ vec3 sample_phase(vec3 x, inout Rng rng, inout bool truncated) {
 
 // Irradiance (Eq. 4) at x from all lights: one light sample and one phase sample,
 // combined by MIS; both estimators above include f = 1/(4 pi), so E = 4 pi * (sum).
-vec3 irradiance_sample(vec3 x, inout Rng rng, inout bool truncated) {
-    vec3 s = sample_one_light(x, rng, truncated);
-    if (USE_PHASE_MIS) s += sample_phase(x, rng, truncated);
+// Separate streams for the two samples, so that a caller can replay the same light
+// and phase choices at several points (common random numbers, cache_create.comp).
+vec3 irradiance_sample(vec3 x, Rng light_rng, Rng phase_rng, inout bool truncated) {
+    vec3 s = sample_one_light(x, light_rng, truncated);
+    if (USE_PHASE_MIS) s += sample_phase(x, phase_rng, truncated);
     return 4.0 * PI * s;
 }
