@@ -175,8 +175,11 @@ typedef struct picvr_cache_config {
     uint32_t max_entries;      /* entry pool; 0: 65536 */
     uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries */
     uint32_t max_refs;         /* reference pool; 0: 16 * max_entries */
-    uint32_t max_requests;     /* creation requests per iteration; 0: one per 4096 pixels
-                                  (a fixed split until the scheduler exists), at most 1024 */
+    uint32_t max_requests;     /* creation requests in flight at most (the request queue;
+                                  Table 1: 1000); 0: 1000.  picvr_step queues per round what
+                                  the next round's creation share can take;
+                                  picvr_step_iterations one request per 4096 pixels per
+                                  pass unless max_requests is set */
 } picvr_cache_config;
 
 /* The scheduler (paper §6, §7): how picvr_step splits device time between rendering,
@@ -326,12 +329,20 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera);
 
 /* ---- rendering ------------------------------------------------------------------- */
 
-/* Renders progressive iterations (one sample per pixel each) for about `milliseconds`
-   of wall time, at least one iteration, then returns.  Needs a volume and a camera. */
+/* Renders for about `milliseconds` of wall time, then returns; needs a volume and a
+   camera.  Frameless: the time is split into rounds (scheduler.rounds_per_second), each
+   one submission in which the three procedures get the §6 shares of device time (with
+   the cache) and rendering adds one sample to some 16x8-pixel blocks - chosen by the
+   Eq. 12 priorities, or round robin with priorities off - so pixels may hold different
+   sample counts (stats.iterations_min/_mean).  At least one round runs, even for 0 ms.
+   Budgets of 50 ms and more are kept to within about 10% (one round's misestimate). */
 picvr_status picvr_step(picvr_context *ctx, double milliseconds);
 
-/* Renders exactly `iterations` progressive iterations (deterministic; for tests and
-   offline rendering). */
+/* Renders exactly `iterations` samples per pixel, whole passes over the image
+   (priorities do not apply; deterministic without the cache; for tests and offline
+   rendering).  With the cache, each pass is a round with a fixed split instead of the
+   §6 time shares: the requests of one pass (up to cache.max_requests) become entries in
+   the next, and 1/16 of the blocks run the update procedure. */
 picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations);
 
 typedef enum picvr_debug_view {
@@ -359,7 +370,8 @@ picvr_status picvr_read_rgba8(picvr_context *ctx, uint8_t *pixels, size_t size, 
 picvr_status picvr_read_rgba32f(picvr_context *ctx, float *pixels, size_t size);
 
 typedef struct picvr_stats {
-    uint32_t iterations;         /* progressive iterations since the last reset */
+    uint32_t iterations;         /* blocks rendered since the last reset / blocks of the
+                                    image: whole-image passes (see picvr_step) */
     uint32_t iterations_min;     /* fewest samples of any pixel */
     double iterations_mean;      /* mean samples per pixel */
     double elapsed_ms;           /* wall time spent in picvr_step* since the last reset */

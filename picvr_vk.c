@@ -19,8 +19,14 @@
 #define TF_SIZE 4096               /* entries of the transfer-function table (shaders: TF_SIZE) */
 #define MAX_GRID 64                /* majorant grid cells per axis at most */
 #define STAGING_CHUNK (32u << 20)  /* bytes per volume upload slab */
-#define BATCH_TARGET_MS 100.0      /* one submission at most this long: no GPU watchdog trips */
+#define BATCH_TARGET_MS 100.0      /* picvr_step_iterations: one submission at most this long */
 #define MAX_BATCH 1024u
+#define SCHED_HISTORY 128u         /* rounds remembered for the time shares and the hit rate */
+#define SHARE_WINDOW_MS 1000.0     /* stats.fraction_*: measured over the last second */
+#define MAX_QUEUE 65535u           /* blocks per dispatch (shaders/block_select.comp) */
+#define CACHE_COUNTER_WORDS 12u    /* the CacheCounters block of shaders/cache.glsl */
+#define ROUND_READBACK_BYTES (CACHE_COUNTER_WORDS * 4 + 16)
+enum { PROC_CREATE, PROC_UPDATE, PROC_RENDER };
 #define PICVR_PI 3.14159265358979323846
 
 /* ---- host mirror of the std140 uniform block in shaders/common.glsl ---- */
@@ -83,6 +89,11 @@ struct picvr_context {
     VkDescriptorPool desc_pool;
     VkDescriptorSet set;
     VkShaderModule render_module, stats_module, render_cache_module, create_module, update_module, rebuild_module;
+    VkShaderModule select_module, priority_module;
+    VkPipeline select_pipe, priority_pipe; /* the rendering queue; priority_pipe only with priorities */
+    VkQueryPool timestamps;          /* ROUND_TIMESTAMPS per round; VK_NULL_HANDLE: no timestamps */
+    double timestamp_ns;             /* nanoseconds per timestamp tick */
+    uint64_t timestamp_mask;         /* valid bits */
     VkPipeline render_pipe[4];       /* [USE_PHASE_MIS + 2 * USE_FINE] */
     VkPipeline stats_pipe;
     VkPipeline render_cache_pipe[4], create_pipe[4], update_pipe[4];  /* the cache's variants */
@@ -109,8 +120,27 @@ struct picvr_context {
     uint32_t superpixel_count;
     double cache_since_rebuild_ms;
     uint32_t cache_prebuilt;         /* nodes of the pre-built top of the octree */
-    uint32_t cache_hits, cache_misses, cache_requests_issued;
+    uint32_t cache_requests_issued;  /* by the rounds of the last step */
+    uint32_t cache_counts[CACHE_COUNTER_WORDS]; /* as read after the last round */
     int descriptors_dirty;
+
+    /* scheduler (§6, §7; see "The scheduler" in ARCHITECTURE.md) */
+    picvr_scheduler_config sched;    /* resolved: no zero fields */
+    int use_priorities;
+    buffer render_queue;             /* header + one uvec4 per block (shaders/queue.glsl) */
+    buffer round_readback;           /* cache counters and rendered-block count of a round */
+    uint32_t block_total;            /* 16x8 blocks of the image */
+    uint32_t block_cursor;           /* next block in round-robin order */
+    uint64_t block_samples;          /* blocks rendered since the accumulation was reset */
+    uint32_t round;                  /* rounds since creation: keys the cache procedures' RNG */
+    double cost[3];                  /* device ms per work package, PROC_*; 0: not measured */
+    double overhead_ms;              /* wall time of a round beyond its device time */
+    double credit[2];                /* PROC_CREATE, PROC_UPDATE: packages owed by the shares */
+    uint32_t requests_pending;       /* valid requests the last round queued (each holds a lock) */
+    struct round_record { double end_ms, device_ms[3]; uint32_t hits, misses; } history[SCHED_HISTORY];
+    uint32_t history_count;          /* records in history (ring, newest at history_count-1 mod N) */
+    double hit_rate;                 /* over the last hit_rate_window_ms */
+    double target[2];                /* the §6 shares of creation and update now */
 
     /* host state */
     gpu_scene scene;
@@ -126,9 +156,7 @@ struct picvr_context {
     int use_fine;                    /* some brick needs voxel-level majorants */
     picvr_camera camera;
 
-    uint32_t iterations;
     double elapsed_ms;
-    double ms_per_iteration;         /* running estimate used to size submissions */
     int stats_valid;
     picvr_stats stats;
 };
@@ -551,8 +579,10 @@ static picvr_status create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPi
 /* Binding layout shared by all kernels (see ARCHITECTURE.md): 0 scene UBO, 1 volume,
    2 transfer function, 3 majorant grid, 4-6 accumulation planes, 7 stats partials,
    8 opacity range-max table, 9-13 cache entries, nodes, refs, counters, requests,
-   14 superpixels (screen-space locking). */
-#define NUM_BINDINGS 15
+   14 superpixels (screen-space locking), 15 the rendering queue. */
+#define NUM_BINDINGS 16
+#define CACHE_BINDINGS_FIRST 9
+#define CACHE_BINDINGS_END 15
 static VkDescriptorType binding_type(uint32_t i) {
     return i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
          : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
@@ -572,7 +602,7 @@ static picvr_status create_pipelines(picvr_context *ctx) {
     li.pBindings = b;
     VK_TRY(ctx, vkCreateDescriptorSetLayout(ctx->device, &li, NULL, &ctx->set_layout));
 
-    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 8};
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};   /* four words, every kernel */
     VkPipelineLayoutCreateInfo pl = {VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
     pl.setLayoutCount = 1;
     pl.pSetLayouts = &ctx->set_layout;
@@ -597,6 +627,12 @@ static picvr_status create_pipelines(picvr_context *ctx) {
 
     picvr_status s = create_shader(ctx, picvr_spv_render, sizeof picvr_spv_render, &ctx->render_module);
     if (!s) s = create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->stats_module);
+    if (!s) s = create_shader(ctx, picvr_spv_block_select, sizeof picvr_spv_block_select, &ctx->select_module);
+    if (!s) s = create_pipeline(ctx, ctx->select_module, ctx->render_layout, NULL, &ctx->select_pipe);
+    if (!s && ctx->use_priorities) {
+        s = create_shader(ctx, picvr_spv_block_priority, sizeof picvr_spv_block_priority, &ctx->priority_module);
+        if (!s) s = create_pipeline(ctx, ctx->priority_module, ctx->render_layout, NULL, &ctx->priority_pipe);
+    }
     if (!s && ctx->cache_on) {
         s = create_shader(ctx, picvr_spv_render_cache, sizeof picvr_spv_render_cache, &ctx->render_cache_module);
         if (!s) s = create_shader(ctx, picvr_spv_cache_create, sizeof picvr_spv_cache_create, &ctx->create_module);
@@ -635,8 +671,11 @@ static picvr_status create_sampler(picvr_context *ctx) {
 }
 
 static picvr_status set_default_transfer_function(picvr_context *ctx);
+static picvr_status resolve_scheduler_config(const picvr_scheduler_config *in, picvr_scheduler_config *c);
 static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_config *in, picvr_cache_config *c);
 static picvr_status create_cache_buffers(picvr_context *ctx);
+static picvr_status create_timestamps(picvr_context *ctx);
+static void update_targets(picvr_context *ctx);
 
 static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
     picvr_status s;
@@ -676,8 +715,9 @@ static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
     VkFenceCreateInfo fi = {VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
     VK_TRY(ctx, vkCreateFence(ctx->device, &fi, NULL, &ctx->fence));
 
-    if ((s = create_pipelines(ctx)) || (s = create_sampler(ctx))) return s;
+    if ((s = create_pipelines(ctx)) || (s = create_sampler(ctx)) || (s = create_timestamps(ctx))) return s;
     if (ctx->cache_on && (s = create_cache_buffers(ctx))) return s;
+    if ((s = buffer_create(ctx, &ctx->round_readback, ROUND_READBACK_BYTES, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1))) return s;
     if ((s = buffer_create(ctx, &ctx->scene_ubo, sizeof(gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
     if ((s = image_create(ctx, &ctx->tf_image, VK_IMAGE_TYPE_1D, VK_FORMAT_R32G32B32A32_SFLOAT, TF_SIZE, 1, 1))) return s;
     if ((s = buffer_create(ctx, &ctx->tf_staging, sizeof ctx->tf_table, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1))) return s;
@@ -708,7 +748,10 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     ctx->seed = cfg.seed;
     ctx->cache_requests_set = cfg.cache.max_requests != 0;
     picvr_status s = resolve_cache_config(ctx, &cfg.cache, &ctx->cache);
+    if (!s) s = resolve_scheduler_config(&cfg.scheduler, &ctx->sched);
     ctx->cache_on = ctx->cache.mode != PICVR_CACHE_NONE;
+    ctx->use_priorities = ctx->sched.priorities == PICVR_SWITCH_ON;
+    update_targets(ctx);
     if (!s) s = context_init(ctx, &cfg);
     if (s) { picvr_destroy(ctx); return s; }
     *out = ctx;
@@ -737,6 +780,13 @@ void picvr_destroy(picvr_context *ctx) {
             if (ctx->update_pipe[i]) vkDestroyPipeline(d, ctx->update_pipe[i], NULL);
         }
         if (ctx->rebuild_pipe) vkDestroyPipeline(d, ctx->rebuild_pipe, NULL);
+        if (ctx->select_pipe) vkDestroyPipeline(d, ctx->select_pipe, NULL);
+        if (ctx->priority_pipe) vkDestroyPipeline(d, ctx->priority_pipe, NULL);
+        if (ctx->select_module) vkDestroyShaderModule(d, ctx->select_module, NULL);
+        if (ctx->priority_module) vkDestroyShaderModule(d, ctx->priority_module, NULL);
+        if (ctx->timestamps) vkDestroyQueryPool(d, ctx->timestamps, NULL);
+        buffer_destroy(ctx, &ctx->render_queue);
+        buffer_destroy(ctx, &ctx->round_readback);
         if (ctx->update_module) vkDestroyShaderModule(d, ctx->update_module, NULL);
         if (ctx->rebuild_module) vkDestroyShaderModule(d, ctx->rebuild_module, NULL);
         buffer_destroy(ctx, &ctx->cache_prebuilt_nodes);
@@ -780,7 +830,6 @@ void picvr_destroy(picvr_context *ctx) {
 
 #define CACHE_PREBUILT_MAX_DEPTH 4u
 #define CACHE_ENTRY_BYTES 128u     /* sizeof(Entry) in shaders/cache.glsl (std430) */
-#define CACHE_COUNTER_WORDS 12u
 #ifndef CACHE_PIXELS_PER_REQUEST
 #define CACHE_PIXELS_PER_REQUEST 4096u
 #endif
@@ -806,7 +855,7 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
     /* at least 8192 nodes: the pre-built top of the octree takes up to 4681 */
     if (!c->max_nodes) c->max_nodes = 8 * c->max_entries > 8192 ? 8 * c->max_entries : 8192;
     if (!c->max_refs) c->max_refs = 16 * c->max_entries;
-    if (!c->max_requests) c->max_requests = 1024;
+    if (!c->max_requests) c->max_requests = 1000;
     if (c->max_nodes < 4681 || c->max_refs < 2 || c->max_nodes > (1u << 28) || c->max_refs > (1u << 28))
         return PICVR_ERROR_INVALID_ARGUMENT;
     return PICVR_OK;
@@ -856,14 +905,6 @@ static uint32_t cache_update_params(picvr_context *ctx) {
         g->cache_screen[2] = ctx->superpixel_count;
         g->cache_screen[3] = ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE;
     }
-    /* Fixed split until the scheduler (issue 4) budgets creation by time: unless the
-       application set max_requests, at most one request per CACHE_PIXELS_PER_REQUEST
-       pixels per iteration. */
-    if (ctx->has_camera && !ctx->cache_requests_set) {
-        uint32_t per = (uint32_t)(((uint64_t)ctx->camera.width * ctx->camera.height) / CACHE_PIXELS_PER_REQUEST);
-        if (per < 1) per = 1;
-        if (per < g->cache_caps[3]) g->cache_caps[3] = per;
-    }
     float edge = g->box_size[0];
     if (g->box_size[1] < edge) edge = g->box_size[1];
     if (g->box_size[2] < edge) edge = g->box_size[2];
@@ -898,57 +939,22 @@ static picvr_status cache_clear(picvr_context *ctx) {
     uint32_t counters[CACHE_COUNTER_WORDS] = {0, 1, 1, 0, 0, count, 0, 0, 0, 0, 0, 0};
     if (!s) s = upload_buffer(ctx, &ctx->cache_counters, counters, sizeof counters);
     ctx->cache_prebuilt = count;
-    ctx->cache_hits = ctx->cache_misses = 0;
+    memcpy(ctx->cache_counts, counters, sizeof counters);
+    ctx->requests_pending = 0;
     ctx->cache_since_rebuild_ms = 0.0;
+    /* the hit rate restarts from an empty cache */
+    for (uint32_t i = 0; i < SCHED_HISTORY; i++) ctx->history[i].hits = ctx->history[i].misses = 0;
+    ctx->hit_rate = 0.0;
+    update_targets(ctx);
     return s;
-}
-
-/* Reads the cache counters (entries, nodes, refs, full, hits, misses) and zeroes the
-   hit/miss counters, so the hit rate covers the last step. */
-static picvr_status cache_read_counters(picvr_context *ctx, uint32_t out[CACHE_COUNTER_WORDS]) {
-    picvr_status s = cmd_begin(ctx);
-    if (s) return s;
-    barrier_all(ctx);
-    VkBufferCopy region = {0, 0, CACHE_COUNTER_WORDS * 4};
-    vkCmdCopyBuffer(ctx->cmd, ctx->cache_counters.buf, ctx->cache_readback.buf, 1, &region);
-    barrier_all(ctx);
-    vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 8 * 4, 3 * 4, 0);   /* hits, misses, requests */
-    barrier_all(ctx);
-    if ((s = cmd_submit_wait(ctx))) return s;
-    buffer_invalidate(ctx, &ctx->cache_readback);
-    memcpy(out, ctx->cache_readback.mapped, CACHE_COUNTER_WORDS * 4);
-    return PICVR_OK;
-}
-
-/* Rebuilds the octree from the entries (§4.4): empty node and reference pools (the
-   pre-built top copied back), then cache_rebuild.comp re-inserts every entry with its
-   current radii, so references that shrunk entries no longer need disappear. */
-static picvr_status cache_rebuild(picvr_context *ctx, uint32_t entries) {
-    if (entries > ctx->cache.max_entries) entries = ctx->cache.max_entries;
-    picvr_status s = cmd_begin(ctx);
-    if (s) return s;
-    barrier_all(ctx);
-    vkCmdFillBuffer(ctx->cmd, ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE, 0);
-    barrier_all(ctx);
-    VkBufferCopy region = {0, 0, (VkDeviceSize)ctx->cache_prebuilt * 16};
-    vkCmdCopyBuffer(ctx->cmd, ctx->cache_prebuilt_nodes.buf, ctx->cache_nodes.buf, 1, &region);
-    uint32_t counts[2] = {ctx->cache_prebuilt, 0};                  /* node_count, ref_count */
-    vkCmdUpdateBuffer(ctx->cmd, ctx->cache_counters.buf, 5 * 4, sizeof counts, counts);
-    barrier_all(ctx);
-    if (entries > 0) {
-        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->rebuild_pipe);
-        vkCmdBindDescriptorSets(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->render_layout, 0, 1, &ctx->set, 0, NULL);
-        vkCmdDispatch(ctx->cmd, (entries + 63) / 64, 1, 1);
-        barrier_all(ctx);
-    }
-    return cmd_submit_wait(ctx);
 }
 
 /* ---------------------------------------------------------------------------------- */
 /* accumulation                                                                        */
 
 static void invalidate_accumulation(picvr_context *ctx) {
-    ctx->iterations = 0;
+    ctx->block_samples = 0;
+    ctx->block_cursor = 0;
     ctx->elapsed_ms = 0.0;
     ctx->stats_valid = 0;
 }
@@ -960,6 +966,7 @@ static picvr_status clear_accumulation(picvr_context *ctx) {
     if (s) return s;
     barrier_all(ctx);
     for (int i = 0; i < 3; i++) vkCmdFillBuffer(ctx->cmd, ctx->accum[i].buf, 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(ctx->cmd, ctx->render_queue.buf, 0, VK_WHOLE_SIZE, 0);   /* block credits */
     barrier_all(ctx);
     return cmd_submit_wait(ctx);
 }
@@ -1484,20 +1491,27 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
         return PICVR_ERROR_SIZE_OVERFLOW;
     }
     VkDeviceSize groups = (pixels + 255) / 256;
-    buffer acc[3], rb, part;
+    uint32_t blocks = ((w + 15) / 16) * ((h + 7) / 8);
+    buffer acc[3], rb, part, queue;
     memset(acc, 0, sizeof acc);
     memset(&rb, 0, sizeof rb);
     memset(&part, 0, sizeof part);
+    memset(&queue, 0, sizeof queue);
     picvr_status s = PICVR_OK;
     for (int i = 0; i < 3 && !s; i++)
         s = buffer_create(ctx, &acc[i], plane, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 0);
     if (!s) s = buffer_create(ctx, &rb, plane, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1);
     if (!s) s = buffer_create(ctx, &part, groups * sizeof(gpu_partial), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, 1);
+    /* the rendering queue: a 32-byte header, then one uvec4 per block */
+    if (!s) s = buffer_create(ctx, &queue, 32 + (VkDeviceSize)blocks * 16,
+                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                              VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
     if (s) {
         for (int i = 0; i < 3; i++) buffer_destroy(ctx, &acc[i]);
         buffer_destroy(ctx, &rb);
         buffer_destroy(ctx, &part);
+        buffer_destroy(ctx, &queue);
         return s;
     }
     if (ctx->cache_on) {
@@ -1511,6 +1525,7 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
             for (int i = 0; i < 3; i++) buffer_destroy(ctx, &acc[i]);
             buffer_destroy(ctx, &rb);
             buffer_destroy(ctx, &part);
+            buffer_destroy(ctx, &queue);
             return s;
         }
         buffer_destroy(ctx, &ctx->cache_superpixels);
@@ -1520,8 +1535,11 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
     for (int i = 0; i < 3; i++) { buffer_destroy(ctx, &ctx->accum[i]); ctx->accum[i] = acc[i]; }
     buffer_destroy(ctx, &ctx->readback);
     buffer_destroy(ctx, &ctx->partials);
+    buffer_destroy(ctx, &ctx->render_queue);
     ctx->readback = rb;
     ctx->partials = part;
+    ctx->render_queue = queue;
+    ctx->block_total = blocks;
     ctx->descriptors_dirty = 1;
     return PICVR_OK;
 }
@@ -1597,22 +1615,26 @@ static void update_descriptors(picvr_context *ctx) {
         {ctx->partials.buf, 0, VK_WHOLE_SIZE}, {ctx->tf_range_max.buf, 0, VK_WHOLE_SIZE},
         {ctx->cache_entries.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE},
         {ctx->cache_refs.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_counters.buf, 0, VK_WHOLE_SIZE},
-        {ctx->cache_requests.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_superpixels.buf, 0, VK_WHOLE_SIZE}};
+        {ctx->cache_requests.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_superpixels.buf, 0, VK_WHOLE_SIZE},
+        {ctx->render_queue.buf, 0, VK_WHOLE_SIZE}};
     VkWriteDescriptorSet w[NUM_BINDINGS];
     memset(w, 0, sizeof w);
+    uint32_t n = 0;
     for (uint32_t i = 0; i < NUM_BINDINGS; i++) {
-        w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-        w[i].dstSet = ctx->set;
-        w[i].dstBinding = i;
-        w[i].descriptorCount = 1;
-        w[i].descriptorType = binding_type(i);
-        if (i >= 3) w[i].pBufferInfo = &bufs[i - 3];
+        /* The cache bindings stay unwritten when the cache is off: no pipeline then uses them. */
+        if (!ctx->cache_on && i >= CACHE_BINDINGS_FIRST && i < CACHE_BINDINGS_END) continue;
+        w[n].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        w[n].dstSet = ctx->set;
+        w[n].dstBinding = i;
+        w[n].descriptorCount = 1;
+        w[n].descriptorType = binding_type(i);
+        if (i == 0) w[n].pBufferInfo = &ubo;
+        else if (i == 1) w[n].pImageInfo = &vol;
+        else if (i == 2) w[n].pImageInfo = &tf;
+        else w[n].pBufferInfo = &bufs[i - 3];
+        n++;
     }
-    w[0].pBufferInfo = &ubo;
-    w[1].pImageInfo = &vol;
-    w[2].pImageInfo = &tf;
-    /* The cache bindings stay unwritten when the cache is off: no pipeline then uses them. */
-    vkUpdateDescriptorSets(ctx->device, ctx->cache_on ? NUM_BINDINGS : 9, w, 0, NULL);
+    vkUpdateDescriptorSets(ctx->device, n, w, 0, NULL);
     ctx->descriptors_dirty = 0;
 }
 
@@ -1625,101 +1647,381 @@ static picvr_status prepare_render(picvr_context *ctx) {
     return PICVR_OK;
 }
 
-/* One submission of k progressive iterations (dependent dispatches on the
-   accumulation buffers, a barrier between each). */
-static picvr_status render_batch(picvr_context *ctx, uint32_t k) {
-    picvr_status s = cmd_begin(ctx);
-    if (s) return s;
-    barrier_all(ctx);
-    uint32_t variant = (ctx->use_phase_mis ? 1 : 0) + (ctx->use_fine ? 2 : 0);
-    vkCmdBindDescriptorSets(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->render_layout, 0, 1, &ctx->set, 0, NULL);
-    uint32_t gx = (ctx->camera.width + 15) / 16, gy = (ctx->camera.height + 7) / 8;
-    for (uint32_t i = 0; i < k; i++) {
-        uint32_t push[2] = {ctx->iterations + i, ctx->seed};
-        vkCmdPushConstants(ctx->cmd, ctx->render_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, push);
-        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-                          ctx->cache_on ? ctx->render_cache_pipe[variant] : ctx->render_pipe[variant]);
-        vkCmdDispatch(ctx->cmd, gx, gy, 1);
-        barrier_all(ctx);
-        if (ctx->cache_on) {
-            /* Creation procedure: one workgroup per request of this iteration (indirect,
-               sized on the device), then the request queue is emptied. */
-            vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->create_pipe[variant]);
-            vkCmdDispatchIndirect(ctx->cmd, ctx->cache_counters.buf, 0);
-            barrier_all(ctx);
-            vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 0, 4, 0);       /* dispatch_x */
-            vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 3 * 4, 4, 0);   /* request_count */
-            if (ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE) {
-                /* superpixel counters: the set read this iteration is written next */
-                VkDeviceSize n = ctx->superpixel_count;
-                VkDeviceSize set = (ctx->iterations + i + 1) & 1;
-                vkCmdFillBuffer(ctx->cmd, ctx->cache_superpixels.buf, (n + 2 * n * set) * 4, 2 * n * 4, 0);
-            }
-            barrier_all(ctx);
-            /* Update procedure: a fixed 1/16 of the image's blocks per iteration until the
-               scheduler (issue 4) budgets it by time. */
-            uint32_t update_groups = (gx * gy + 15) / 16;
-            vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->update_pipe[variant]);
-            vkCmdDispatch(ctx->cmd, update_groups, 1, 1);
-            barrier_all(ctx);
-        }
+/* ---------------------------------------------------------------------------------- */
+/* the scheduler (paper §6, §7; ARCHITECTURE.md "The scheduler")                       */
+/*                                                                                     */
+/* picvr_step runs rounds of about 1/rounds_per_second.  A round is one submission:    */
+/*   creation (indirect: one workgroup per request the previous round queued, `budget`  */
+/*   of them create entries, the rest only unlock) -> [octree rebuild, when due] ->     */
+/*   update (N_u blocks) -> rendering (block_priority + block_select fill the device    */
+/*   queue, an indirect dispatch renders it; repeated while the round wants more       */
+/*   blocks than the image has) -> counters copied for the host.                        */
+/* Device timestamps around the three procedures give each one's device time; the host  */
+/* keeps the cost of one work package of each and sizes the next round so that the     */
+/* procedures get the §6 shares.  The procedures share the cache pools, so a barrier    */
+/* separates them (Vulkan requires it for the writes each makes visible to the next).   */
+
+/* Timestamps of a round: start, after creation, after rebuild, after update, end. */
+#define ROUND_TIMESTAMPS 5u
+
+static picvr_status resolve_scheduler_config(const picvr_scheduler_config *in, picvr_scheduler_config *c) {
+    *c = *in;
+    if ((unsigned)c->priorities > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->priorities == PICVR_SWITCH_DEFAULT) c->priorities = PICVR_SWITCH_ON;
+    float *f[7] = {&c->create_min, &c->create_max, &c->update_min, &c->update_max, &c->exponent,
+                   &c->rounds_per_second, &c->hit_rate_window_ms};
+    const float def[7] = {0.05f, 0.15f, 0.01f, 0.02f, 3.0f, 20.0f, 100.0f};
+    for (int i = 0; i < 7; i++) {
+        if (!isfinite(*f[i])) return PICVR_ERROR_NON_FINITE;
+        if (*f[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+        if (*f[i] == 0.0f) *f[i] = def[i];
     }
-    s = cmd_submit_wait(ctx);
-    if (!s) { ctx->iterations += k; ctx->stats_valid = 0; }
-    return s;
+    /* a pair given as (min, 0) keeps max at its default only if that is >= min */
+    if (c->create_min > c->create_max || c->update_min > c->update_max) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->create_max + c->update_max > 0.9f) return PICVR_ERROR_INVALID_ARGUMENT;  /* rendering keeps >= 10% */
+    if (c->rounds_per_second > 1000.0f || c->rounds_per_second < 1.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+    return PICVR_OK;
 }
 
-/* Renders iterations in submissions of about BATCH_TARGET_MS each, until `budget_ms`
-   of wall time has passed (at least one iteration) or `max_iterations` are done. */
-static picvr_status render_loop(picvr_context *ctx, double budget_ms, uint32_t max_iterations) {
+static picvr_status create_timestamps(picvr_context *ctx) {
+    uint32_t n = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(ctx->phys, &n, NULL);
+    VkQueueFamilyProperties fam[16];
+    if (n > 16) n = 16;
+    vkGetPhysicalDeviceQueueFamilyProperties(ctx->phys, &n, fam);
+    uint32_t bits = ctx->queue_family < n ? fam[ctx->queue_family].timestampValidBits : 0;
+    if (bits == 0 || ctx->props.limits.timestampPeriod <= 0.0f) {
+        logf_(ctx, PICVR_LOG_INFO, "no device timestamps: procedure times are estimated from wall time");
+        return PICVR_OK;
+    }
+    ctx->timestamp_ns = ctx->props.limits.timestampPeriod;
+    ctx->timestamp_mask = bits >= 64 ? UINT64_MAX : ((uint64_t)1 << bits) - 1;
+    VkQueryPoolCreateInfo qi = {VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    qi.queryCount = ROUND_TIMESTAMPS;
+    VK_TRY(ctx, vkCreateQueryPool(ctx->device, &qi, NULL, &ctx->timestamps));
+    return PICVR_OK;
+}
+
+/* What one round does. */
+typedef struct round_plan {
+    uint32_t render_blocks;   /* blocks to render (more than the image has: several dispatches) */
+    int whole_passes;         /* round-robin from block 0, priorities ignored (picvr_step_iterations) */
+    uint32_t create_budget;   /* queued requests that become entries this round */
+    uint32_t request_cap;     /* requests this round's rendering may queue */
+    uint32_t update_groups;   /* update work packages */
+    int rebuild;              /* rebuild the octree */
+} round_plan;
+
+static void timestamp(picvr_context *ctx, uint32_t i) {
+    if (ctx->timestamps) vkCmdWriteTimestamp(ctx->cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, ctx->timestamps, i);
+}
+
+static void push4(picvr_context *ctx, uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
+    uint32_t push[4] = {a, b, c, d};
+    vkCmdPushConstants(ctx->cmd, ctx->render_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, push);
+}
+
+/* The octree rebuild (§4.4): empty node and reference pools (the pre-built top copied
+   back), then cache_rebuild.comp re-inserts every entry with its current, possibly
+   shrunk, radii, so references that shrunk entries no longer need disappear.  Recorded
+   after the creation procedure, when no request holds a node lock. */
+static void record_rebuild(picvr_context *ctx) {
+    uint32_t entries = ctx->cache_counts[4] < ctx->cache.max_entries ? ctx->cache_counts[4] : ctx->cache.max_entries;
+    vkCmdFillBuffer(ctx->cmd, ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE, 0);
+    barrier_all(ctx);
+    VkBufferCopy region = {0, 0, (VkDeviceSize)ctx->cache_prebuilt * 16};
+    vkCmdCopyBuffer(ctx->cmd, ctx->cache_prebuilt_nodes.buf, ctx->cache_nodes.buf, 1, &region);
+    uint32_t counts[2] = {ctx->cache_prebuilt, 0};                  /* node_count, ref_count */
+    vkCmdUpdateBuffer(ctx->cmd, ctx->cache_counters.buf, 5 * 4, sizeof counts, counts);
+    barrier_all(ctx);
+    if (entries > 0) {
+        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->rebuild_pipe);
+        vkCmdDispatch(ctx->cmd, (entries + 63) / 64, 1, 1);
+        barrier_all(ctx);
+    }
+}
+
+/* The rendering procedure for `blocks` blocks: dispatches of at most one image's worth
+   (a block must not be rendered twice by one dispatch), each fed by block_select. */
+static void record_render(picvr_context *ctx, const round_plan *p, uint32_t variant) {
+    uint32_t B = ctx->block_total, cap = B < MAX_QUEUE ? B : MAX_QUEUE;
+    int prio = ctx->use_priorities && !p->whole_passes;
+    VkPipeline render = ctx->cache_on ? ctx->render_cache_pipe[variant] : ctx->render_pipe[variant];
+    for (uint32_t left = p->render_blocks; left > 0;) {
+        uint32_t want = left < cap ? left : cap;
+        if (prio) {
+            vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->priority_pipe);
+            push4(ctx, ctx->camera.width, ctx->camera.height, 0, 0);
+            vkCmdDispatch(ctx->cmd, (B + 63) / 64, 1, 1);
+            barrier_all(ctx);
+        }
+        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->select_pipe);
+        push4(ctx, want, B, ctx->block_cursor, (uint32_t)prio);
+        vkCmdDispatch(ctx->cmd, 1, 1, 1);
+        barrier_all(ctx);
+        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, render);
+        push4(ctx, ctx->round, ctx->seed, p->request_cap, 0);
+        vkCmdDispatchIndirect(ctx->cmd, ctx->render_queue.buf, 0);
+        barrier_all(ctx);
+        if (!prio) ctx->block_cursor = (uint32_t)(((uint64_t)ctx->block_cursor + want) % B);
+        left -= want;
+    }
+}
+
+static void record_round(picvr_context *ctx, const round_plan *p) {
+    uint32_t variant = (ctx->use_phase_mis ? 1 : 0) + (ctx->use_fine ? 2 : 0);
+    barrier_all(ctx);
+    if (ctx->timestamps) vkCmdResetQueryPool(ctx->cmd, ctx->timestamps, 0, ROUND_TIMESTAMPS);
+    vkCmdBindDescriptorSets(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->render_layout, 0, 1, &ctx->set, 0, NULL);
+    timestamp(ctx, 0);
+    if (ctx->cache_on) {
+        /* creation: one workgroup per request queued by the previous round */
+        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->create_pipe[variant]);
+        push4(ctx, ctx->round, ctx->seed, p->create_budget, 0);
+        vkCmdDispatchIndirect(ctx->cmd, ctx->cache_counters.buf, 0);
+        barrier_all(ctx);
+        vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 0, 4, 0);       /* dispatch_x */
+        vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 3 * 4, 4, 0);   /* request_count */
+        barrier_all(ctx);
+    }
+    timestamp(ctx, 1);
+    if (ctx->cache_on && p->rebuild) record_rebuild(ctx);
+    timestamp(ctx, 2);
+    if (ctx->cache_on && p->update_groups > 0) {
+        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->update_pipe[variant]);
+        push4(ctx, ctx->round, ctx->seed, 0, 0);
+        vkCmdDispatch(ctx->cmd, p->update_groups, 1, 1);
+        barrier_all(ctx);
+    }
+    timestamp(ctx, 3);
+    record_render(ctx, p, variant);
+    timestamp(ctx, 4);
+    if (ctx->cache_on && ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE) {
+        /* superpixel counters: the set this round read is the one the next round writes */
+        VkDeviceSize n = ctx->superpixel_count, set = (ctx->round + 1) & 1;
+        vkCmdFillBuffer(ctx->cmd, ctx->cache_superpixels.buf, (n + 2 * n * set) * 4, 2 * n * 4, 0);
+    }
+    /* small counters for the host: the cache counters, then the blocks rendered */
+    if (ctx->cache_on) {
+        VkBufferCopy c = {0, 0, CACHE_COUNTER_WORDS * 4};
+        vkCmdCopyBuffer(ctx->cmd, ctx->cache_counters.buf, ctx->round_readback.buf, 1, &c);
+    }
+    VkBufferCopy q = {16, CACHE_COUNTER_WORDS * 4, 4};                 /* render_queue.totals.x */
+    vkCmdCopyBuffer(ctx->cmd, ctx->render_queue.buf, ctx->round_readback.buf, 1, &q);
+    barrier_all(ctx);
+    if (ctx->cache_on) vkCmdFillBuffer(ctx->cmd, ctx->cache_counters.buf, 8 * 4, 3 * 4, 0);  /* hits, misses, requests */
+    vkCmdFillBuffer(ctx->cmd, ctx->render_queue.buf, 16, 4, 0);
+    barrier_all(ctx);
+}
+
+static double ema(double old, double now) { return old > 0.0 ? 0.7 * old + 0.3 * now : now; }
+
+/* The hit rate over the last hit_rate_window_ms of rounds (at least the last round). */
+static double window_hit_rate(const picvr_context *ctx, double now) {
+    uint64_t hits = 0, events = 0;
+    uint32_t n = ctx->history_count < SCHED_HISTORY ? ctx->history_count : SCHED_HISTORY;
+    for (uint32_t k = 0; k < n; k++) {
+        const struct round_record *r = &ctx->history[(ctx->history_count - 1 - k) % SCHED_HISTORY];
+        if (k > 0 && r->end_ms < now - ctx->sched.hit_rate_window_ms) break;
+        hits += r->hits;
+        events += (uint64_t)r->hits + r->misses;
+    }
+    return events ? (double)hits / (double)events : 0.0;
+}
+
+/* §6: t = t_min + (1 - h^e) (t_max - t_min), for creation and update. */
+static void update_targets(picvr_context *ctx) {
+    double f = 1.0 - pow(ctx->hit_rate, ctx->sched.exponent);
+    ctx->target[PROC_CREATE] = ctx->cache_on ? ctx->sched.create_min + f * (ctx->sched.create_max - ctx->sched.create_min) : 0.0;
+    ctx->target[PROC_UPDATE] = ctx->cache_on ? ctx->sched.update_min + f * (ctx->sched.update_max - ctx->sched.update_min) : 0.0;
+}
+
+/* Reads back a finished round: device time per procedure, work done, cache counters;
+   updates the cost model, the history, the hit rate and the targets. */
+static picvr_status finish_round(picvr_context *ctx, const round_plan *p, double wall_ms, uint32_t created) {
+    buffer_invalidate(ctx, &ctx->round_readback);
+    const uint32_t *rb = ctx->round_readback.mapped;
+    uint32_t blocks = rb[CACHE_COUNTER_WORDS];
+    double dev[3] = {0, 0, 0}, rebuild_ms = 0.0;
+    if (ctx->timestamps) {
+        uint64_t t[ROUND_TIMESTAMPS];
+        VK_TRY(ctx, vkGetQueryPoolResults(ctx->device, ctx->timestamps, 0, ROUND_TIMESTAMPS, sizeof t, t, sizeof t[0],
+                                          VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+        double ms[ROUND_TIMESTAMPS - 1];
+        for (uint32_t i = 0; i + 1 < ROUND_TIMESTAMPS; i++)
+            ms[i] = (double)((t[i + 1] - t[i]) & ctx->timestamp_mask) * ctx->timestamp_ns * 1e-6;
+        dev[PROC_CREATE] = ms[0];
+        rebuild_ms = ms[1];
+        dev[PROC_UPDATE] = ms[1] + ms[2];          /* octree maintenance counts as update */
+        dev[PROC_RENDER] = ms[3];
+    } else {
+        /* Rule without timestamps: split the wall time by the planned costs. */
+        double plan[3] = {created * ctx->cost[PROC_CREATE], p->update_groups * ctx->cost[PROC_UPDATE],
+                          blocks * ctx->cost[PROC_RENDER]};
+        double sum = plan[0] + plan[1] + plan[2];
+        for (int i = 0; i < 3; i++) dev[i] = sum > 0.0 ? wall_ms * plan[i] / sum : (i == PROC_RENDER ? wall_ms : 0.0);
+    }
+    if (created > 0) ctx->cost[PROC_CREATE] = ema(ctx->cost[PROC_CREATE], dev[PROC_CREATE] / created);
+    if (p->update_groups > 0)
+        ctx->cost[PROC_UPDATE] = ema(ctx->cost[PROC_UPDATE], (dev[PROC_UPDATE] - rebuild_ms) / p->update_groups);
+    if (blocks > 0) ctx->cost[PROC_RENDER] = ema(ctx->cost[PROC_RENDER], dev[PROC_RENDER] / blocks);
+    double device_total = dev[0] + dev[1] + dev[2];
+    ctx->overhead_ms = ema(ctx->overhead_ms, wall_ms > device_total ? wall_ms - device_total : 1e-3);
+    ctx->block_samples += blocks;
+    ctx->round++;
+    ctx->elapsed_ms += wall_ms;
+    ctx->cache_since_rebuild_ms = p->rebuild ? wall_ms : ctx->cache_since_rebuild_ms + wall_ms;
+    ctx->stats_valid = 0;
+
+    struct round_record *r = &ctx->history[ctx->history_count % SCHED_HISTORY];
+    memset(r, 0, sizeof *r);
+    r->end_ms = now_ms();
+    for (int i = 0; i < 3; i++) r->device_ms[i] = dev[i];
+    if (ctx->cache_on) {
+        memcpy(ctx->cache_counts, rb, CACHE_COUNTER_WORDS * 4);
+        r->hits = rb[8];
+        r->misses = rb[9];
+        ctx->cache_requests_issued += rb[10];
+        ctx->requests_pending = rb[0];   /* dispatch_x: valid requests queued for the next round */
+    }
+    ctx->history_count++;
+    ctx->hit_rate = window_hit_rate(ctx, r->end_ms);
+    update_targets(ctx);
+    return PICVR_OK;
+}
+
+/* stats.fraction_*: each procedure's share of the device time of the rounds that ended
+   in the last SHARE_WINDOW_MS; target_*: the §6 shares now. */
+static void sched_shares(const picvr_context *ctx, picvr_stats *st) {
+    double sum[3] = {0, 0, 0};
+    uint32_t n = ctx->history_count < SCHED_HISTORY ? ctx->history_count : SCHED_HISTORY;
+    double newest = n ? ctx->history[(ctx->history_count - 1) % SCHED_HISTORY].end_ms : 0.0;
+    for (uint32_t k = 0; k < n; k++) {
+        const struct round_record *r = &ctx->history[(ctx->history_count - 1 - k) % SCHED_HISTORY];
+        if (r->end_ms < newest - SHARE_WINDOW_MS) break;
+        for (int i = 0; i < 3; i++) sum[i] += r->device_ms[i];
+    }
+    double total = sum[0] + sum[1] + sum[2];
+    st->fraction_create = total > 0.0 ? sum[PROC_CREATE] / total : 0.0;
+    st->fraction_update = total > 0.0 ? sum[PROC_UPDATE] / total : 0.0;
+    st->fraction_render = total > 0.0 ? sum[PROC_RENDER] / total : 0.0;
+    st->target_create = ctx->target[PROC_CREATE];
+    st->target_update = ctx->target[PROC_UPDATE];
+}
+
+static picvr_status run_round(picvr_context *ctx, const round_plan *p) {
+    uint32_t created = ctx->cache_on ? (p->create_budget < ctx->requests_pending ? p->create_budget : ctx->requests_pending) : 0;
+    double t0 = now_ms();
+    picvr_status s = cmd_begin(ctx);
+    if (s) return s;
+    record_round(ctx, p);
+    if ((s = cmd_submit_wait(ctx))) return s;
+    return finish_round(ctx, p, now_ms() - t0, created);
+}
+
+/* Packages a procedure may run this round: its share of the round's device time, in
+   whole packages; the fraction left over is carried to the next round (credit), so
+   that over time the share is met even when one package takes longer than a round.
+   Rule: an unmeasured cost (first round) allows one package. */
+static uint32_t packages(picvr_context *ctx, int proc, double share_ms, uint32_t available) {
+    if (ctx->cost[proc] <= 0.0) return available < 1 ? available : 1;
+    double owed = ctx->credit[proc] + share_ms / ctx->cost[proc];
+    uint32_t n = owed < (double)available ? (uint32_t)owed : available;
+    /* Rule: the credit never exceeds one round's share plus one package, so a stretch
+       without work (no requests) is not paid back later in a burst. */
+    double cap = share_ms / ctx->cost[proc] + 1.0;
+    ctx->credit[proc] = owed - n < cap ? owed - n : cap;
+    return n;
+}
+
+/* Plans a round of round_ms of device time by the §6 shares and the measured costs. */
+static round_plan plan_round(picvr_context *ctx, double round_ms) {
+    round_plan p;
+    memset(&p, 0, sizeof p);
+    double avail = round_ms - ctx->overhead_ms;
+    if (avail < 0.1 * round_ms) avail = 0.1 * round_ms;
+    double left = avail;
+    if (ctx->cache_on) {
+        double create_ms = ctx->target[PROC_CREATE] * avail, update_ms = ctx->target[PROC_UPDATE] * avail;
+        p.create_budget = packages(ctx, PROC_CREATE, create_ms, ctx->requests_pending);
+        p.update_groups = packages(ctx, PROC_UPDATE, update_ms, UINT32_MAX);
+        /* requests for the next round: what its creation share can take (at least one) */
+        double next = ctx->cost[PROC_CREATE] > 0.0 ? ceil(create_ms / ctx->cost[PROC_CREATE]) : 4.0;
+        p.request_cap = next < 1.0 ? 1 : next > ctx->cache.max_requests ? ctx->cache.max_requests : (uint32_t)next;
+        p.rebuild = ctx->cache_since_rebuild_ms >= ctx->cache.rebuild_interval_ms;
+        /* Work conserving: time creation and update cannot use goes to rendering. */
+        left -= p.create_budget * ctx->cost[PROC_CREATE] + p.update_groups * ctx->cost[PROC_UPDATE];
+    }
+    double blocks = ctx->cost[PROC_RENDER] > 0.0 ? left / ctx->cost[PROC_RENDER] : 32.0;
+    p.render_blocks = blocks < 1.0 ? 1 : blocks > 64.0 * ctx->block_total ? 64 * ctx->block_total : (uint32_t)blocks;
+    return p;
+}
+
+/* picvr_step: rounds until `budget_ms` of wall time have passed (at least one round). */
+static picvr_status step_time(picvr_context *ctx, double budget_ms) {
     picvr_status s = prepare_render(ctx);
     if (s) return s;
-    if (ctx->cache_on) {   /* the hit rate reported is that of this step */
-        uint32_t c[CACHE_COUNTER_WORDS];
-        if ((s = cache_read_counters(ctx, c))) return s;
-        ctx->cache_hits = ctx->cache_misses = ctx->cache_requests_issued = 0;
-        if (ctx->cache_since_rebuild_ms >= ctx->cache.rebuild_interval_ms) {
-            if ((s = cache_rebuild(ctx, c[4]))) return s;
-            ctx->cache_since_rebuild_ms = 0.0;
-        }
-    }
-    double start = now_ms();
-    uint32_t done = 0;
-    while (done < max_iterations) {
-        double elapsed = now_ms() - start;
-        if (done > 0 && elapsed >= budget_ms) break;
-        double target = budget_ms - elapsed;
-        if (target > BATCH_TARGET_MS) target = BATCH_TARGET_MS;
+    ctx->cache_requests_issued = 0;
+    double start = now_ms(), round_ms = 1000.0 / ctx->sched.rounds_per_second;
+    do {
+        double left = budget_ms - (now_ms() - start);
+        round_plan p = plan_round(ctx, left < round_ms ? left : round_ms);
+        if ((s = run_round(ctx, &p))) return s;
+    } while (now_ms() - start < budget_ms - 0.5 * ctx->overhead_ms);
+    return PICVR_OK;
+}
+
+/* The fixed split of picvr_step_iterations: unless the application set max_requests,
+   one request per CACHE_PIXELS_PER_REQUEST pixels per pass. */
+static uint32_t pass_request_cap(const picvr_context *ctx) {
+    if (ctx->cache_requests_set) return ctx->cache.max_requests;
+    uint64_t per = ((uint64_t)ctx->camera.width * ctx->camera.height) / CACHE_PIXELS_PER_REQUEST;
+    return per < 1 ? 1 : per < ctx->cache.max_requests ? (uint32_t)per : ctx->cache.max_requests;
+}
+
+/* picvr_step_iterations: whole passes over the image, priorities ignored, so that every
+   pixel gets exactly `passes` samples.  With the cache, one pass per round and a fixed
+   split that does not depend on timing: every request of a pass (at most the
+   per-iteration request cap) is created in the next round and 1/16 of the blocks are
+   updated.  Without it, passes are batched into rounds of about BATCH_TARGET_MS. */
+static picvr_status step_passes(picvr_context *ctx, uint32_t passes) {
+    picvr_status s = prepare_render(ctx);
+    if (s) return s;
+    ctx->cache_requests_issued = 0;
+    ctx->block_cursor = 0;
+    for (uint32_t done = 0; done < passes;) {
+        round_plan p;
+        memset(&p, 0, sizeof p);
+        p.whole_passes = 1;
         uint32_t k = 1;
-        if (ctx->ms_per_iteration > 0.0 && done > 0) {
-            double fit = target / ctx->ms_per_iteration;
+        if (ctx->cache_on) {
+            p.create_budget = UINT32_MAX;
+            p.request_cap = pass_request_cap(ctx);
+            p.update_groups = (ctx->block_total + 15) / 16;
+            p.rebuild = ctx->cache_since_rebuild_ms >= ctx->cache.rebuild_interval_ms;
+        } else if (ctx->cost[PROC_RENDER] > 0.0) {
+            double fit = BATCH_TARGET_MS / (ctx->cost[PROC_RENDER] * ctx->block_total);
             k = fit < 1.0 ? 1u : fit > MAX_BATCH ? MAX_BATCH : (uint32_t)fit;
         }
-        if (k > max_iterations - done) k = max_iterations - done;
-        double t0 = now_ms();
-        if ((s = render_batch(ctx, k))) return s;
-        double per = (now_ms() - t0) / k;
-        /* Running estimate; the first batch includes shader compilation, so a new
-           measurement replaces a larger old one at once. */
-        ctx->ms_per_iteration = ctx->ms_per_iteration <= 0.0 || per < ctx->ms_per_iteration
-                              ? per : 0.7 * ctx->ms_per_iteration + 0.3 * per;
+        if (k > passes - done) k = passes - done;
+        p.render_blocks = k * ctx->block_total;
+        if ((s = run_round(ctx, &p))) return s;
         done += k;
     }
-    ctx->elapsed_ms += now_ms() - start;
-    ctx->cache_since_rebuild_ms += now_ms() - start;
     return PICVR_OK;
 }
 
 picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     if (!isfinite(milliseconds) || milliseconds < 0.0) return PICVR_ERROR_INVALID_ARGUMENT;
-    return render_loop(ctx, milliseconds, UINT32_MAX);
+    return step_time(ctx, milliseconds);
 }
 
 picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     if (iterations == 0) return PICVR_OK;
-    return render_loop(ctx, INFINITY, iterations);
+    return step_passes(ctx, iterations);
 }
 
 /* ---------------------------------------------------------------------------------- */
@@ -1811,7 +2113,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
     if (!ctx->stats_valid) {
         picvr_stats st;
         memset(&st, 0, sizeof st);
-        if (ctx->has_volume && ctx->has_camera && ctx->iterations > 0) {
+        if (ctx->has_volume && ctx->has_camera && ctx->block_samples > 0) {
             picvr_status s = prepare_render(ctx);
             double sums[4];
             uint64_t counts[4];
@@ -1828,14 +2130,9 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.est_rel_error = sums[3] > 0 ? sums[2] / sums[3] : 0.0;
         }
         if (ctx->cache_on) {
-            uint32_t c[CACHE_COUNTER_WORDS];
-            picvr_status s = cache_read_counters(ctx, c);
-            if (s) return s;
-            ctx->cache_hits += c[8];
-            ctx->cache_misses += c[9];
-            ctx->cache_requests_issued += c[10];
+            const uint32_t *c = ctx->cache_counts;          /* as of the last round */
             st.cache_requests = ctx->cache_requests_issued;
-            st.cache_pending = 0;
+            st.cache_pending = ctx->requests_pending;
             st.cache_bytes = ctx->cache_entries.size + ctx->cache_nodes.size + ctx->cache_refs.size +
                              ctx->cache_counters.size + ctx->cache_requests.size + ctx->cache_prebuilt_nodes.size +
                              ctx->cache_superpixels.size;
@@ -1844,12 +2141,12 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_refs = c[6] < ctx->cache.max_refs ? c[6] : ctx->cache.max_refs;
             st.cache_full = c[7];
             st.cache_refs_per_entry = st.cache_entries ? (double)st.cache_refs / st.cache_entries : 0.0;
-            uint64_t events = (uint64_t)ctx->cache_hits + ctx->cache_misses;
-            st.cache_hit_rate = events ? (double)ctx->cache_hits / events : 0.0;
+            st.cache_hit_rate = ctx->hit_rate;
         }
-        st.iterations = ctx->iterations;
+        sched_shares(ctx, &st);
+        st.iterations = ctx->block_total ? (uint32_t)(ctx->block_samples / ctx->block_total) : 0;
         st.elapsed_ms = ctx->elapsed_ms;
-        double samples = (double)ctx->iterations * ctx->camera.width * ctx->camera.height;
+        double samples = st.iterations_mean * ctx->camera.width * ctx->camera.height;
         st.samples_per_second = ctx->elapsed_ms > 0.0 ? samples / (ctx->elapsed_ms * 1e-3) : 0.0;
         ctx->stats = st;
         ctx->stats_valid = 1;

@@ -48,6 +48,7 @@ typedef struct options {
     const char *device;
     int validation;
     picvr_cache_mode cache;
+    picvr_switch priorities;
     const char *debug_view;
     float exposure;
     float azimuth, elevation, distance, fov;
@@ -129,6 +130,8 @@ static void print_help(FILE *f)
         "  --seed N               random seed (default 0)\n"
         "  --cache off|object|screen  irradiance cache: off (plain Monte Carlo, the default\n"
         "                         for now), object- or screen-space locking\n"
+        "  --priorities on|off    render the blocks with the largest expected error\n"
+        "                         reduction first (Eq. 12; default on)\n"
         "  --debug-view cache     show where the cache is: hits green, misses red, entry\n"
         "                         centres white (needs --cache object|screen)\n"
         "  --device NAME          Vulkan device whose name contains NAME\n"
@@ -291,6 +294,10 @@ static int apply_option(options *o, const char *name, const char *value)
         else if (!strcmp(value, "object")) o->cache = PICVR_CACHE_OBJECT_SPACE;
         else if (!strcmp(value, "screen")) o->cache = PICVR_CACHE_SCREEN_SPACE;
         else ok = 0;
+    } else if (!strcmp(name, "priorities")) {
+        if (!strcmp(value, "on")) o->priorities = PICVR_SWITCH_ON;
+        else if (!strcmp(value, "off")) o->priorities = PICVR_SWITCH_OFF;
+        else ok = 0;
     } else if (!strcmp(name, "device")) {
         o->device = value;
     } else if (!strcmp(name, "exposure")) {
@@ -317,7 +324,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "debug-view", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "priorities", "debug-view", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -459,8 +466,10 @@ static void show_progress(progress *p, double fraction, const picvr_stats *s)
 static int write_log_row(FILE *log, unsigned round, const picvr_stats *s)
 {
     if (!log) return 1;
-    fprintf(log, "%u,%.3f,%u,%.9g,%.9g,%.9g\n", round, s->elapsed_ms, s->iterations,
-            s->est_error, s->est_rel_error, s->samples_per_second);
+    fprintf(log, "%u,%.3f,%u,%.9g,%.9g,%.9g,%.9g,%u,%u,%.4f,%.4f,%.4f,%.4f,%.4f\n", round,
+            s->elapsed_ms, s->iterations, s->est_error, s->est_rel_error, s->samples_per_second,
+            s->cache_hit_rate, s->cache_entries, s->cache_refs, s->fraction_render,
+            s->fraction_create, s->fraction_update, s->target_create, s->target_update);
     /* Flushed per row so `tail -f` works and a crash keeps what was measured. */
     return fflush(log) == 0;
 }
@@ -655,6 +664,13 @@ static int write_json(const options *o, const picvr_stats *s)
     json_number(f, s->cache_hit_rate);
     fputs(", \"hit_rate\": ", f);
     json_number(f, s->cache_hit_rate);
+    const char *shares[5] = {"fraction_render", "fraction_create", "fraction_update", "target_create", "target_update"};
+    const double share[5] = {s->fraction_render, s->fraction_create, s->fraction_update, s->target_create, s->target_update};
+    for (int i = 0; i < 5; i++) {
+        fprintf(f, ", \"%s\": ", shares[i]);
+        json_number(f, share[i]);
+    }
+    fprintf(f, ", \"priorities\": \"%s\"", o->priorities == PICVR_SWITCH_OFF ? "off" : "on");
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
         fail("cannot write %s: %s", o->json_path, strerror(errno));
@@ -674,8 +690,10 @@ static void print_summary(const options *o, const picvr_stats *s)
                                    (unsigned long long)s->truncated_paths);
     if (s->validation_messages) printf(", %u validation messages", s->validation_messages);
     if (s->cache_entries)
-        printf(", cache %u entries, %.2f refs/entry, hit rate %.3f%s", s->cache_entries,
-               s->cache_refs_per_entry, s->cache_hit_rate, s->cache_full ? " (full)" : "");
+        printf(", cache %u entries, %.2f refs/entry, hit rate %.3f%s, device time render/create/update "
+               "%.3f/%.3f/%.3f (targets create %.3f, update %.3f)", s->cache_entries,
+               s->cache_refs_per_entry, s->cache_hit_rate, s->cache_full ? " (full)" : "",
+               s->fraction_render, s->fraction_create, s->fraction_update, s->target_create, s->target_update);
     if (interrupted) printf(", interrupted");
     printf("\n");
 }
@@ -755,6 +773,7 @@ static int render(const options *o, const pvio_layout *layout)
     cfg.device_name = o->device;
     cfg.validation = o->validation;
     cfg.cache.mode = o->cache;
+    cfg.scheduler.priorities = o->priorities;
     cfg.seed = o->seed;
     cfg.log = log_message;
     cfg.log_user = &prog;
@@ -766,7 +785,8 @@ static int render(const options *o, const pvio_layout *layout)
     if (o->log_path) {
         r.log = fopen(o->log_path, "w");
         ok = r.log && fputs("round,elapsed_ms,iterations,est_error,est_rel_error,"
-                            "samples_per_second\n", r.log) >= 0;
+                            "samples_per_second,hit_rate,cache_entries,cache_refs,fraction_render,"
+                            "fraction_create,fraction_update,target_create,target_update\n", r.log) >= 0;
         if (!ok) fail("cannot write %s: %s", o->log_path, strerror(errno));
     }
     /* The file first: a bad file should not cost a Vulkan start-up.  The host copy

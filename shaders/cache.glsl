@@ -41,8 +41,8 @@ layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
 } cache_counters;
 layout(set = 0, binding = 13, std430) buffer CacheRequests { Request requests[]; };
 // Screen-space locking (§5.2): per superpixel a lock, then two sets of (rays, misses)
-// counters: iteration i counts into set i & 1 and reads the ratio of the other set
-// (the previous iteration), which the host then clears for iteration i + 1.
+// counters: round i counts into set i & 1 and reads the ratio of the other set (the
+// previous round), which the host then clears for round i + 1.
 layout(set = 0, binding = 14, std430) coherent buffer CacheSuperpixels { uint superpixels[]; };
 #define LOCK_SUPERPIXEL 0x80000000u   // request.node: a superpixel index, not a node
 
@@ -158,11 +158,11 @@ void cache_unlock(uint locked) {
     else atomicExchange(nodes[locked].lock, 0u);
 }
 
-// Queues a creation request for x holding `locked`; released again when the queue of
-// this iteration is full.
-void queue_request(vec3 x, uint locked) {
+// Queues a creation request for x holding `locked`; released again when this round
+// already has `cap` requests.
+void queue_request(vec3 x, uint locked, uint cap) {
     uint slot = atomicAdd(cache_counters.request_count, 1u);
-    if (slot >= scene.cache_caps.w) {
+    if (slot >= min(cap, scene.cache_caps.w)) {
         cache_unlock(locked);
         return;
     }
@@ -177,10 +177,10 @@ uint superpixel_of(uvec2 px) {
     return sp.y * scene.cache_screen.y + sp.x;
 }
 
-// Counts a scatter event of this iteration in its superpixel (screen-space locking).
-void count_ray(uvec2 px, bool miss, uint iteration) {
+// Counts a scatter event of this round in its superpixel (screen-space locking).
+void count_ray(uvec2 px, bool miss, uint round) {
     uint n = scene.cache_screen.z;
-    uint base = n + 2u * n * (iteration & 1u) + 2u * superpixel_of(px);
+    uint base = n + 2u * n * (round & 1u) + 2u * superpixel_of(px);
     atomicAdd(superpixels[base], 1u);
     if (miss) atomicAdd(superpixels[base + 1u], 1u);
 }
@@ -189,22 +189,22 @@ void count_ray(uvec2 px, bool miss, uint iteration) {
 // Object space (§5.1): lock the deepest node enclosing x; one request per node.
 // Screen space (§5.2): one request per superpixel at a time, and only if a random
 // number falls below the superpixel's ratio of misses to rays in the previous
-// iteration, so well-covered regions rarely ask (the first iteration, with no history,
-// always asks).  Either way a refused request is simply dropped: the event is shaded
+// round, so well-covered regions rarely ask (the first round, with no history, always
+// asks).  Either way a refused request is simply dropped: the event is shaded
 // by plain Monte Carlo.
-void cache_request(vec3 x, uint node, uvec2 px, uint iteration, float u) {
+void cache_request(vec3 x, uint node, uvec2 px, uint round, float u, uint cap) {
     if (scene.cache_screen.w == 0u) {
         if (atomicCompSwap(nodes[node].lock, 0u, 1u) != 0u) return;
-        queue_request(x, node);
+        queue_request(x, node, cap);
         return;
     }
     uint n = scene.cache_screen.z, sp = superpixel_of(px);
-    uint prev = n + 2u * n * ((iteration + 1u) & 1u) + 2u * sp;
+    uint prev = n + 2u * n * ((round + 1u) & 1u) + 2u * sp;
     uint rays = superpixels[prev], misses = superpixels[prev + 1u];
     float ratio = rays > 0u ? float(misses) / float(rays) : 1.0;
     if (!(u < ratio)) return;
     if (atomicCompSwap(superpixels[sp], 0u, 1u) != 0u) return;
-    queue_request(x, sp | LOCK_SUPERPIXEL);
+    queue_request(x, sp | LOCK_SUPERPIXEL, cap);
 }
 
 // ---- insertion (creation procedure) ----

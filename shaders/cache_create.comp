@@ -5,8 +5,8 @@
 // Carlo with MIS (one light sample + one phase sample per point and round); rounds
 // repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached.  Then
 // thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10), and eight threads insert
-// the entry into the octree (one per corner of its bounding box); the request's node
-// lock is released.
+// the entry into the octree (one per corner of its bounding box); the request's lock
+// (node or superpixel) is released.  Requests beyond this round's budget only unlock.
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 128) in;
 
@@ -19,7 +19,9 @@ layout(local_size_x = 128) in;
 #include "common.glsl"
 #include "cache.glsl"
 
-layout(push_constant) uniform Push { uint iteration; uint seed; } pc;
+// sched_round: the scheduler's round; budget: requests to turn into entries this round
+// (the §6 creation share); the other queued requests are dropped and their locks released.
+layout(push_constant) uniform Push { uint sched_round; uint seed; uint budget; uint pad; } pc;
 
 shared vec4 s_red[128];          // reduction scratch: (lum sum, lum sq sum) or RGB sums
 shared bool s_done;
@@ -36,11 +38,14 @@ void reduce_red() {
 
 void main() {
     uint req = gl_WorkGroupID.x;
-    uint count = min(cache_counters.request_count, scene.cache_caps.w);
-    if (req >= count) return;                       // uniform over the workgroup
     uint lid = gl_LocalInvocationID.x;
-    vec3 x0 = requests[req].pos.xyz;
+    // The indirect dispatch has one workgroup per valid request (dispatch_x).
     uint locked = requests[req].node;
+    if (req >= pc.budget) {                          // uniform over the workgroup
+        if (lid == 0u) cache_unlock(locked);
+        return;
+    }
+    vec3 x0 = requests[req].pos.xyz;
 
     vec3 t, b, n;
     entry_frame(x0, t, b, n);
@@ -64,8 +69,8 @@ void main() {
         // errors and a smooth field is not mistaken for a steep one.  Each point's
         // estimate stays unbiased.  Two streams, so that the phase sample does not
         // depend on how many numbers the light sample's tracking consumed.
-        Rng light_rng = rng_init(req * 128u + lid, pc.iteration * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x5bd1e995u);
-        Rng phase_rng = rng_init(req * 128u + lid, pc.iteration * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u);
+        Rng light_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x5bd1e995u);
+        Rng phase_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u);
         for (uint k = 0u; k < 7u; k++) {
             vec3 e = irradiance_sample(p[k], light_rng, phase_rng, truncated);
             // Rule: a non-finite sample (only from extreme input) counts as 0.

@@ -12,17 +12,17 @@ layout(local_size_x = 16, local_size_y = 8) in;
 #include "common.glsl"
 #include "cache.glsl"
 
-layout(push_constant) uniform Push { uint iteration; uint seed; } pc;
+layout(push_constant) uniform Push { uint sched_round; uint seed; } pc;
 
 #define UPDATE_MAX_CANDIDATES 16u
 
 void main() {
     uint lid = gl_LocalInvocationIndex;
-    // The block: a hash of (work package, iteration), the same for the whole group.
+    // The block: a hash of (work package, round), the same for the whole group.
     uint blocks_x = (scene.image.x + 15u) / 16u, blocks_y = (scene.image.y + 7u) / 8u;
-    uint block = pcg_hash(gl_WorkGroupID.x ^ pcg_hash(pc.iteration ^ pcg_hash(pc.seed + 0x27d4eb2du)))
+    uint block = pcg_hash(gl_WorkGroupID.x ^ pcg_hash(pc.sched_round ^ pcg_hash(pc.seed + 0x27d4eb2du)))
                  % (blocks_x * blocks_y);
-    Rng rng = rng_init(block * 128u + lid, pc.iteration, pc.seed ^ 0x165667b1u);
+    Rng rng = rng_init(block * 128u + lid, pc.sched_round, pc.seed ^ 0x165667b1u);
     // A random pixel of the block (random, so neighbouring threads update entries at
     // different object-space positions, §7).
     uvec2 px = uvec2((block % blocks_x) * 16u + min(uint(rnd(rng) * 16.0), 15u),

@@ -5,6 +5,7 @@
 layout(local_size_x = 16, local_size_y = 8) in;
 
 #include "common.glsl"
+#include "queue.glsl"
 #ifdef PICVR_CACHE
 #include "cache.glsl"
 #endif
@@ -13,7 +14,9 @@ layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  /
 layout(set = 0, binding = 5, std430) buffer AccumComp { vec4 accum_comp[]; };  // Kahan terms
 layout(set = 0, binding = 6, std430) buffer AccumStat { vec4 accum_stat[]; };  // lum mean, M2, n, bad
 
-layout(push_constant) uniform Push { uint iteration; uint seed; } pc;
+// round: the scheduler's round (keys the screen-space locking counters); request_cap:
+// creation requests this round may issue (the creation budget of the next round).
+layout(push_constant) uniform Push { uint round; uint seed; uint request_cap; uint pad; } pc;
 
 // Kahan-compensated running mean (precise: no reassociation by the compiler), so
 // that after millions of samples an update of relative size 1e-7 is not lost.
@@ -37,10 +40,13 @@ void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
 }
 
 void main() {
-    uvec2 px = gl_GlobalInvocationID.xy;
+    // One workgroup per queued block (block_select.comp), one thread per pixel.
+    uvec2 px = block_origin(render_queue.blocks[gl_WorkGroupID.x].x, scene.image.xy) + gl_LocalInvocationID.xy;
     if (px.x >= scene.image.x || px.y >= scene.image.y) return;
     uint idx = px.y * scene.image.x + px.x;
-    Rng rng = rng_init(idx, pc.iteration, pc.seed);
+    // Random numbers keyed by (pixel, sample index): every pixel's n-th sample is the
+    // same whichever round or block order produced it.
+    Rng rng = rng_init(idx, floatBitsToUint(accum_stat[idx].z), pc.seed);
 
     vec3 ro = scene.cam_pos.xyz;
     vec3 rd = camera_ray(px, rng);
@@ -64,12 +70,12 @@ void main() {
         uint node;
         bool near_centre;
         bool hit = cache_lookup(x, E, node, near_centre);
-        if (scene.cache_screen.w != 0u) count_ray(px, !hit, pc.iteration);
+        if (scene.cache_screen.w != 0u) count_ray(px, !hit, pc.round);
         if (hit) {
             Ls = E * INV_4PI;                 // isotropic phase: L_s = E / (4 pi)
             atomicAdd(cache_counters.hits, 1u);
         } else {
-            cache_request(x, node, px, pc.iteration, rnd(rng));
+            cache_request(x, node, px, pc.round, rnd(rng), pc.request_cap);
             Ls = sample_one_light(x, rng, truncated);
             if (USE_PHASE_MIS) Ls += sample_phase(x, rng, truncated);
             atomicAdd(cache_counters.misses, 1u);
