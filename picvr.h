@@ -369,6 +369,11 @@ picvr_status picvr_read_rgba8(picvr_context *ctx, uint8_t *pixels, size_t size, 
    bottom; size is in bytes and must be >= width*height*16. */
 picvr_status picvr_read_rgba32f(picvr_context *ctx, float *pixels, size_t size);
 
+/* Reads the number of samples each pixel has accumulated (rows top to bottom): with
+   priorities on, picvr_step gives more to the pixels whose error falls fastest.
+   `count` is the number of uint32_t that `counts` holds. */
+picvr_status picvr_read_sample_counts(picvr_context *ctx, uint32_t *counts, size_t count);
+
 typedef struct picvr_stats {
     uint32_t iterations;         /* blocks rendered since the last reset / blocks of the
                                     image: whole-image passes (see picvr_step) */

@@ -1968,7 +1968,8 @@ static picvr_status step_time(picvr_context *ctx, double budget_ms) {
         double left = budget_ms - (now_ms() - start);
         round_plan p = plan_round(ctx, left < round_ms ? left : round_ms);
         if ((s = run_round(ctx, &p))) return s;
-    } while (now_ms() - start < budget_ms - 0.5 * ctx->overhead_ms);
+        /* Rule: a remainder under a tenth of a round is not worth a round's fixed costs. */
+    } while (budget_ms - (now_ms() - start) > 0.1 * round_ms);
     return PICVR_OK;
 }
 
@@ -2027,13 +2028,14 @@ picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations) {
 /* ---------------------------------------------------------------------------------- */
 /* reading results                                                                     */
 
-static picvr_status read_mean(picvr_context *ctx) {
+/* Copies accumulation plane `plane` (0: mean rgba, 2: lum mean, M2, n, bad) to readback. */
+static picvr_status read_plane(picvr_context *ctx, int plane) {
     if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
     picvr_status s = cmd_begin(ctx);
     if (s) return s;
     barrier_all(ctx);
     VkBufferCopy region = {0, 0, ctx->readback.size};
-    vkCmdCopyBuffer(ctx->cmd, ctx->accum[0].buf, ctx->readback.buf, 1, &region);
+    vkCmdCopyBuffer(ctx->cmd, ctx->accum[plane].buf, ctx->readback.buf, 1, &region);
     barrier_all(ctx);
     if ((s = cmd_submit_wait(ctx))) return s;
     buffer_invalidate(ctx, &ctx->readback);
@@ -2049,9 +2051,20 @@ static picvr_status check_image_read(picvr_context *ctx, const void *dst, size_t
 
 picvr_status picvr_read_rgba32f(picvr_context *ctx, float *pixels, size_t size) {
     picvr_status s = check_image_read(ctx, pixels, size, 16);
-    if (!s) s = read_mean(ctx);
+    if (!s) s = read_plane(ctx, 0);
     if (!s) memcpy(pixels, ctx->readback.mapped, (size_t)ctx->camera.width * ctx->camera.height * 16);
     return s;
+}
+
+picvr_status picvr_read_sample_counts(picvr_context *ctx, uint32_t *counts, size_t count) {
+    size_t bytes = count > SIZE_MAX / 4 ? SIZE_MAX : count * 4;   /* saturate: large is large enough */
+    picvr_status s = check_image_read(ctx, counts, bytes, 4);
+    if (!s) s = read_plane(ctx, 2);
+    if (s) return s;
+    const uint32_t *src = ctx->readback.mapped;     /* vec4 per pixel, z = n as uint bits */
+    size_t n = (size_t)ctx->camera.width * ctx->camera.height;
+    for (size_t i = 0; i < n; i++) counts[i] = src[i * 4 + 2];
+    return PICVR_OK;
 }
 
 static uint8_t to_srgb8(double x) {
@@ -2064,7 +2077,7 @@ static uint8_t to_srgb8(double x) {
 
 picvr_status picvr_read_rgba8(picvr_context *ctx, uint8_t *pixels, size_t size, float exposure) {
     picvr_status s = check_image_read(ctx, pixels, size, 4);
-    if (!s) s = read_mean(ctx);
+    if (!s) s = read_plane(ctx, 0);
     if (s) return s;
     double e = (isfinite(exposure) && exposure > 0.0f) ? exposure : 1.0;
     const float *src = ctx->readback.mapped;

@@ -161,6 +161,10 @@ void cache_unlock(uint locked) {
 // Queues a creation request for x holding `locked`; released again when this round
 // already has `cap` requests.
 void queue_request(vec3 x, uint locked, uint cap) {
+    if (cache_counters.full != 0u) {               // the cache no longer grows
+        cache_unlock(locked);
+        return;
+    }
     uint slot = atomicAdd(cache_counters.request_count, 1u);
     if (slot >= min(cap, scene.cache_caps.w)) {
         cache_unlock(locked);
@@ -245,17 +249,18 @@ uint descend_create(uvec3 cell, uint depth) {
     return node;
 }
 
-// Pushes a reference to entry e onto node's list (CAS loop, bounded).
+// Pushes a reference to entry e onto node's list with one atomic exchange: no retry
+// loop, so no reference is lost however many threads insert into the same node (a
+// bounded compare-and-swap loop dropped references when a whole workgroup hit one
+// node at once).  The list is briefly inconsistent between the exchange and the write
+// of `next`, which is safe because nothing reads the lists while insertion runs: the
+// scheduler separates the creation and rebuild dispatches from every reader by a
+// barrier.
 void push_ref(uint node, uint e) {
     uint r = atomicAdd(cache_counters.ref_count, 1u) + 1u;    // ref 0 is NIL
     if (r >= scene.cache_caps.z) { atomicExchange(cache_counters.full, 1u); return; }
     refs[r].entry = e;
-    for (uint k = 0u; k < 64u; k++) {
-        uint head = nodes[node].refs;
-        refs[r].next = head;
-        memoryBarrierBuffer();
-        if (atomicCompSwap(nodes[node].refs, head, r) == head) return;
-    }
+    refs[r].next = atomicExchange(nodes[node].refs, r);
 }
 
 vec3 bbox_corner(vec3 x0, float rmax, uint k) {

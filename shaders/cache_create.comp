@@ -41,7 +41,13 @@ void main() {
     uint lid = gl_LocalInvocationID.x;
     // The indirect dispatch has one workgroup per valid request (dispatch_x).
     uint locked = requests[req].node;
-    if (req >= pc.budget) {                          // uniform over the workgroup
+    // A full pool (entries, nodes or references) stops growth: no estimation is spent
+    // on an entry that could not be stored.  Read once, so the branch is uniform.
+    if (lid == 0u) s_done = cache_counters.full != 0u;
+    barrier();
+    bool full = s_done;
+    barrier();
+    if (req >= pc.budget || full) {                  // uniform over the workgroup
         if (lid == 0u) cache_unlock(locked);
         return;
     }

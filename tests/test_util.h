@@ -54,6 +54,13 @@
     X(test_cache_invalidation_and_camera_keeps_cache)               \
     X(test_cache_pool_full_is_reported_and_safe)                    \
     X(test_cache_debug_view)                                        \
+    /* test_scheduler.c */                                          \
+    X(test_scheduler_shares_follow_hit_rate)                        \
+    X(test_scheduler_measured_shares_track_targets)                 \
+    X(test_scheduler_priorities_favour_lit_blocks)                  \
+    X(test_scheduler_step_budget)                                   \
+    X(test_scheduler_no_deadlock_with_tiny_pools)                   \
+    X(test_scheduler_config_errors)                                 \
     /* test_api_errors.c */                                         \
     X(test_status_strings_non_null_and_distinct)                    \
     X(test_create_destroy_errors)                                   \
