@@ -12,13 +12,14 @@ SHADER_INC  := $(wildcard shaders/*.glsl)
 TEST_SRC    := $(wildcard tests/test_*.c)
 LIB_OBJ     := $(B)/picvr_vk.o
 
-.PHONY: all deps lib test demo bench-speed shaders check-shaders clean help
+.PHONY: all deps lib test demo bench-speed bench-scheduler shaders check-shaders clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
 
 help:
 	@echo "make demo         install deps, build, render bonsai to build/bonsai.png"
 	@echo "make test         install deps, build, run the test suite (validation layer on)"
 	@echo "make bench-speed  samples/s of the Vulkan kernel vs the C/OpenMP reference"
+	@echo "make bench-scheduler  error vs time with/without priorities, device-time shares"
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
 
 # Debian packages, installed only when missing (apt-get as root or via sudo).
@@ -78,6 +79,9 @@ demo: deps $(B)/picvr-render
 
 bench-speed: deps $(B)/picvr-bench-speed
 	$(B)/picvr-bench-speed --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz
+
+bench-scheduler: deps $(B)/picvr-render
+	DATA=$(DATA) sh bench/scheduler.sh $(SECS)
 
 clean:
 	rm -rf $(B)

@@ -130,7 +130,8 @@ struct picvr_context {
     buffer render_queue;             /* header + one uvec4 per block (shaders/queue.glsl) */
     buffer round_readback;           /* cache counters and rendered-block count of a round */
     uint32_t block_total;            /* 16x8 blocks of the image */
-    uint32_t block_cursor;           /* next block in round-robin order */
+    uint32_t block_cursor;           /* position k in the round-robin order (k * stride) mod B */
+    uint32_t block_stride;           /* coprime with block_total, near block_total / golden ratio */
     uint64_t block_samples;          /* blocks rendered since the accumulation was reset */
     uint32_t round;                  /* rounds since creation: keys the cache procedures' RNG */
     double cost[3];                  /* device ms per work package, PROC_*; 0: not measured */
@@ -1483,6 +1484,20 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
 /* ---------------------------------------------------------------------------------- */
 /* camera and image buffers                                                            */
 
+static uint32_t gcd32(uint32_t a, uint32_t b) {
+    while (b) { uint32_t t = a % b; a = b; b = t; }
+    return a;
+}
+
+/* The round-robin stride over n blocks: coprime with n (so k -> k * stride mod n is a
+   permutation) and near n / golden ratio (so consecutive k land far apart). */
+static uint32_t spread_stride(uint32_t n) {
+    if (n <= 2) return 1;
+    uint32_t s = (uint32_t)(n * 0.6180339887) | 1u;
+    while (gcd32(s, n) != 1) s++;
+    return s % n ? s % n : 1;
+}
+
 static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_t h) {
     VkDeviceSize pixels = (VkDeviceSize)w * h;
     VkDeviceSize plane = pixels * 16;
@@ -1540,6 +1555,7 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
     ctx->partials = part;
     ctx->render_queue = queue;
     ctx->block_total = blocks;
+    ctx->block_stride = spread_stride(blocks);
     ctx->descriptors_dirty = 1;
     return PICVR_OK;
 }
@@ -1757,7 +1773,8 @@ static void record_render(picvr_context *ctx, const round_plan *p, uint32_t vari
             barrier_all(ctx);
         }
         vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->select_pipe);
-        push4(ctx, want, B, ctx->block_cursor, (uint32_t)prio);
+        uint32_t base = (uint32_t)((uint64_t)ctx->block_cursor * ctx->block_stride % B);
+        push4(ctx, want, B, prio ? 0 : base, prio ? 0 : ctx->block_stride);
         vkCmdDispatch(ctx->cmd, 1, 1, 1);
         barrier_all(ctx);
         vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, render);

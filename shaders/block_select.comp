@@ -1,7 +1,12 @@
 #version 450
 // block_select.comp - fills the rendering queue for one dispatch of the rendering
 // procedure (one workgroup, 256 threads), `want` blocks on average:
-//  - priorities off: the next `want` blocks in round-robin order from `cursor`;
+//  - priorities off: the next `want` blocks of a fixed round-robin order, from
+//    `cursor`: block (k * stride) mod B for k = cursor, cursor + 1, ... (the host passes
+//    base = (cursor * stride) mod B; all products here stay below 2^32).  The stride is
+//    coprime with B and near B / golden ratio, so any run of consecutive k is spread
+//    over the whole image: every round's blocks cost about the image's mean per block,
+//    which keeps the host's cost-per-block estimate (and so the step budget) right.
 //  - priorities on (§6): block b earns the credit
 //        want * ((1 - f) p_b / sum(p) + f / B)
 //    (p_b from block_priority.comp, f = STARVATION_FLOOR) and is queued once its credit
@@ -14,7 +19,8 @@ layout(local_size_x = 256) in;
 
 #include "queue.glsl"
 
-layout(push_constant) uniform Push { uint want; uint block_count; uint cursor; uint use_priorities; } pc;
+// stride: the round-robin stride, 0 for priorities
+layout(push_constant) uniform Push { uint want; uint block_count; uint base; uint stride; } pc;
 
 #define STARVATION_FLOOR 0.1
 #define MAX_QUEUE 65535u          // the smallest maxComputeWorkGroupCount[0] Vulkan allows
@@ -28,8 +34,12 @@ void main() {
     uint B = pc.block_count;
     uint cap = min(B, MAX_QUEUE);
     uint want = min(pc.want, cap);
-    if (pc.use_priorities == 0u) {
-        for (uint i = lid; i < want; i += 256u) render_queue.blocks[i].x = (pc.cursor + i) % B;
+    if (pc.stride != 0u) {
+        uint b = (pc.base + (lid * pc.stride) % B) % B, step = (256u * pc.stride) % B;
+        for (uint i = lid; i < want; i += 256u) {
+            render_queue.blocks[i].x = b;
+            b = (b + step) % B;
+        }
         if (lid == 0u) {
             render_queue.dispatch = uvec4(want, 1u, 1u, want);
             render_queue.totals.x += want;
