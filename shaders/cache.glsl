@@ -87,21 +87,22 @@ Prediction predict(uint e, vec3 x) {
     vec3 a = abs(l);
     float rx = entry_radius(e, half_axis.x), ry = entry_radius(e, half_axis.y);
     float rz = entry_radius(e, half_axis.z);
-    float dist = length(l);
+    float dist = length(l);                                  // the zone is an ellipsoid
     float r = CM_FN(ellipsoid_radius)(a.x, a.y, a.z, rx, ry, rz);
     if (!(dist < r)) return pr;
     float w = CM_FN(weight)(dist, r);
     if (!(w > 0.0)) return pr;
+    float d1 = CM_FN(length1)(a.x, a.y, a.z);               // the distance of Eq. 7 (see length1)
     for (uint c = 0u; c < 3u; c++) {
         float sx = entries[e].sigma_v[half_axis.x * 3u + c];
         float sy = entries[e].sigma_v[half_axis.y * 3u + c];
         float sz = entries[e].sigma_v[half_axis.z * 3u + c];
         float s = CM_FN(sigma_interp)(sx, sy, sz, a.x, a.y, a.z);        // Eq. 8
         // Fig. 4: discard beyond the validity radius of the interpolated sigma_v.
-        if (!(dist <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, scene.cache_params.z,
-                                                    scene.cache_params.y, scene.cache_radii.x,
-                                                    scene.cache_radii.y))) return pr;
-        pr.lnE[c] = CM_FN(log_extrapolate)(entries[e].e0[c], s, dist);   // Eq. 7 in log space
+        if (!(d1 <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, scene.cache_params.z,
+                                                  scene.cache_params.y, scene.cache_radii.x,
+                                                  scene.cache_radii.y))) return pr;
+        pr.lnE[c] = CM_FN(log_extrapolate)(entries[e].e0[c], s, d1);     // Eq. 7 in log space
     }
     pr.w = w;
     return pr;

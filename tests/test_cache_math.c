@@ -6,8 +6,9 @@
  *
  *  - exponential field: along each half-axis E(x) = E0 exp(-s x) with a different s
  *    per half-axis; Eq. 6 recovers s, Eq. 7 reproduces the field at any distance
- *    inside the radius, and Eq. 7 + 8 reproduce E0 exp(-s |x|) inside an octant whose
- *    three sigmas are equal (and the axis field on an axis when they differ);
+ *    inside the radius, and Eq. 7 + 8 reproduce exactly a field whose logarithm is
+ *    linear in the local coordinates of an octant, E0 exp(-(sx|x| + sy|y| + sz|z|)),
+ *    for equal and for different sigmas per half-axis (and the axis field on an axis);
  *  - validity radius (Eq. 9, 10): the extrapolation at R equals (1 + eps) E_delta for a
  *    growing field and (1 - eps) E_delta for a decaying one (R equals the literal
  *    Eq. 9); clamping to [r_min, r_max]; the Fig. 4 radius of the interpolated sigma_v;
@@ -66,6 +67,7 @@
     X(6, validity_radius)                                                                \
     X(10, interp_validity_radius)                                                        \
     X(3, length3)                                                                        \
+    X(3, length1)                                                                        \
     X(7, log_extrapolate_octant)                                                         \
     X(6, ellipsoid_norm)                                                                 \
     X(6, ellipsoid_radius)                                                               \
@@ -195,7 +197,8 @@ static void exponential_field(const cmt_impl *im) {
                 }
             }
         }
-        /* Eq. 8 with three equal sigmas: E0 exp(-s |x|) anywhere in the octant */
+        /* Eq. 7 + 8 with three equal sigmas: E0 exp(-s (|x| + |y| + |z|)) anywhere in
+           the octant (the distance of Eq. 7 is length1, see cache_math.glsl) */
         const double sc[3] = {0.4, -0.25, 1.5};
         uint64_t rng = 12345u + (uint64_t)k;
         for (int c = 0; c < 3; c++) {
@@ -210,7 +213,7 @@ static void exponential_field(const cmt_impl *im) {
                 }
                 double rr = Rc * cmt_rand01(&rng) / sqrt(n2 > 1e-12 ? n2 : 1e-12);
                 double p[3] = {u[0] * rr, u[1] * rr, u[2] * rr};
-                double dist = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+                double dist = fabs(p[0]) + fabs(p[1]) + fabs(p[2]);
                 double want = E0 * exp(-sc[c] * dist);
                 snprintf(what, sizeof what, "E0 %g equal sigma %g: octant E at |x| %g", E0,
                          sc[c], dist);
@@ -222,6 +225,25 @@ static void exponential_field(const cmt_impl *im) {
                 cmt_close(im, what, im->sigma_interp(sv, sv, sv, p[0], p[1], p[2]), sc[c],
                           im->tol, 1.0);
             }
+        }
+    }
+    /* A log-linear field with a different sigma on each of the six half-axes (a light
+       front crossing the entry obliquely): Eq. 6 on the six offset points, then Eq. 7 + 8
+       reproduce it exactly at random points of every octant. */
+    {
+        const double E0 = 2.5, delta = 0.5, s6[6] = {0.7, -0.7, 0.2, -0.2, -1.3, 1.3};
+        double sig[6];
+        for (int h = 0; h < 6; h++) sig[h] = im->sigma_v(E0, E0 * exp(-s6[h] * delta), delta);
+        uint64_t rng = 777;
+        for (int t = 0; t < 200; t++) {
+            double p[3];
+            for (int i = 0; i < 3; i++) p[i] = 6 * (cmt_rand01(&rng) - 0.5);
+            int hx = p[0] < 0, hy = 2 + (p[1] < 0), hz = 4 + (p[2] < 0);
+            double want = E0 * exp(-(s6[hx] * fabs(p[0]) + s6[hy] * fabs(p[1]) + s6[hz] * fabs(p[2])));
+            snprintf(what, sizeof what, "log-linear field at (%g, %g, %g)", p[0], p[1], p[2]);
+            CMT_REL(im, what,
+                    im->irradiance_from_ln(im->log_extrapolate_octant(E0, sig[hx], sig[hy], sig[hz], p[0], p[1], p[2])),
+                    want);
         }
     }
     /* Eq. 8 with different sigmas against the formula, signs of coordinates ignored */
@@ -332,12 +354,12 @@ static void validity_radius(const cmt_impl *im) {
         double Ri = im->interp_validity_radius(sx, sy, sz, 1, 1, 0, d, eps, rmin, rmax);
         double Re = im->ellipsoid_radius(1, 1, 0, rx, ry, rz);
         if (!(Ri < Re)) fail_msg("[%s] Fig. 4: interp radius %g >= ellipsoid %g", im->prec, Ri, Re);
-        /* its defining property along the direction u: ln E(R u) - ln E(delta u) =
+        /* its defining property along the direction u (|u|_1 = 1, since the radius is
+           compared with the distance of Eq. 7, length1): ln E(R u) - ln E(delta u) =
            ln(1 -+ eps), the extrapolation itself at delta standing for E_delta */
         const double dirs[3][3] = {{1, 1, 0}, {0.3, -2, 1}, {-1, 0.2, -0.7}};
         for (int t = 0; t < 3; t++) {
-            double n = sqrt(dirs[t][0] * dirs[t][0] + dirs[t][1] * dirs[t][1] +
-                            dirs[t][2] * dirs[t][2]);
+            double n = fabs(dirs[t][0]) + fabs(dirs[t][1]) + fabs(dirs[t][2]);
             double u[3] = {dirs[t][0] / n, dirs[t][1] / n, dirs[t][2] / n};
             double s = im->sigma_interp(sx, sy, sz, u[0], u[1], u[2]);
             double R = im->interp_validity_radius(sx, sy, sz, u[0], u[1], u[2], d, eps, 1e-12,
@@ -368,6 +390,7 @@ static void weights_and_average(const cmt_impl *im) {
     for (int t = 0; t < 300; t++) {
         double p[3];
         for (int i = 0; i < 3; i++) p[i] = 20 * (cmt_rand01(&rng) - 0.5);
+        cmt_close(im, "length1", im->length1(p[0], p[1], p[2]), fabs(p[0]) + fabs(p[1]) + fabs(p[2]), im->tol, 0);
         double len = im->length3(p[0], p[1], p[2]);
         cmt_close(im, "length3", len, sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]), im->tol, 0);
         double r = im->ellipsoid_radius(p[0], p[1], p[2], rx, ry, rz);
@@ -679,6 +702,7 @@ static void degenerate(const cmt_impl *im) {
         CMT_IN("interp_validity_radius", im->interp_validity_radius(a, b, c, d, e, f, g, h, i, j),
                0.99e-12, 1.0001e12);
         CMT_IN("length3", im->length3(a, b, c), 0, 1.8e12);
+        CMT_IN("length1", im->length1(a, b, c), 0, 3.1e12);
         CMT_IN("log_extrapolate_octant", im->log_extrapolate_octant(a, b, c, d, e, f, g), LNMIN, LNMAX);
         CMT_IN("ellipsoid_norm", im->ellipsoid_norm(a, b, c, d, e, f), 0, 1.8e24);
         CMT_IN("ellipsoid_radius", im->ellipsoid_radius(a, b, c, d, e, f), 0.99e-12, 1.0001e12);
