@@ -136,7 +136,7 @@ struct picvr_context {
     uint32_t round;                  /* rounds since creation: keys the cache procedures' RNG */
     double cost[3];                  /* device ms per work package, PROC_*; 0: not measured */
     double overhead_ms;              /* wall time of a round beyond its device time */
-    double credit[2];                /* PROC_CREATE, PROC_UPDATE: packages owed by the shares */
+    double credit_ms[2];             /* PROC_CREATE, PROC_UPDATE: device time owed by the shares */
     uint32_t requests_pending;       /* valid requests the last round queued (each holds a lock) */
     struct round_record { double end_ms, device_ms[3]; uint32_t hits, misses; } history[SCHED_HISTORY];
     uint32_t history_count;          /* records in history (ring, newest at history_count-1 mod N) */
@@ -1854,6 +1854,16 @@ static void update_targets(picvr_context *ctx) {
     ctx->target[PROC_UPDATE] = ctx->cache_on ? ctx->sched.update_min + f * (ctx->sched.update_max - ctx->sched.update_min) : 0.0;
 }
 
+/* After a round: the procedure was owed its target share of the round's device time
+   and used dev_ms.  Rule: the credit stays within one round's share plus one package
+   either way, so a stretch without work (no requests) is not paid back later in a
+   burst, and one long package is not paid for by starving the procedure for long. */
+static void settle_credit(picvr_context *ctx, int proc, double device_total, double dev_ms) {
+    double c = ctx->credit_ms[proc] + ctx->target[proc] * device_total - dev_ms;
+    double cap = ctx->target[proc] * 1000.0 / ctx->sched.rounds_per_second + ctx->cost[proc];
+    ctx->credit_ms[proc] = c > cap ? cap : c < -cap ? -cap : c;
+}
+
 /* Reads back a finished round: device time per procedure, work done, cache counters;
    updates the cost model, the history, the hit rate and the targets. */
 static picvr_status finish_round(picvr_context *ctx, const round_plan *p, double wall_ms, uint32_t created) {
@@ -1872,6 +1882,9 @@ static picvr_status finish_round(picvr_context *ctx, const round_plan *p, double
         rebuild_ms = ms[1];
         dev[PROC_UPDATE] = ms[1] + ms[2];          /* octree maintenance counts as update */
         dev[PROC_RENDER] = ms[3];
+        /* Rule: without the cache the round is all rendering (the empty intervals hold
+           only barriers). */
+        if (!ctx->cache_on) { dev[PROC_RENDER] += dev[PROC_CREATE] + dev[PROC_UPDATE]; dev[PROC_CREATE] = dev[PROC_UPDATE] = 0.0; }
     } else {
         /* Rule without timestamps: split the wall time by the planned costs. */
         double plan[3] = {created * ctx->cost[PROC_CREATE], p->update_groups * ctx->cost[PROC_UPDATE],
@@ -1884,6 +1897,10 @@ static picvr_status finish_round(picvr_context *ctx, const round_plan *p, double
         ctx->cost[PROC_UPDATE] = ema(ctx->cost[PROC_UPDATE], (dev[PROC_UPDATE] - rebuild_ms) / p->update_groups);
     if (blocks > 0) ctx->cost[PROC_RENDER] = ema(ctx->cost[PROC_RENDER], dev[PROC_RENDER] / blocks);
     double device_total = dev[0] + dev[1] + dev[2];
+    if (ctx->cache_on) {
+        settle_credit(ctx, PROC_CREATE, device_total, dev[PROC_CREATE]);
+        settle_credit(ctx, PROC_UPDATE, device_total, dev[PROC_UPDATE]);
+    }
     ctx->overhead_ms = ema(ctx->overhead_ms, wall_ms > device_total ? wall_ms - device_total : 1e-3);
     ctx->block_samples += blocks;
     ctx->round++;
@@ -1937,20 +1954,20 @@ static picvr_status run_round(picvr_context *ctx, const round_plan *p) {
     return finish_round(ctx, p, now_ms() - t0, created);
 }
 
-/* Packages a procedure may run this round: its share of the round's device time, in
-   whole packages; the fraction left over is carried to the next round (credit), so
-   that over time the share is met even when one package takes longer than a round.
+/* Packages a procedure may run this round: the device time it is owed (its credit,
+   settled against the measured time after every round in settle_credit) plus its share
+   of this round, in whole packages of the estimated cost.  Because the credit is
+   settled with measured times, an estimate that is off (packages of varying cost, a
+   cost that drifts as the cache fills) does not bias the long-run share, and a package
+   longer than one round's share still runs every few rounds.
    Rule: an unmeasured cost (first round) allows one package. */
-static uint32_t packages(picvr_context *ctx, int proc, double share_ms, uint32_t available) {
+static uint32_t packages(const picvr_context *ctx, int proc, double share_ms, uint32_t available) {
     if (ctx->cost[proc] <= 0.0) return available < 1 ? available : 1;
-    double owed = ctx->credit[proc] + share_ms / ctx->cost[proc];
-    uint32_t n = owed < (double)available ? (uint32_t)owed : available;
-    /* Rule: the credit never exceeds one round's share plus one package, so a stretch
-       without work (no requests) is not paid back later in a burst. */
-    double cap = share_ms / ctx->cost[proc] + 1.0;
-    ctx->credit[proc] = owed - n < cap ? owed - n : cap;
-    return n;
+    double owed = (ctx->credit_ms[proc] + share_ms) / ctx->cost[proc];
+    if (!(owed >= 1.0)) return 0;                     /* also NaN */
+    return owed < (double)available ? (uint32_t)owed : available;
 }
+
 
 /* Plans a round of round_ms of device time by the §6 shares and the measured costs. */
 static round_plan plan_round(picvr_context *ctx, double round_ms) {

@@ -19,9 +19,11 @@ VOL="$DATA/bonsai_256x256x256_uint8.raw.gz"
 SUMMARY="$OUT/scheduler.csv"
 echo "lights,cache,priorities,t_s,est_error,est_rel_error,hit_rate,entries,fraction_render,fraction_create,fraction_update,target_create,target_update" > "$SUMMARY"
 
-# est_error etc. at the first logged round at or after t seconds (columns of picvr-render --log)
+# est_error etc. at the first logged round at or after t seconds (the last round for the
+# run's full length; columns of picvr-render --log)
 at_time() {
-    awk -F, -v t="$2" 'NR > 1 && $2 >= t * 1000 { print; exit }' "$1"
+    awk -F, -v t="$2" 'NR > 1 && $2 >= t * 1000 { print; found = 1; exit } NR > 1 { last = $0 }
+                      END { if (!found && t * 1000 >= '"$((SECS * 1000))"') print last }' "$1"
 }
 
 for lights in paper1 paper3 paper4; do
