@@ -149,6 +149,7 @@ typedef struct options {
     const char *datasets, *lights, *conditions, *bias, *fig10;
     uint32_t width, height;
     double run_ms, slice_ms, rotate_ms, after_ms, ref_chunk_ms;
+    double bias_ms;            /* > 0: separate long runs for the bias split */
     int repeats, ref_max_chunks;
     int list;                  /* --list: print the scenes and their reference folders */
 } options;
@@ -173,6 +174,8 @@ static void print_help(FILE *f)
         "  --fig10 A,B          datasets with a Fig. 10 run (default bonsai)\n"
         "  --bias A,B           datasets whose final images are kept for the bias\n"
         "                       split (default bonsai)\n"
+        "  --bias-time MS       bias from separate runs of MS (plain, object, screen);\n"
+        "                       0: from the final images of the Table 2 runs (default)\n"
         "  --ref-chunk MS       time per reference chunk (default 60000)\n"
         "  --ref-max-chunks N   refuse a reference that needs more (default 200)\n"
         "  --out DIR            results (default bench/results)\n"
@@ -184,7 +187,7 @@ static int parse_args(int argc, char **argv, options *o)
 {
     *o = (options){"bench/scenes.txt", "../shared/data", "bench/results", "bench/refs",
                    NULL, NULL, "plain,object,object-noprio,screen,screen-noprio",
-                   "bonsai", "bonsai", 128, 128, 10000, 200, 4000, 6000, 60000, 2, 200};
+                   "bonsai", "bonsai", 128, 128, 10000, 200, 4000, 6000, 60000, 0, 2, 200};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--help")) { print_help(stdout); exit(0); }
@@ -210,6 +213,7 @@ static int parse_args(int argc, char **argv, options *o)
         else if (!strcmp(a, "--rotate")) o->rotate_ms = atof(v);
         else if (!strcmp(a, "--after")) o->after_ms = atof(v);
         else if (!strcmp(a, "--ref-chunk")) o->ref_chunk_ms = atof(v);
+        else if (!strcmp(a, "--bias-time")) o->bias_ms = atof(v);
         else if (!strcmp(a, "--repeats")) o->repeats = atoi(v);
         else if (!strcmp(a, "--ref-max-chunks")) o->ref_max_chunks = atoi(v);
         else { fail("unknown option %s", a); print_help(stderr); return 0; }
@@ -740,6 +744,7 @@ typedef struct run_spec {
     const char *path;          /* run file */
     const char *lum_path;      /* final luminance image, or NULL */
     const char *label;         /* progress prefix */
+    double length_ms;          /* 0: o->run_ms */
 } run_spec;
 
 /* One measurement after a slice. */
@@ -799,7 +804,8 @@ static int run_slices(const options *o, const run_spec *rs, session *ss, FILE *f
 {
     size_t n = (size_t)rs->s->width * rs->s->height;
     float *rgba = malloc(n * 16), *lum = malloc(n * sizeof *lum);
-    double total = rs->rotate ? o->rotate_ms + o->after_ms : o->run_ms, t = 0;
+    double total = rs->rotate ? o->rotate_ms + o->after_ms
+                              : rs->length_ms > 0 ? rs->length_ms : o->run_ms, t = 0;
     int ok = rgba && lum, moving = 0;
     row x = {0};
     while (ok && t < total) {
@@ -955,7 +961,8 @@ static int run_all(const options *o, const scene *s, const pvio_volume *vol,
             run_path(o, s, res->conds[c]->name, k, ".lum", lum);
             snprintf(label, sizeof label, "[%d/%d] %s %s r%d", ++count_done, count_total,
                      s->id, res->conds[c]->name, k);
-            run_spec rs = {s, vol, ref, res->conds[c], k, 0, path, bias ? lum : NULL, label};
+            run_spec rs = {s, vol, ref, res->conds[c], k, 0, path,
+                           bias && o->bias_ms <= 0 ? lum : NULL, label, 0};
             run_free(&res->runs[c][k]);
             if (!do_run(o, &rs, &res->runs[c][k])) return 0;
         }
@@ -972,11 +979,35 @@ static int run_rotations(const options *o, const scene *s, const pvio_volume *vo
             run_path(o, s, names[c], k, "_rotate.csv", path);
             snprintf(label, sizeof label, "[%d/%d] %s fig10 %s r%d", ++count_done,
                      count_total, s->id, names[c], k);
-            run_spec rs = {s, vol, ref, find_condition(names[c]), k, 1, path, NULL, label};
+            run_spec rs = {s, vol, ref, find_condition(names[c]), k, 1, path, NULL, label, 0};
             run_free(&res->rot[c][k]);
             if (!do_run(o, &rs, &res->rot[c][k])) return 0;
         }
     res->have_rot = 1;
+    return 1;
+}
+
+/* The conditions of the separate bias runs: plain (the control) and both lockings. */
+static const char *BIAS_CONDITIONS[] = {"plain", "object", "screen"};
+#define N_BIAS_CONDITIONS 3
+
+static int run_bias(const options *o, const scene *s, const pvio_volume *vol,
+                    const reference *ref)
+{
+    for (int c = 0; c < N_BIAS_CONDITIONS; c++)
+        for (int k = 0; k < o->repeats; k++) {
+            char path[PATH_LEN], lum[PATH_LEN], label[256];
+            run_path(o, s, BIAS_CONDITIONS[c], k, "_bias.csv", path);
+            run_path(o, s, BIAS_CONDITIONS[c], k, "_bias.lum", lum);
+            snprintf(label, sizeof label, "[%d/%d] %s bias %s r%d", ++count_done, count_total,
+                     s->id, BIAS_CONDITIONS[c], k);
+            run_spec rs = {s, vol, ref, find_condition(BIAS_CONDITIONS[c]), k, 0, path, lum,
+                           label, o->bias_ms};
+            run r = {0};
+            int ok = do_run(o, &rs, &r);
+            run_free(&r);
+            if (!ok) return 0;
+        }
     return 1;
 }
 
@@ -1016,6 +1047,8 @@ static int run_scene(const options *o, const scene *s, const pvio_volume *vol,
     }
     if (ok && !res->refused && o->rotate_ms > 0 && in_list(o->fig10, s->ds->name))
         ok = run_rotations(o, s, vol, &ref, res);
+    if (ok && !res->refused && o->bias_ms > 0 && in_list(o->bias, s->ds->name))
+        ok = run_bias(o, s, vol, &ref);
     ref_close(&ref);
     return ok;
 }
@@ -1152,14 +1185,14 @@ static void write_fig11(const options *o, const scene *s, const scene_result *r)
     snprintf(path, sizeof path, "%s/fig11_%s.gp", o->out_dir, s->id);
     if (!(f = fopen(path, "w"))) return;
     fprintf(f, "set terminal pngcairo size 1200,450 font ',10'\nset output 'fig11_%s.png'\n"
-            "set datafile missing 'NaN'\nset key autotitle columnhead top right\n"
-            "set logscale y\nset grid\nset xlabel 'time in picvr\\_step (s)'\n"
+            "set termoption noenhanced\nset datafile missing 'NaN'\nset key autotitle columnhead top right\n"
+            "set logscale y\nset grid\nset xlabel 'time in picvr_step (s)'\n"
             "set multiplot layout 1,2 title '%s %s %ux%u: error from an empty cache, static "
             "camera (mean of %d seeds)'\n", s->id, s->ds->name, s->lights, s->width,
             s->height, o->repeats);
     fprintf(f, "set ylabel 'true RMSE of luminance vs reference'\n"
             "plot for [i=2:%d] 'fig11_%s.dat' using 1:i with lines lw 2\n", 1 + r->n_conds, s->id);
-    fprintf(f, "set ylabel 'estimate: stats.est\\_error (Eq. 5)'\n"
+    fprintf(f, "set ylabel 'estimate: stats.est_error (Eq. 5)'\n"
             "plot for [i=%d:%d] 'fig11_%s.dat' using 1:i with lines lw 2\nunset multiplot\n",
             2 + r->n_conds, 1 + 2 * r->n_conds, s->id);
     fclose(f);
@@ -1205,15 +1238,15 @@ static void write_fig10(const options *o, const scene *s, const scene_result *r)
     snprintf(path, sizeof path, "%s/fig10_%s.gp", o->out_dir, s->id);
     if (!(f = fopen(path, "w"))) return;
     fprintf(f, "set terminal pngcairo size 800,500 font ',10'\nset output 'fig10_%s.png'\n"
-            "set datafile missing 'NaN'\nset key autotitle columnhead top right\n"
-            "set logscale y\nset grid\nset xlabel 'time in picvr\\_step (s)'\n"
+            "set termoption noenhanced\nset datafile missing 'NaN'\nset key autotitle columnhead top right\n"
+            "set logscale y\nset grid\nset xlabel 'time in picvr_step (s)'\n"
             "set ylabel 'error of luminance'\n"
             "set title '%s: camera turns 360 degrees in %.1f s, then stops (mean of %d seeds)'\n"
             "set arrow from %.3f, graph 0 to %.3f, graph 1 nohead dt 2\n"
             "plot 'fig10_%s.dat' using 1:2 with lines lw 2 title 'plain: true RMSE', "
             "'' using 1:3 with lines lw 2 title 'object cache: true RMSE', "
-            "'' using 1:4 with lines dt 3 title 'plain: est\\_error', "
-            "'' using 1:5 with lines dt 3 title 'object cache: est\\_error'\n",
+            "'' using 1:4 with lines dt 3 title 'plain: est_error', "
+            "'' using 1:5 with lines dt 3 title 'object cache: est_error'\n",
             s->id, s->id, o->rotate_ms / 1e3, o->repeats, o->rotate_ms / 1e3,
             o->rotate_ms / 1e3, s->id);
     fclose(f);
@@ -1224,7 +1257,7 @@ static void write_fig10(const options *o, const scene *s, const scene_result *r)
    + var(Yref); rms_bias = sqrt(max(0, mean((Ybar-Yref)^2) - mean(s^2)/R - mean var_ref)).
    The relative bias of the image mean luminance is reported with its standard error. */
 static int bias_one(const options *o, const scene *s, const reference *ref, const char *cond,
-                    double out[5])
+                    const char *suffix, double out[5])
 {
     size_t n = (size_t)s->width * s->height;
     int R = o->repeats;
@@ -1233,7 +1266,7 @@ static int bias_one(const options *o, const scene *s, const reference *ref, cons
     int ok = img && s1 && s2 && R >= 2;
     for (int k = 0; ok && k < R; k++) {
         char path[PATH_LEN];
-        run_path(o, s, cond, k, ".lum", path);
+        run_path(o, s, cond, k, suffix, path);
         FILE *f = fopen(path, "rb");
         ok = f && fread(img, sizeof *img, n, f) == n;
         if (f) fclose(f);
@@ -1263,25 +1296,35 @@ static int bias_one(const options *o, const scene *s, const reference *ref, cons
     return ok;
 }
 
+static void write_bias_row(const writers *w, const scene *s, const reference *ref,
+                           const char *cond, const char *suffix, double run_ms)
+{
+    double b[5];
+    const options *o = w->o;
+    if (!bias_one(o, s, ref, cond, suffix, b)) return;
+    fprintf(w->bcsv, "%s,%s,%ux%u,%s,%d,%.1f,%.5f,%.5f,%.6g,%.6g,%.6g,%.6g\n", s->ds->name,
+            s->lights, s->width, s->height, cond, o->repeats, run_ms / 1e3, b[0], b[1], b[2],
+            b[3], b[4], ref->rmse);
+    char rms[64];
+    if (b[2] > 0) snprintf(rms, sizeof rms, "%.3g", b[2]);
+    else snprintf(rms, sizeof rms, "below the noise");
+    fprintf(w->bmd, "| %s | %s | %ux%u | %s | %.0f | %d | %+.2f%% +- %.2f%% | %s | %.3g | %.3g "
+            "| %.2g |\n", s->ds->name, s->lights, s->width, s->height, cond, run_ms / 1e3,
+            o->repeats, 100 * b[0], 100 * b[1], rms, b[3], b[4], ref->rmse);
+}
+
 static void write_bias(const writers *w, const scene *s, const scene_result *r)
 {
     const options *o = w->o;
     if (!in_list(o->bias, s->ds->name) || o->repeats < 2) return;
     reference ref;
     if (!ref_open(o, s, &ref)) return;
-    for (int c = 0; c < r->n_conds; c++) {
-        double b[5];
-        if (!bias_one(o, s, &ref, r->conds[c]->name, b)) continue;
-        fprintf(w->bcsv, "%s,%s,%ux%u,%s,%d,%.1f,%.5f,%.5f,%.6g,%.6g,%.6g,%.6g\n", s->ds->name,
-                s->lights, s->width, s->height, r->conds[c]->name, o->repeats,
-                o->run_ms / 1e3, b[0], b[1], b[2], b[3], b[4], ref.rmse);
-        char rms[64];
-        if (b[2] > 0) snprintf(rms, sizeof rms, "%.3g", b[2]);
-        else snprintf(rms, sizeof rms, "below the noise");
-        fprintf(w->bmd, "| %s | %s | %ux%u | %s | %d | %+.2f%% +- %.2f%% | %s | %.3g | %.3g |\n",
-                s->ds->name, s->lights, s->width, s->height, r->conds[c]->name, o->repeats,
-                100 * b[0], 100 * b[1], rms, b[3], b[4]);
-    }
+    if (o->bias_ms > 0)
+        for (int c = 0; c < N_BIAS_CONDITIONS; c++)
+            write_bias_row(w, s, &ref, BIAS_CONDITIONS[c], "_bias.lum", o->bias_ms);
+    else
+        for (int c = 0; c < r->n_conds; c++)
+            write_bias_row(w, s, &ref, r->conds[c]->name, ".lum", o->run_ms);
     fflush(w->bcsv);
     fflush(w->bmd);
     ref_close(&ref);
@@ -1329,9 +1372,9 @@ static int open_writers(const options *o, writers *w)
     fprintf(w->t3md, "%s| dataset | lights | size | condition | run s | entries | refs | "
             "refs/entry | hit rate | iterations |\n|---|---|---|---|---|---|---|---|---|---|\n",
             head);
-    fprintf(w->bmd, "%s| dataset | lights | size | condition | seeds | mean luminance vs ref "
-            "(+- s.e.) | RMS bias | RMS total (mean of seeds) | RMS noise (one seed) |\n"
-            "|---|---|---|---|---|---|---|---|---|\n", head);
+    fprintf(w->bmd, "%s| dataset | lights | size | condition | run s | seeds | mean luminance "
+            "vs ref (+- s.e.) | RMS bias | RMS total (mean of seeds) | RMS noise (one seed) | "
+            "RMSE of ref |\n|---|---|---|---|---|---|---|---|---|---|---|\n", head);
     return 1;
 }
 
@@ -1408,6 +1451,13 @@ int main(int argc, char **argv)
     }
     if (o.list) return 0;
     count_total = (n_scenes * res.n_conds + 2 * n_fig10) * o.repeats;
+    if (o.bias_ms > 0)
+        for (int d = 0; d < sf.n_datasets; d++)
+            for (int l = 0; l < sf.n_lights; l++)
+                count_total += N_BIAS_CONDITIONS * o.repeats *
+                               (in_list(o.datasets, sf.datasets[d].name) &&
+                                in_list(o.lights, sf.lights[l]) &&
+                                in_list(o.bias, sf.datasets[d].name));
     fprintf(stderr, PROGRAM ": %d scenes x %d conditions x %d repeats at %ux%u, %.0f s each\n",
             n_scenes, res.n_conds, o.repeats, o.width, o.height, o.run_ms / 1e3);
 

@@ -37,6 +37,10 @@
 
 #include "tests/cache_math_host.h"
 
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
 #define RADIUS 64.0
 #define KAPPA 0.05            /* opacity of the medium: sigma_t = D * KAPPA per voxel */
 #define DELTA 2.0
