@@ -94,11 +94,12 @@ clean:
 BENCH_NICE ?= nice -n 15
 BENCH_OUT ?= bench/results
 BENCH_ARGS ?= --datasets bonsai --lights paper1 --size 128x128 --time 10000 --slice 200 \
-              --repeats 2 --rotate 4000 --after 6000 --ref-chunk 120000 --ref-max-chunks 40
+              --repeats 3 --rotate 4000 --after 6000 --ref-chunk 120000 --ref-max-chunks 40
 BENCH_FULL_OUT ?= bench/results/full
 BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotate 8000 \
               --after 30000 --ref-chunk 600000 --ref-max-chunks 400 \
-              --fig10 bonsai,engine,aneurism,cloud --bias bonsai,engine,aneurism,cloud
+              --fig10 bonsai,engine,aneurism,cloud --bias bonsai,engine,aneurism,cloud \
+              --bias-time 300000
 
 $(B)/picvr-bench-error: bench/bench_error.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -o $@ bench/bench_error.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz

@@ -21,6 +21,9 @@
  *     prediction at offset p by Eq. 7 with Eq. 8's barycentric sigma (cm_ functions);
  *   single gradient: g = central differences of ln E over the same six points,
  *     ln E(p) = ln E_0 + g . p.
+ *   seven-point-l1 (for comparison, not what the shaders do): the same six sigma_v
+ *     with Eq. 7's distance taken as the L1 norm that Eq. 8's weights use,
+ *     ln E(p) = ln E_0 - sum_i sigma_i |p_i| (exact where ln E is linear per octant).
  * Test points: 16 per entry, uniformly distributed directions, distance uniform in
  * (0, 8] voxels (half the default maximum radius).
  * The sun is either diagonal to the frame or along one of its axes (+y).
@@ -140,6 +143,19 @@ static double predict_seven(const entry *e, v3 p)
     return exp(cm_log_extrapolate_octant(e->e0, s[0], s[1], s[2], p.x, p.y, p.z));
 }
 
+/* The same six sigma_v, but Eq. 7's distance taken as the L1 norm |x|+|y|+|z| that
+   Eq. 8's barycentric weights use: ln E = ln E_0 - sum_i sigma_i |p_i|, exact for a
+   field whose log is linear in each octant (not what the shaders do; for comparison). */
+static double predict_seven_l1(const entry *e, v3 p)
+{
+    double q[3] = {p.x, p.y, p.z}, l = log(e->e0);
+    for (int i = 0; i < 3; i++) {
+        double s = q[i] >= 0 ? cm_sigma_v(e->e0, e->ep[i], DELTA) : cm_sigma_v(e->e0, e->en[i], DELTA);
+        l -= s * fabs(q[i]);
+    }
+    return exp(l);
+}
+
 /* One gradient of ln E from central differences; exponential extrapolation. */
 static double predict_gradient(const entry *e, v3 p)
 {
@@ -160,7 +176,8 @@ static void run_condition(FILE *csv, double D, int bg, int entries)
     double sigma = D * KAPPA;
     int n = entries * TESTS_PER_ENTRY;
     double *err7 = malloc(n * sizeof *err7), *errg = malloc(n * sizeof *errg);
-    double sum7 = 0, sumg = 0;
+    double *errl = malloc(n * sizeof *errl);
+    double sum7 = 0, sumg = 0, suml = 0;
     for (int k = 0; k < entries; k++) {
         entry e;
         make_entry(&e, random_in_ball(&st, 0.9 * RADIUS), sigma, bg);
@@ -172,21 +189,28 @@ static void run_condition(FILE *csv, double D, int bg, int entries)
             int i = k * TESTS_PER_ENTRY + t;
             err7[i] = fabs(predict_seven(&e, p) - truth) / (truth + ERROR_FLOOR);
             errg[i] = fabs(predict_gradient(&e, p) - truth) / (truth + ERROR_FLOOR);
+            errl[i] = fabs(predict_seven_l1(&e, p) - truth) / (truth + ERROR_FLOOR);
+            suml += errl[i];
             sum7 += err7[i];
             sumg += errg[i];
         }
     }
     qsort(err7, n, sizeof *err7, cmp_double);
     qsort(errg, n, sizeof *errg, cmp_double);
+    qsort(errl, n, sizeof *errl, cmp_double);
     const char *sun = g_axis_sun ? "axis" : "diagonal";
     fprintf(csv, "%g,%s,%s,seven-point,%.6g,%.6g,%d\n", D, sun, bg ? "on" : "off", sum7 / n,
             err7[(int)(0.9 * n)], n);
     fprintf(csv, "%g,%s,%s,single-gradient,%.6g,%.6g,%d\n", D, sun, bg ? "on" : "off",
             sumg / n, errg[(int)(0.9 * n)], n);
+    fprintf(csv, "%g,%s,%s,seven-point-l1,%.6g,%.6g,%d\n", D, sun, bg ? "on" : "off",
+            suml / n, errl[(int)(0.9 * n)], n);
     fprintf(stderr, "  fig9 D=%-6g sun %-8s background %-3s seven-point %.4f "
-            "single-gradient %.4f\n", D, sun, bg ? "on" : "off", sum7 / n, sumg / n);
+            "single-gradient %.4f seven-point-l1 %.4f\n", D, sun, bg ? "on" : "off", sum7 / n,
+            sumg / n, suml / n);
     free(err7);
     free(errg);
+    free(errl);
 }
 
 static void write_gnuplot(const char *dir)
@@ -206,11 +230,11 @@ static void write_gnuplot(const char *dir)
         "f(u,b,s) = sprintf(\"< awk -F, '$2==\\\"%%s\\\" && $3==\\\"%%s\\\" && $4==\\\"%%s\\\"' fig9.csv\", u, b, s)\n"
         , TEST_DIST);
     static const char *suns[2] = {"diagonal", "axis"}, *bgs[2] = {"off", "on"};
-    static const char *schemes[2] = {"seven-point", "single-gradient"};
+    static const char *schemes[3] = {"seven-point", "single-gradient", "seven-point-l1"};
     fprintf(f, "plot");
     for (int u = 0; u < 2; u++)
         for (int b = 0; b < 2; b++)
-            for (int k = 0; k < 2; k++)
+            for (int k = 0; k < 3; k++)
                 fprintf(f, "%s f('%s','%s','%s') using 1:5 with linespoints lw 2 dt %d lc %d "
                         "title '%s, sun %s%s'", u + b + k ? "," : "", suns[u], bgs[b],
                         schemes[k], 1 + b + 2 * u, 1 + k, schemes[k], suns[u],
