@@ -828,12 +828,24 @@ static int run_slices(const options *o, const run_spec *rs, session *ss, FILE *f
     return ok;
 }
 
+/* When the runs behind the tables were measured: the run files' modification times. */
+static time_t first_run_time, last_run_time;
+
+static void note_run_time(const char *path)
+{
+    struct stat st;
+    if (stat(path, &st) != 0) return;
+    if (!first_run_time || st.st_mtime < first_run_time) first_run_time = st.st_mtime;
+    if (st.st_mtime > last_run_time) last_run_time = st.st_mtime;
+}
+
 /* Runs one condition and repeat from an empty cache, or loads its finished file. */
 static int do_run(const options *o, const run_spec *rs, run *out)
 {
     memset(out, 0, sizeof *out);
     if (run_load(rs->path, rs->ref, out) && (!rs->lum_path || file_exists(rs->lum_path))) {
         fprintf(stderr, "%s reused %s\n", rs->label, rs->path);
+        note_run_time(rs->path);
         return 1;
     }
     run_free(out);
@@ -852,6 +864,7 @@ static int do_run(const options *o, const run_spec *rs, run *out)
     }
     ok = ok && rename(tmp, rs->path) == 0;
     if (!ok) fail("run %s failed", rs->path);
+    else note_run_time(rs->path);
     session_close(&ss);
     return ok;
 }
@@ -1342,14 +1355,11 @@ static FILE *open_out(const options *o, const char *name, const char *header)
 
 static int open_writers(const options *o, writers *w)
 {
-    char when[64], head[1024];
-    time_t now = time(NULL);
-    strftime(when, sizeof when, "%Y-%m-%d %H:%M UTC", gmtime(&now));
+    char head[1024];
     snprintf(head, sizeof head,
-             "Measured %s on %ld CPU(s), device: see below; %.0f s per run in %.0f ms slices, "
-             "%d repeats (seeds %u..%u), time = wall time inside picvr_step.\n\n",
-             when, sysconf(_SC_NPROCESSORS_ONLN), o->run_ms / 1e3, o->slice_ms, o->repeats,
-             RUN_SEED0, RUN_SEED0 + o->repeats - 1);
+             "%.0f s per run in %.0f ms slices, %d repeats (seeds %u..%u), time = wall time "
+             "inside picvr_step; machine and date at the end.\n\n",
+             o->run_ms / 1e3, o->slice_ms, o->repeats, RUN_SEED0, RUN_SEED0 + o->repeats - 1);
     memset(w, 0, sizeof *w);
     w->o = o;
     w->t2csv = open_out(o, "table2.csv", "dataset,lights,background,size,condition,ratio_true,"
@@ -1380,9 +1390,14 @@ static int open_writers(const options *o, writers *w)
 
 static void close_writers(writers *w, const char *device)
 {
+    char from[64] = "-", to[64] = "-";
+    if (first_run_time) strftime(from, sizeof from, "%Y-%m-%d %H:%M", gmtime(&first_run_time));
+    if (last_run_time) strftime(to, sizeof to, "%Y-%m-%d %H:%M UTC", gmtime(&last_run_time));
     FILE *md[3] = {w->t2md, w->t3md, w->bmd};
     for (int i = 0; i < 3; i++)
-        if (md[i]) fprintf(md[i], "\nDevice: %s.\n", device);
+        if (md[i])
+            fprintf(md[i], "\nRuns measured %s to %s on %ld CPU(s); device: %s.\n", from, to,
+                    sysconf(_SC_NPROCESSORS_ONLN), device);
     FILE *all[6] = {w->t2csv, w->t2md, w->t3csv, w->t3md, w->bcsv, w->bmd};
     for (int i = 0; i < 6; i++)
         if (all[i]) fclose(all[i]);
