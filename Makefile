@@ -114,7 +114,8 @@ $(B)/.bench-deps: tools/install-deps.sh | $(B)/.deps
 
 # $(1): arguments, $(2): output folder.  Plots are drawn even when a scene was refused.
 define run_bench
-	mkdir -p $(2) && $(BENCH_NICE) $(B)/picvr-bench-fig9 --out $(2) && \
+	$(B)/picvr-bench-error --self-test && mkdir -p $(2) && \
+	$(BENCH_NICE) $(B)/picvr-bench-fig9 --out $(2) && \
 	$(BENCH_NICE) $(B)/picvr-bench-error --data $(DATA) $(1) --out $(2); rc=$$?; \
 	for f in $(2)/*.gp; do [ -f "$$f" ] && (cd $(2) && gnuplot $$(basename $$f)); done; \
 	echo "results in $(2)"; exit $$rc

@@ -154,6 +154,8 @@ typedef struct options {
     int list;                  /* --list: print the scenes and their reference folders */
 } options;
 
+static int self_test(void);
+
 static void print_help(FILE *f)
 {
     fprintf(f,
@@ -180,7 +182,8 @@ static void print_help(FILE *f)
         "  --ref-max-chunks N   refuse a reference that needs more (default 200)\n"
         "  --out DIR            results (default bench/results)\n"
         "  --refs DIR           reference cache (default bench/refs)\n"
-        "  --list               print the selected scenes and reference folders, exit\n");
+        "  --list               print the selected scenes and reference folders, exit\n"
+        "  --self-test          check the harness's arithmetic (ratios, reference), exit\n");
 }
 
 static int parse_args(int argc, char **argv, options *o)
@@ -192,6 +195,7 @@ static int parse_args(int argc, char **argv, options *o)
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--help")) { print_help(stdout); exit(0); }
         if (!strcmp(a, "--list")) { o->list = 1; continue; }
+        if (!strcmp(a, "--self-test")) exit(self_test() ? 0 : 1);
         if (!v || strncmp(a, "--", 2) != 0) { print_help(stderr); return 0; }
         i++;
         if (!strcmp(a, "--scenes")) o->scenes_path = v;
@@ -1401,6 +1405,75 @@ static void close_writers(writers *w, const char *device)
     FILE *all[6] = {w->t2csv, w->t2md, w->t3csv, w->t3md, w->bcsv, w->bmd};
     for (int i = 0; i < 6; i++)
         if (all[i]) fclose(all[i]);
+}
+
+/* ---- self-test of the harness's arithmetic (--self-test; run by make bench) ---------- */
+
+static int expect(int ok, const char *what)
+{
+    if (!ok) fail("self-test: %s", what);
+    return ok;
+}
+
+/* Two runs whose errors are 2/sqrt(t) and 1/sqrt(t), sampled at different times: the
+   ratio at equal time is 2 (within the interpolation error, < 0.5%). */
+static int self_test_ratio(void)
+{
+    run a = {0}, b = {0};
+    int ok = 1;
+    for (int i = 1; ok && i <= 50; i++) {
+        row x = {0}, y = {0};
+        x.t_ms = 200.0 * i;
+        y.t_ms = 330.0 * i;
+        x.rmse = x.est = 2 / sqrt(x.t_ms);
+        y.rmse = y.est = 1 / sqrt(y.t_ms);
+        ok = run_push(&a, &x) && run_push(&b, &y);
+    }
+    double q = ok ? mean_ratio(&a, &b, F_RMSE) : NAN;
+    run_free(&a);
+    run_free(&b);
+    return expect(fabs(q - 2) < 0.01, "mean_ratio of 2/sqrt(t) over 1/sqrt(t) is not 2");
+}
+
+/* One pixel, four chunks of n = 10 with means 1, 2, 3, 4: weighted mean 2.5, per-sample
+   variance n * sum (m - 2.5)^2 / 3 = 50 / 3, variance of the mean (50/3) / 40. */
+static int self_test_reference(void)
+{
+    reference r = {0};
+    double s1 = 0, s2 = 0, lum, var;
+    r.width = r.height = 1;
+    r.lum = &lum;
+    r.var = &var;
+    r.chunks = 4;
+    r.iterations = 40;
+    for (int k = 1; k <= 4; k++) { s1 += 10.0 * k; s2 += 10.0 * k * k; }
+    ref_finish(&r, &s1, &s2);
+    return expect(fabs(lum - 2.5) < 1e-12, "reference mean") &&
+           expect(fabs(var - 50.0 / 3.0 / 40.0) < 1e-12, "reference variance") &&
+           expect(fabs(r.rmse - sqrt(50.0 / 3.0 / 40.0)) < 1e-12, "reference RMSE");
+}
+
+/* An image equal to the reference but 1 brighter in one pixel of four. */
+static int self_test_compare(void)
+{
+    double ref_lum[4] = {1, 1, 1, 1}, ref_var[4] = {0};
+    float lum[4] = {2, 1, 1, 1};
+    reference r = {0};
+    r.width = 2;
+    r.height = 2;
+    r.lum = ref_lum;
+    r.var = ref_var;
+    r.mean_lum = 1;
+    errors e = compare(lum, &r);
+    return expect(fabs(e.rmse - 0.5) < 1e-12, "RMSE") &&
+           expect(fabs(e.rel_rmse - 0.5 / 1.01) < 1e-12, "relative RMSE");
+}
+
+static int self_test(void)
+{
+    int ok = self_test_ratio() & self_test_reference() & self_test_compare();
+    fprintf(stderr, PROGRAM ": self-test %s\n", ok ? "passed" : "FAILED");
+    return ok;
 }
 
 /* ---- main ----------------------------------------------------------------------------------------------- */
