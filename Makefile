@@ -101,7 +101,7 @@ BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotat
               --fig10 bonsai,engine,aneurism,cloud --bias bonsai,engine,aneurism,cloud \
               --bias-time 300000
 
-$(B)/picvr-bench-error: bench/bench_error.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
+$(B)/picvr-bench-error: bench/bench_error.c picvr_shaders.h examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -o $@ bench/bench_error.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 $(B)/picvr-bench-fig9: bench/bench_fig9.c shaders/cache_math.glsl tests/cache_math_host.h | $(B)/.deps

@@ -12,7 +12,7 @@
  *  1. a reference: plain Monte Carlo (cache off, priorities off), rendered as
  *     independent chunks with seeds 1001, 1002, ... and stored as PFM files in
  *     REFS/<hash>/ where the hash is FNV-1a of the scene description (data file, TF,
- *     spacing, lights, size, camera; not the seed).  The reference is the
+ *     spacing, lights, size, camera, the plain render kernel's SPIR-V; not the seed).  The reference is the
  *     iteration-weighted mean of the chunks; its own per-pixel error is estimated
  *     from the spread between chunks (at least 4).  A reference whose RMSE (and
  *     relative RMSE) is not at least 10x below the smallest error measured against it
@@ -51,6 +51,10 @@
 #include <unistd.h>
 
 #include "picvr.h"
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-const-variable"
+#include "picvr_shaders.h"     /* the plain render kernel's SPIR-V keys the references */
+#pragma GCC diagnostic pop
 #include "presets.h"
 #include "volume_io.h"
 
@@ -115,12 +119,15 @@ static int file_exists(const char *path)
     return stat(path, &st) == 0;
 }
 
-static uint64_t fnv1a(const char *s)
+static uint64_t fnv1a_bytes(const void *data, size_t size)
 {
+    const unsigned char *p = data;
     uint64_t h = 1469598103934665603ull;
-    for (; *s; s++) h = (h ^ (unsigned char)*s) * 1099511628211ull;
+    for (size_t i = 0; i < size; i++) h = (h ^ p[i]) * 1099511628211ull;
     return h;
 }
+
+static uint64_t fnv1a(const char *s) { return fnv1a_bytes(s, strlen(s)); }
 
 /* Whether `name` is in the comma-separated list (NULL list: everything is). */
 static int in_list(const char *list, const char *name)
@@ -346,10 +353,13 @@ static void scene_init(scene *s, const dataset_spec *ds, const char *lights,
     s->width = o->width;
     s->height = o->height;
     memcpy(s->camera, camera, sizeof s->camera);
+    /* A change of the plain kernel's SPIR-V makes new references (changes of the host
+       side are caught by the plain control of bias.md). */
+    unsigned long long kernel = fnv1a_bytes(picvr_spv_render, sizeof picvr_spv_render);
     snprintf(s->key, sizeof s->key,
-             "picvr-bench-ref v1|%s|tf=%s|spacing=%g|lights=%s|%ux%u|camera=%g,%g,%g,%g",
-             ds->file, ds->tf, ds->spacing, lights, s->width, s->height, camera[0],
-             camera[1], camera[2], camera[3]);
+             "picvr-bench-ref v2|render=%016llx|%s|tf=%s|spacing=%g|lights=%s|%ux%u|"
+             "camera=%g,%g,%g,%g", kernel, ds->file, ds->tf, ds->spacing, lights, s->width,
+             s->height, camera[0], camera[1], camera[2], camera[3]);
     snprintf(s->hash, sizeof s->hash, "%016llx", (unsigned long long)fnv1a(s->key));
     snprintf(s->id, sizeof s->id, "%s_%s_%ux%u", ds->name, lights, s->width, s->height);
 }
