@@ -21,6 +21,8 @@ help:
 	@echo "make bench-speed  samples/s of the Vulkan kernel vs the C/OpenMP reference"
 	@echo "make bench-scheduler  error vs time with/without priorities, device-time shares"
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
+	@echo "make bench        error against run time, reduced (bonsai, 128x128; minutes)"
+	@echo "make bench-full   error against run time, the whole matrix (hours; resumable)"
 
 # Debian packages, installed only when missing (apt-get as root or via sudo).
 deps: $(B)/.deps
@@ -85,3 +87,46 @@ bench-scheduler: deps $(B)/picvr-render
 
 clean:
 	rm -rf $(B)
+
+# ---- error against run time (issue 5) ---------------------------------------------
+# bench/bench_error.c; scenes in bench/scenes.txt; references cached in bench/refs/
+# (not committed); results (CSV, Markdown, gnuplot scripts and PNGs) in bench/results/
+# for `make bench` and bench/results/full/ for `make bench-full`.  Both resume: finished
+# runs (bench/results/**/runs/) and reference chunks are reused.  Exit status 3: a
+# reference was not converged enough and its scene was left out.
+.PHONY: bench bench-full
+BENCH_NICE ?= nice -n 15
+BENCH_OUT ?= bench/results
+BENCH_ARGS ?= --datasets bonsai --lights paper1 --size 128x128 --time 10000 --slice 200 \
+              --repeats 3 --rotate 4000 --after 6000 --ref-chunk 120000 --ref-max-chunks 40
+BENCH_FULL_OUT ?= bench/results/full
+BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotate 8000 \
+              --after 30000 --ref-chunk 600000 --ref-max-chunks 400 \
+              --fig10 bonsai,engine,aneurism,cloud --bias bonsai,engine,aneurism,cloud \
+              --bias-time 300000
+
+$(B)/picvr-bench-error: bench/bench_error.c picvr_shaders.h examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -o $@ bench/bench_error.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
+
+$(B)/picvr-bench-fig9: bench/bench_fig9.c shaders/cache_math.glsl tests/cache_math_host.h | $(B)/.deps
+	$(CC) $(CFLAGS) -o $@ bench/bench_fig9.c -lm
+
+# gnuplot only for the benchmark plots, so `make test` does not need it.
+$(B)/.bench-deps: tools/install-deps.sh | $(B)/.deps
+	@sh tools/install-deps.sh gnuplot-nox
+	@touch $@
+
+# $(1): arguments, $(2): output folder.  Plots are drawn even when a scene was refused.
+define run_bench
+	$(B)/picvr-bench-error --self-test && mkdir -p $(2) && \
+	$(BENCH_NICE) $(B)/picvr-bench-fig9 --out $(2) && \
+	$(BENCH_NICE) $(B)/picvr-bench-error --data $(DATA) $(1) --out $(2); rc=$$?; \
+	for f in $(2)/*.gp; do [ -f "$$f" ] && (cd $(2) && gnuplot $$(basename $$f)); done; \
+	echo "results in $(2)"; exit $$rc
+endef
+
+bench: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
+	@$(call run_bench,$(BENCH_ARGS),$(BENCH_OUT))
+
+bench-full: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
+	@$(call run_bench,$(BENCH_FULL_ARGS),$(BENCH_FULL_OUT))

@@ -1,9 +1,10 @@
 #!/bin/sh
 # Installs the Debian packages picvr needs, only those that are missing.
 # Uses apt-get as root, or through sudo when not root.  Safe to run repeatedly.
+# Extra packages may be named as arguments (make bench: gnuplot-nox for the plots).
 set -e
 PKGS="gcc make pkg-config mesa-vulkan-drivers libvulkan-dev glslang-tools \
-vulkan-validationlayers vulkan-tools libstb-dev libcmocka-dev zlib1g-dev"
+vulkan-validationlayers vulkan-tools libstb-dev libcmocka-dev zlib1g-dev $*"
 missing=""
 for p in $PKGS; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
