@@ -21,9 +21,9 @@
  *     prediction at offset p by Eq. 7 with Eq. 8's barycentric sigma (cm_ functions);
  *   single gradient: g = central differences of ln E over the same six points,
  *     ln E(p) = ln E_0 + g . p.
- *   seven-point-l1 (for comparison, not what the shaders do): the same six sigma_v
- *     with Eq. 7's distance taken as the L1 norm that Eq. 8's weights use,
- *     ln E(p) = ln E_0 - sum_i sigma_i |p_i| (exact where ln E is linear per octant).
+ *   seven-point-euclid (for comparison; what the shaders did before 2026-11-22): the
+ *     same six sigma_v with Eq. 7's distance taken as the Euclidean |p| instead of the
+ *     |x|+|y|+|z| of cache_math.glsl's length1 (exact only for radial fields).
  * Test points: 16 per entry, uniformly distributed directions, distance uniform in
  * (0, 8] voxels (half the default maximum radius).
  * The sun is either diagonal to the frame or along one of its axes (+y).
@@ -143,17 +143,15 @@ static double predict_seven(const entry *e, v3 p)
     return exp(cm_log_extrapolate_octant(e->e0, s[0], s[1], s[2], p.x, p.y, p.z));
 }
 
-/* The same six sigma_v, but Eq. 7's distance taken as the L1 norm |x|+|y|+|z| that
-   Eq. 8's barycentric weights use: ln E = ln E_0 - sum_i sigma_i |p_i|, exact for a
-   field whose log is linear in each octant (not what the shaders do; for comparison). */
-static double predict_seven_l1(const entry *e, v3 p)
+/* The same six sigma_v and Eq. 8, but Eq. 7's distance taken as the Euclidean |p| (the
+   shaders' formula before 2026-11-22; for comparison). */
+static double predict_seven_euclid(const entry *e, v3 p)
 {
-    double q[3] = {p.x, p.y, p.z}, l = log(e->e0);
-    for (int i = 0; i < 3; i++) {
-        double s = q[i] >= 0 ? cm_sigma_v(e->e0, e->ep[i], DELTA) : cm_sigma_v(e->e0, e->en[i], DELTA);
-        l -= s * fabs(q[i]);
-    }
-    return exp(l);
+    double s[3], q[3] = {p.x, p.y, p.z};
+    for (int i = 0; i < 3; i++)
+        s[i] = q[i] >= 0 ? cm_sigma_v(e->e0, e->ep[i], DELTA) : cm_sigma_v(e->e0, e->en[i], DELTA);
+    return exp(cm_log_extrapolate(e->e0, cm_sigma_interp(s[0], s[1], s[2], p.x, p.y, p.z),
+                                  cm_length3(p.x, p.y, p.z)));
 }
 
 /* One gradient of ln E from central differences; exponential extrapolation. */
@@ -189,7 +187,7 @@ static void run_condition(FILE *csv, double D, int bg, int entries)
             int i = k * TESTS_PER_ENTRY + t;
             err7[i] = fabs(predict_seven(&e, p) - truth) / (truth + ERROR_FLOOR);
             errg[i] = fabs(predict_gradient(&e, p) - truth) / (truth + ERROR_FLOOR);
-            errl[i] = fabs(predict_seven_l1(&e, p) - truth) / (truth + ERROR_FLOOR);
+            errl[i] = fabs(predict_seven_euclid(&e, p) - truth) / (truth + ERROR_FLOOR);
             suml += errl[i];
             sum7 += err7[i];
             sumg += errg[i];
@@ -203,10 +201,10 @@ static void run_condition(FILE *csv, double D, int bg, int entries)
             err7[(int)(0.9 * n)], n);
     fprintf(csv, "%g,%s,%s,single-gradient,%.6g,%.6g,%d\n", D, sun, bg ? "on" : "off",
             sumg / n, errg[(int)(0.9 * n)], n);
-    fprintf(csv, "%g,%s,%s,seven-point-l1,%.6g,%.6g,%d\n", D, sun, bg ? "on" : "off",
+    fprintf(csv, "%g,%s,%s,seven-point-euclid,%.6g,%.6g,%d\n", D, sun, bg ? "on" : "off",
             suml / n, errl[(int)(0.9 * n)], n);
     fprintf(stderr, "  fig9 D=%-6g sun %-8s background %-3s seven-point %.4f "
-            "single-gradient %.4f seven-point-l1 %.4f\n", D, sun, bg ? "on" : "off", sum7 / n,
+            "single-gradient %.4f seven-point-euclid %.4f\n", D, sun, bg ? "on" : "off", sum7 / n,
             sumg / n, suml / n);
     free(err7);
     free(errg);
@@ -230,7 +228,7 @@ static void write_gnuplot(const char *dir)
         "f(u,b,s) = sprintf(\"< awk -F, '$2==\\\"%%s\\\" && $3==\\\"%%s\\\" && $4==\\\"%%s\\\"' fig9.csv\", u, b, s)\n"
         , TEST_DIST);
     static const char *suns[2] = {"diagonal", "axis"}, *bgs[2] = {"off", "on"};
-    static const char *schemes[3] = {"seven-point", "single-gradient", "seven-point-l1"};
+    static const char *schemes[3] = {"seven-point", "single-gradient", "seven-point-euclid"};
     fprintf(f, "plot");
     for (int u = 0; u < 2; u++)
         for (int b = 0; b < 2; b++)
