@@ -1774,14 +1774,14 @@ static void record_render(picvr_context *ctx, const round_plan *p, uint32_t vari
         }
         vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->select_pipe);
         uint32_t base = (uint32_t)((uint64_t)ctx->block_cursor * ctx->block_stride % B);
-        push4(ctx, want, B, prio ? 0 : base, prio ? 0 : ctx->block_stride);
+        push4(ctx, want, B, prio ? ctx->block_cursor : base, prio ? 0 : ctx->block_stride);
         vkCmdDispatch(ctx->cmd, 1, 1, 1);
         barrier_all(ctx);
         vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, render);
         push4(ctx, ctx->round, ctx->seed, p->request_cap, 0);
         vkCmdDispatchIndirect(ctx->cmd, ctx->render_queue.buf, 0);
         barrier_all(ctx);
-        if (!prio) ctx->block_cursor = (uint32_t)(((uint64_t)ctx->block_cursor + want) % B);
+        ctx->block_cursor = (uint32_t)(((uint64_t)ctx->block_cursor + want) % B);
         left -= want;
     }
 }

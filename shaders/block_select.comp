@@ -19,7 +19,8 @@ layout(local_size_x = 256) in;
 
 #include "queue.glsl"
 
-// stride: the round-robin stride, 0 for priorities
+// stride: the round-robin stride, 0 for priorities; base: with priorities, the block
+// where the scan starts
 layout(push_constant) uniform Push { uint want; uint block_count; uint base; uint stride; } pc;
 
 #define STARVATION_FLOOR 0.1
@@ -62,7 +63,12 @@ void main() {
     float uniform_share = 1.0 / float(B);
     float best_credit = -1.0;
     uint best = 0u;
-    for (uint b = lid; b < B; b += 256u) {
+    // At most `want` blocks, so the round's cost is what the host planned; blocks whose
+    // credit reached 1 but found no slot keep it and go first next time, and the scan
+    // starts at a rotating block (base) so that no part of the image always loses.
+    cap = min(cap, max(want, 1u));
+    for (uint j = lid; j < B; j += 256u) {
+        uint b = (j + pc.base) % B;
         float p = uintBitsToFloat(render_queue.blocks[b].z);
         float rel = total > 0.0 ? max(p, 0.0) / total : uniform_share;
         float credit = uintBitsToFloat(render_queue.blocks[b].y)
