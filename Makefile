@@ -130,3 +130,70 @@ bench: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
 
 bench-full: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
 	@$(call run_bench,$(BENCH_FULL_ARGS),$(BENCH_FULL_OUT))
+
+# ---- robustness (issue 6): sanitizers, valgrind, fuzzing, soak ---------------------------
+# Each target builds what it needs into its own directory and installs its own Debian
+# packages (tools/install-deps.sh).  `make robust` runs them all (as .ci/run does).
+BA          := build-asan
+BF          := build-fuzz
+ASAN_FLAGS  := -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer
+# LSan: driver-internal leaks only (documented in tests/lsan.supp).
+ASAN_ENV    := ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:strict_string_checks=1:detect_stack_use_after_return=1 \
+               LSAN_OPTIONS=suppressions=$(abspath tests/lsan.supp):print_suppressions=0 \
+               UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+FUZZ_TIME   ?= 60
+SOAK_SECONDS ?= 120
+VG_SUPP     := tests/valgrind.supp
+
+.PHONY: test-asan valgrind fuzz soak robust deps-robust
+robust: test-asan valgrind fuzz soak
+deps-robust: deps $(B)/.deps-robust
+$(B)/.deps-robust: tools/install-deps.sh | $(B)/.deps
+	@sh tools/install-deps.sh robust
+	@touch $@
+
+$(BA)/picvr_vk.o: picvr_vk.c picvr.h picvr_shaders.h | $(B)/.deps
+	@mkdir -p $(BA)
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -c -o $@ $<
+$(BA)/libpicvr.a: $(BA)/picvr_vk.o
+	ar rcs $@ $^
+$(BA)/cpu_reference.o: tests/cpu_reference.c tests/cpu_reference.h picvr.h | $(B)/.deps
+	@mkdir -p $(BA)
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -O2 -fopenmp -c -o $@ $<
+$(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -o $@ $(TEST_SRC) tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl
+$(BA)/picvr-render: examples/render.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h tests/asan_keep_drivers.c $(BA)/libpicvr.a
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ examples/render.c examples/volume_io.c examples/presets.c tests/asan_keep_drivers.c $(BA)/libpicvr.a $(LDLIBS) -lstb -lz -ldl
+
+# The whole suite under ASan + UBSan (host code: the library, the tests, the reference),
+# with the validation layer on, then one picvr-render run (loader + CLI).
+test-asan: deps-robust $(BA)/picvr-tests $(BA)/picvr-render
+	cd $(BA) && $(ASAN_ENV) PICVR_VALIDATION=1 PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
+	$(ASAN_ENV) PICVR_VALIDATION=1 $(BA)/picvr-render --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz \
+	  --tf ct-bonsai --lights studio --size 64x64 --time 1000 --out $(BA)/bonsai.png --json $(BA)/bonsai.json
+
+# One picvr-render run under valgrind memcheck: zero errors from our code.  Driver
+# (lavapipe/LLVM/loader) frames are suppressed in tests/valgrind.supp (documented there).
+valgrind: deps-robust $(B)/picvr-render
+	valgrind --tool=memcheck --error-exitcode=9 --smc-check=all-non-file --keep-debuginfo=yes --leak-check=full --errors-for-leak-kinds=definite \
+	  --show-leak-kinds=definite --track-origins=yes --suppressions=$(VG_SUPP) --num-callers=30 \
+	  $(B)/picvr-render --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz --tf ct-bonsai \
+	  --lights studio --size 32x32 --time 500 --out $(B)/valgrind.png
+
+# libFuzzer on the loaders of examples/volume_io.c, FUZZ_TIME seconds from the committed
+# seed corpus (new inputs go to $(BF)/corpus, crashes to $(BF)/).
+$(BF)/fuzz_volume_io: tests/fuzz/fuzz_volume_io.c examples/volume_io.c examples/volume_io.h | $(B)/.deps-robust
+	@mkdir -p $(BF)
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_volume_io.c examples/volume_io.c -lz
+fuzz: deps-robust $(BF)/fuzz_volume_io
+	@mkdir -p $(BF)/corpus
+	cd $(BF) && ./fuzz_volume_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
+	  -max_len=8192 -print_final_stats=1 corpus $(abspath tests/fuzz/corpus)
+
+# SOAK_SECONDS of picvr_step with random camera, TF and light changes and image reads;
+# fails unless host RSS and live device memory are flat (tolerances in tests/soak.c).
+$(B)/picvr-soak: tests/soak.c $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -o $@ tests/soak.c $(B)/libpicvr.a $(LDLIBS) -ldl
+soak: deps-robust $(B)/picvr-soak
+	PICVR_VALIDATION=0 $(B)/picvr-soak $(SOAK_SECONDS)

@@ -738,7 +738,6 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     int ext = (cfg.vk_instance != NULL) + (cfg.vk_physical_device != NULL) + (cfg.vk_device != NULL) + (cfg.vk_queue != NULL);
     if (ext != 0 && ext != 4) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.log_level > PICVR_LOG_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
-
     picvr_context *ctx = mem_alloc(&cfg.allocator, sizeof *ctx);
     if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(ctx, 0, sizeof *ctx);
@@ -1125,6 +1124,8 @@ picvr_status picvr_set_transfer_function(picvr_context *ctx, const picvr_tf_poin
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     picvr_status s = validate_tf(points, count, density);
     if (s) return s;
+    for (uint32_t i = 0; i < count; i++)   /* issue 6: sigma_t = D * opacity must fit a float */
+        if ((double)points[i].opacity * density > FLT_MAX) return PICVR_ERROR_INVALID_ARGUMENT;
     return apply_tf(ctx, points, count, density);
 }
 
@@ -1295,6 +1296,29 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     size_t bytes;
     picvr_status s = validate_volume(ctx, desc, &bytes);
     if (s) return s;
+    {   /* issue 6: the world box (dims * spacing, and its diagonal) must fit a float */
+        double diag2 = 0.0;
+        for (int i = 0; i < 3; i++) {
+            double size = (double)desc->dims[i] * (desc->spacing[i] > 0.0f ? desc->spacing[i] : 1.0f);
+            diag2 += size * size;
+        }
+        if (!(sqrt(diag2) < FLT_MAX)) return PICVR_ERROR_INVALID_ARGUMENT;
+    }
+    {   /* issue 6: a volume larger than one device allocation (maxMemoryAllocationSize)
+           or than the largest device-local heap is refused before anything is allocated */
+        VkPhysicalDeviceMaintenance3Properties m3 = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES};
+        VkPhysicalDeviceProperties2 p2 = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, &m3};
+        vkGetPhysicalDeviceProperties2(ctx->phys, &p2);
+        VkDeviceSize heap = 0, dev = (VkDeviceSize)(bytes / voxel_bytes(desc->type)) *
+            (desc->type == PICVR_VOXEL_FLOAT32 && ctx->float_volume_format == VK_FORMAT_R16_UNORM ? 2 : voxel_bytes(desc->type));
+        for (uint32_t i = 0; i < ctx->mem_props.memoryHeapCount; i++)
+            if ((ctx->mem_props.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) && ctx->mem_props.memoryHeaps[i].size > heap)
+                heap = ctx->mem_props.memoryHeaps[i].size;
+        if ((m3.maxMemoryAllocationSize && dev > m3.maxMemoryAllocationSize) || (heap && dev > heap)) {
+            logf_(ctx, PICVR_LOG_WARNING, "volume of %llu bytes exceeds the device's allocation limit", (unsigned long long)dev);
+            return PICVR_ERROR_OUT_OF_DEVICE_MEMORY;
+        }
+    }
     value_map m;
     if ((s = volume_range(desc, bytes / voxel_bytes(desc->type), &m))) return s;
 
@@ -2049,7 +2073,8 @@ static picvr_status step_passes(picvr_context *ctx, uint32_t passes) {
 
 picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
-    if (!isfinite(milliseconds) || milliseconds < 0.0) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (!isfinite(milliseconds)) return PICVR_ERROR_NON_FINITE;   /* the NaN/Inf convention */
+    if (milliseconds < 0.0) return PICVR_ERROR_INVALID_ARGUMENT;
     return step_time(ctx, milliseconds);
 }
 

@@ -37,6 +37,7 @@ void test_status_strings_non_null_and_distinct(void **state) {
 }
 
 static void *dummy_alloc(size_t size, void *user) { (void)user; return malloc(size); }
+static void free_hook(void *p, void *user) { (void)user; free(p); }
 
 void test_create_destroy_errors(void **state) {
     (void)state;
@@ -450,5 +451,241 @@ void test_bad_inputs_rejected_and_state_kept(void **state) {
     print_message("    %d rows, %d failure(s)\n", t->rows, t->failures);
     tu_vol_free(&vol);
     if (t->failures) fail_msg("%d of %d rows failed (listed above)", t->failures, t->rows);
+    tu_finish(ctx);
+}
+
+/* ---- issue 6: the rest of the API, configs, wrong order, device limits ------------------- */
+
+/* The functions and arguments the table above does not reach: picvr_set_view, the step
+   time, read exposure, huge products of valid-looking numbers (spacing x dims, density x
+   opacity), a volume larger than the device can allocate.  Same rules: the specific code,
+   then the context renders the bit-identical baseline image. */
+void test_bad_inputs_rest_of_api_and_device_limits(void **state) {
+    (void)state;
+    static table_state T;
+    memset(&T, 0, sizeof T);
+    table_state *t = &T;
+    t->ctx = tu_create(9);
+    picvr_context *ctx = t->ctx;
+    tu_vol vol = tu_vol_ball(8);
+    t->vol = &vol;
+    set_baseline(t);
+    TU_OK(picvr_step_iterations(ctx, 2));
+    TU_OK(picvr_read_rgba32f(ctx, t->baseline, sizeof t->baseline));
+
+    /* set_view */
+    ROW(t, "set_view(NULL ctx)", PICVR_ERROR_NULL_POINTER, picvr_set_view(NULL, PICVR_VIEW_IMAGE));
+    ROW(t, "set_view(2)", PICVR_ERROR_INVALID_ARGUMENT, picvr_set_view(ctx, (picvr_debug_view)2));
+    ROW(t, "set_view(-1)", PICVR_ERROR_INVALID_ARGUMENT, picvr_set_view(ctx, (picvr_debug_view)-1));
+    ROW(t, "set_view(CACHE) with the cache off", PICVR_ERROR_NOT_READY,
+        picvr_set_view(ctx, PICVR_VIEW_CACHE));
+
+    /* step time: NaN/Inf are non-finite input, negative is out of range */
+    ROW(t, "step(NaN ms)", PICVR_ERROR_NON_FINITE, picvr_step(ctx, NAN));
+    ROW(t, "step(+Inf ms)", PICVR_ERROR_NON_FINITE, picvr_step(ctx, INFINITY));
+    ROW(t, "step(-Inf ms)", PICVR_ERROR_NON_FINITE, picvr_step(ctx, -INFINITY));
+    ROW(t, "step(-1 ms)", PICVR_ERROR_INVALID_ARGUMENT, picvr_step(ctx, -1.0));
+    ROW(t, "step_iterations(0) is a no-op", PICVR_OK, picvr_step_iterations(ctx, 0));
+
+    /* read buffers: a size that wraps when multiplied */
+    uint8_t rgba8[W * H * 4];
+    ROW(t, "read_rgba8(size SIZE_MAX)", PICVR_OK, picvr_read_rgba8(ctx, rgba8, SIZE_MAX, 1));
+    /* "exposure <= 0 means 1": 0 and -1 give exactly the exposure-1 bytes */
+    uint8_t ref8[W * H * 4], got8[W * H * 4];
+    TU_OK(picvr_reset(ctx));
+    TU_OK(picvr_step_iterations(ctx, 2));
+    TU_OK(picvr_read_rgba8(ctx, ref8, sizeof ref8, 1.0f));
+    const float expo[2] = {0.0f, -1.0f};
+    for (int i = 0; i < 2; i++) {
+        TU_OK(picvr_read_rgba8(ctx, got8, sizeof got8, expo[i]));
+        if (memcmp(got8, ref8, sizeof ref8) != 0) fail_msg("read_rgba8(exposure %g) differs from exposure 1", (double)expo[i]);
+    }
+
+    /* volumes: a box whose size overflows a float, voxel sizes at the float limits, a
+       value range given reversed, volumes larger than one device allocation */
+    uint8_t u8[8 * 8 * 8];
+    memset(u8, 100, sizeof u8);
+    picvr_volume_desc d = good_desc(u8);
+    d.spacing[0] = 3e38f; d.spacing[1] = d.spacing[2] = 1;
+    ROW(t, "upload_volume(spacing 3e38: box size overflows)", PICVR_ERROR_INVALID_ARGUMENT,
+        picvr_upload_volume(ctx, &d));
+    d.spacing[0] = d.spacing[1] = d.spacing[2] = 1e38f;
+    ROW(t, "upload_volume(spacing 1e38^3: diagonal overflows)", PICVR_ERROR_INVALID_ARGUMENT,
+        picvr_upload_volume(ctx, &d));
+    d = good_desc(u8);
+    d.value_min = 10; d.value_max = 5;
+    ROW(t, "upload_volume(value_min > value_max)", PICVR_ERROR_INVALID_ARGUMENT, picvr_upload_volume(ctx, &d));
+    d.value_min = -INFINITY; d.value_max = 5;
+    ROW(t, "upload_volume(value_min -Inf)", PICVR_ERROR_NON_FINITE, picvr_upload_volume(ctx, &d));
+    /* Within maxImageDimension3D (>= 2048 on every Vulkan device) but 8 GiB / 32 GiB:
+       above maxMemoryAllocationSize (2 GiB on lavapipe) -> OUT_OF_DEVICE_MEMORY before
+       anything is allocated or read (the data pointer is a small buffer). */
+    picvr_stats st;
+    TU_OK(picvr_get_stats(ctx, &st));
+    d = good_desc(u8);
+    d.dims[0] = d.dims[1] = d.dims[2] = 2048;
+    ROW(t, "upload_volume(2048^3 uint8 = 8 GiB)", PICVR_ERROR_OUT_OF_DEVICE_MEMORY, picvr_upload_volume(ctx, &d));
+    d.type = PICVR_VOXEL_FLOAT32;
+    d.value_min = 0; d.value_max = 1;
+    /* float32 voxels are scanned for finiteness before the device is asked: the size
+       check must come first (reading 32 GiB from an 2 KiB buffer would crash) */
+    ROW(t, "upload_volume(2048^3 float32 = 32 GiB)", PICVR_ERROR_OUT_OF_DEVICE_MEMORY,
+        picvr_upload_volume(ctx, &d));
+
+    /* transfer function: sigma_t = D * opacity overflows a float */
+    picvr_tf_point big[2] = {{0.0f, {1, 1, 1}, 1e30f}, {1.0f, {1, 1, 1}, 1e30f}};
+    ROW(t, "set_transfer_function(opacity 1e30, D 1e30)", PICVR_ERROR_INVALID_ARGUMENT,
+        picvr_set_transfer_function(ctx, big, 2, 1e30f));
+    picvr_tf_point sub[1] = {{0.5f, {1, 1, 1}, 1e-40f}}; /* denormal opacity: valid */
+    TU_OK(picvr_set_transfer_function(ctx, sub, 1, 1.0f)); /* accepted: state changes */
+    set_baseline(t);
+
+    /* lights: NULL background with lights is valid ("background may be NULL") */
+    picvr_light sun = base_sun();
+    TU_OK(picvr_set_lights(ctx, NULL, 0, NULL)); /* accepted: state changes */
+    set_baseline(t);
+    picvr_light l = sun;
+    l.type = PICVR_LIGHT_SPHERE; l.radius = NAN;
+    ROW(t, "set_lights(sphere radius NaN)", PICVR_ERROR_NON_FINITE, picvr_set_lights(ctx, &l, 1, NULL));
+    l = sun; l.angular_diameter = NAN;
+    ROW(t, "set_lights(angular_diameter NaN)", PICVR_ERROR_NON_FINITE, picvr_set_lights(ctx, &l, 1, NULL));
+    l = sun; l.type = PICVR_LIGHT_RECT; l.edge_u[0] = 1; l.edge_v[1] = INFINITY;
+    ROW(t, "set_lights(rect edge Inf)", PICVR_ERROR_NON_FINITE, picvr_set_lights(ctx, &l, 1, NULL));
+
+    /* camera: up NaN, target Inf */
+    picvr_camera c = base_camera();
+    c.up[1] = NAN;
+    ROW(t, "set_camera(up NaN)", PICVR_ERROR_NON_FINITE, picvr_set_camera(ctx, &c));
+    c = base_camera(); c.target[2] = -INFINITY;
+    ROW(t, "set_camera(target -Inf)", PICVR_ERROR_NON_FINITE, picvr_set_camera(ctx, &c));
+    c = base_camera(); c.width = PICVR_MAX_IMAGE_SIZE; c.height = PICVR_MAX_IMAGE_SIZE;
+    /* 16384^2 pixels x 16 bytes = 4 GiB per plane: above maxStorageBufferRange on
+       lavapipe (128 MiB) and on most GPUs (<= 4 GiB - 1) */
+    ROW(t, "set_camera(16384 x 16384: planes exceed the device)", PICVR_ERROR_SIZE_OVERFLOW,
+        picvr_set_camera(ctx, &c));
+
+    print_message("    %d rows, %d failure(s)\n", t->rows, t->failures);
+    tu_vol_free(&vol);
+    if (t->failures) fail_msg("%d of %d rows failed (listed above)", t->failures, t->rows);
+    tu_finish(ctx);
+}
+
+/* Calls in the wrong order on fresh contexts: each gives NOT_READY (or OK where the
+   header allows it), and the context then works normally. */
+void test_calls_in_wrong_order(void **state) {
+    (void)state;
+    picvr_context *ctx = tu_create(3);
+    float bmin[3], bmax[3];
+    float px[16];
+    uint8_t px8[16];
+    picvr_stats st;
+    TU_EXPECT(picvr_volume_box(ctx, bmin, bmax), PICVR_ERROR_NOT_READY);   /* no volume */
+    TU_EXPECT(picvr_read_rgba32f(ctx, px, sizeof px), PICVR_ERROR_NOT_READY); /* no camera */
+    TU_EXPECT(picvr_read_rgba8(ctx, px8, sizeof px8, 1), PICVR_ERROR_NOT_READY);
+    TU_OK(picvr_get_stats(ctx, &st));                                      /* all zero */
+    if (st.iterations != 0 || st.width != 0 || st.mean_luminance != 0) fail_msg("stats of a fresh context not zero");
+    TU_OK(picvr_reset(ctx));                                               /* nothing to reset */
+    TU_OK(picvr_set_view(ctx, PICVR_VIEW_IMAGE));
+    /* lights and TF before a volume are valid and kept */
+    tu_tf_ramp(ctx, 0.9f, 0.9f, 0.9f, 1.0f);
+    tu_sun(ctx, 0, 0, 1, 1, 1, 1, 3, 0.5f);
+    TU_EXPECT(picvr_step_iterations(ctx, 1), PICVR_ERROR_NOT_READY);
+    tu_set_camera(ctx, 0, 0, 20, 0, 0, 0, 30, 2, 2);
+    TU_OK(picvr_read_rgba32f(ctx, px, sizeof px));                         /* zero image */
+    for (int i = 0; i < 16; i++) if (px[i] != 0) fail_msg("image before any iteration not zero");
+    tu_vol vol = tu_vol_ball(8);
+    tu_upload(ctx, &vol);
+    TU_OK(picvr_step_iterations(ctx, 2));
+    TU_OK(picvr_read_rgba32f(ctx, px, sizeof px));
+    tu_assert_finite(px, 16, "after the wrong-order calls");
+    TU_OK(picvr_volume_box(ctx, bmin, bmax));
+    /* destroy in the middle of nothing, twice over contexts */
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+}
+
+/* Bad picvr_config fields: picvr_create returns the code, *out is NULL, nothing leaks
+   (make test-asan checks), and a good context comes up afterwards. */
+void test_create_config_errors(void **state) {
+    (void)state;
+    picvr_config base;
+    memset(&base, 0, sizeof base);
+    base.validation = 1;
+    int failures = 0, n = 0;
+#define CFG_ROW(label, want, stmt)                                                                 \
+    do {                                                                                           \
+        picvr_config cfg = base;                                                                   \
+        stmt;                                                                                      \
+        picvr_context *out = (picvr_context *)&cfg;                                                \
+        picvr_status got = picvr_create(&cfg, &out);                                               \
+        n++;                                                                                       \
+        if (got != (want) || out != NULL) {                                                        \
+            print_message("    FAIL %-50s returned %s (out %s), expected %s\n", label,              \
+                          picvr_status_string(got), out ? "set" : "NULL", picvr_status_string(want)); \
+            failures++;                                                                            \
+            if (got == PICVR_OK) picvr_destroy(out);                                               \
+        }                                                                                          \
+    } while (0)
+    CFG_ROW("log_level 99", PICVR_ERROR_INVALID_ARGUMENT, cfg.log_level = (picvr_log_level)99);
+    CFG_ROW("vk_device without instance/queue", PICVR_ERROR_INVALID_ARGUMENT, cfg.vk_device = (void *)&cfg);
+    CFG_ROW("allocator free only", PICVR_ERROR_INVALID_ARGUMENT, cfg.allocator.free = free_hook);
+    /* cache */
+    CFG_ROW("cache.mode 99", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.mode = (picvr_cache_mode)99);
+    CFG_ROW("cache.gamma NaN", PICVR_ERROR_NON_FINITE, cfg.cache.gamma = NAN);
+    CFG_ROW("cache.epsilon -0.1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.epsilon = -0.1f);
+    CFG_ROW("cache.epsilon 1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.epsilon = 1.0f);
+    CFG_ROW("cache.delta_voxels Inf", PICVR_ERROR_NON_FINITE, cfg.cache.delta_voxels = INFINITY);
+    CFG_ROW("cache.radius_max < radius_min", PICVR_ERROR_INVALID_ARGUMENT,
+            (cfg.cache.radius_min_voxels = 4, cfg.cache.radius_max_voxels = 2));
+    CFG_ROW("cache.rebuild_interval_ms -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.rebuild_interval_ms = -1);
+    CFG_ROW("cache.superpixel_size 5000", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.superpixel_size = 5000);
+    CFG_ROW("cache.max_entries 2^25", PICVR_ERROR_SIZE_OVERFLOW, cfg.cache.max_entries = 1u << 25);
+    CFG_ROW("cache.max_nodes 100 (< pre-built top)", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_nodes = 100);
+    CFG_ROW("cache.max_refs 1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_refs = 1);
+    /* a pool larger than the device's storage-buffer range (2^24 entries x 128 B =
+       2 GiB; lavapipe allows 128 MiB): the cache on, the pool cannot be created */
+    CFG_ROW("cache pool 2^24 entries (2 GiB)", PICVR_ERROR_SIZE_OVERFLOW,
+            (cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE, cfg.cache.max_entries = 1u << 24));
+    /* scheduler (zero = default; shares are fractions of device time) */
+    CFG_ROW("scheduler.priorities 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.priorities = (picvr_switch)7);
+    CFG_ROW("scheduler.create_min NaN", PICVR_ERROR_NON_FINITE, cfg.scheduler.create_min = NAN);
+    CFG_ROW("scheduler.create_max Inf", PICVR_ERROR_NON_FINITE, cfg.scheduler.create_max = INFINITY);
+    CFG_ROW("scheduler.create_min -0.1", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.create_min = -0.1f);
+    CFG_ROW("scheduler.create_min 0.5 > create_max 0.2", PICVR_ERROR_INVALID_ARGUMENT,
+            (cfg.scheduler.create_min = 0.5f, cfg.scheduler.create_max = 0.2f));
+    CFG_ROW("scheduler.create_min 0.2 > default max 0.15", PICVR_ERROR_INVALID_ARGUMENT,
+            cfg.scheduler.create_min = 0.2f);
+    CFG_ROW("scheduler.update_min 0.5 > update_max 0.1", PICVR_ERROR_INVALID_ARGUMENT,
+            (cfg.scheduler.update_min = 0.5f, cfg.scheduler.update_max = 0.1f));
+    CFG_ROW("scheduler.update_max 1.5", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.update_max = 1.5f);
+    CFG_ROW("scheduler.create_max 0.9 + update_max 0.2 > 1", PICVR_ERROR_INVALID_ARGUMENT,
+            (cfg.scheduler.create_max = 0.9f, cfg.scheduler.update_max = 0.2f));
+    CFG_ROW("scheduler.exponent -3", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.exponent = -3);
+    CFG_ROW("scheduler.exponent NaN", PICVR_ERROR_NON_FINITE, cfg.scheduler.exponent = NAN);
+    CFG_ROW("scheduler.rounds_per_second -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.rounds_per_second = -1);
+    CFG_ROW("scheduler.hit_rate_window_ms NaN", PICVR_ERROR_NON_FINITE, cfg.scheduler.hit_rate_window_ms = NAN);
+    CFG_ROW("scheduler.create_max 0.6 + update_max 0.4 (render < 10%)", PICVR_ERROR_INVALID_ARGUMENT,
+            (cfg.scheduler.create_max = 0.6f, cfg.scheduler.update_max = 0.4f));
+    CFG_ROW("scheduler.rounds_per_second 0.5", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.rounds_per_second = 0.5f);
+    CFG_ROW("scheduler.rounds_per_second 5000", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.rounds_per_second = 5000);
+#undef CFG_ROW
+    print_message("    %d config rows, %d failure(s)\n", n, failures);
+    if (failures) fail_msg("%d of %d config rows failed (listed above)", failures, n);
+    /* valid edge values are accepted, and the contexts render */
+    picvr_config ok = base;
+    ok.scheduler.create_min = ok.scheduler.create_max = 0.1f;   /* min == max */
+    ok.scheduler.update_min = 1e-6f; ok.scheduler.update_max = 0.8f - 1e-6f;   /* render keeps 10% */
+    ok.scheduler.priorities = PICVR_SWITCH_OFF;
+    picvr_context *ctx = tu_create_config(&ok);
+    tu_vol vol = tu_vol_ball(8);
+    tu_upload(ctx, &vol);
+    tu_tf_ramp(ctx, 0.9f, 0.9f, 0.9f, 1.0f);
+    tu_sun(ctx, 0, 0, 1, 1, 1, 1, 3, 0.5f);
+    tu_set_camera(ctx, 0, 0, 20, 0, 0, 0, 30, 8, 8);
+    TU_OK(picvr_step_iterations(ctx, 2));
+    float *img = tu_read(ctx, 8, 8);
+    tu_assert_finite(img, 8 * 8 * 4, "context after the config rows");
+    free(img);
+    tu_vol_free(&vol);
     tu_finish(ctx);
 }

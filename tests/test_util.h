@@ -66,6 +66,9 @@
     X(test_create_destroy_errors)                                   \
     X(test_step_before_volume_and_camera_is_not_ready)              \
     X(test_bad_inputs_rejected_and_state_kept)                      \
+    X(test_bad_inputs_rest_of_api_and_device_limits)                \
+    X(test_calls_in_wrong_order)                                    \
+    X(test_create_config_errors)                                    \
     /* test_accumulation.c */                                       \
     X(test_image_zero_before_first_iteration)                       \
     X(test_changes_reset_accumulation_identical_camera_does_not)    \
@@ -101,7 +104,19 @@
     /* test_cpu_reference.c */                                      \
     X(test_gpu_matches_cpu_reference_area_light_background)         \
     /* test_real_data.c */                                          \
-    X(test_real_data_fuel_smoke)
+    X(test_real_data_fuel_smoke)                                    \
+    /* test_robust_sweep.c (issue 6) */                             \
+    X(test_sweep_optical_thickness_beer_lambert)                    \
+    X(test_sweep_optical_thickness_sun)                             \
+    X(test_sweep_optical_thickness_sun_cache)                       \
+    X(test_sweep_transfer_function_step_zero_and_max)               \
+    X(test_sweep_light_intensity)                                   \
+    X(test_sweep_lights_inside_grazing_tiny_sun_none)               \
+    X(test_sweep_cache_zero_irradiance)                             \
+    X(test_sweep_volume_shapes_and_spacing)                         \
+    X(test_sweep_float32_huge_range_and_uint16_12bit)               \
+    X(test_sweep_cameras_and_image_sizes)                           \
+    X(test_sweep_long_run_precision_1e6)
 
 #define TU_DECLARE(name) void name(void **state);
 TU_ALL_TESTS(TU_DECLARE)

@@ -1,10 +1,19 @@
 #!/bin/sh
 # Installs the Debian packages picvr needs, only those that are missing.
 # Uses apt-get as root, or through sudo when not root.  Safe to run repeatedly.
-# Extra packages may be named as arguments (make bench: gnuplot-nox for the plots).
+# Extra packages may be named as arguments (make bench: gnuplot-nox for the plots);
+# `install-deps.sh robust` adds the tools of the robustness targets (make test-asan,
+# valgrind, fuzz, soak): clang with its libFuzzer/sanitizer runtimes, and valgrind.
 set -e
+extra=""
+for a in "$@"; do
+  case "$a" in
+    robust) extra="$extra clang libclang-rt-14-dev valgrind" ;;
+    *) extra="$extra $a" ;;
+  esac
+done
 PKGS="gcc make pkg-config mesa-vulkan-drivers libvulkan-dev glslang-tools \
-vulkan-validationlayers vulkan-tools libstb-dev libcmocka-dev zlib1g-dev $*"
+vulkan-validationlayers vulkan-tools libstb-dev libcmocka-dev zlib1g-dev$extra"
 missing=""
 for p in $PKGS; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

@@ -1,0 +1,353 @@
+/* soak.c - `make soak`: SOAK_SECONDS (default 120) of picvr_step with random camera
+ * moves, image-size changes, transfer-function, light and volume changes, image reads
+ * and stats, then checks that memory is flat.
+ *
+ * Three measures, each taken in the same scene configuration (the same volume and
+ * image size) after a warm-up and at the end:
+ *   - device memory: live bytes of VkDeviceMemory.  picvr calls vkAllocateMemory and
+ *     vkFreeMemory through the loader; this program defines both (symbol interposition:
+ *     libpicvr.a is linked into it) and forwards them with dlsym(RTLD_NEXT), so it
+ *     counts exactly what picvr holds on any device (lavapipe has no
+ *     VK_EXT_memory_budget).  Tolerance: 0 bytes.
+ *   - picvr's host heap: live bytes through cfg.allocator hooks.  Tolerance: 0 bytes.
+ *   - process RSS (/proc/self/statm), which on lavapipe also holds the "device" memory
+ *     and the driver's own caches.  Tolerance: 16 MiB growth, for malloc fragmentation
+ *     and glibc arenas (the thresholds are stated at the end of the run; a real leak
+ *     per step or per change would add far more: ~2000 steps and ~1000 changes run).
+ * Any status other than PICVR_OK, a non-finite pixel or stat fails the run.
+ * Usage: picvr-soak [seconds] [none|object|screen]
+ */
+#define _GNU_SOURCE
+#include "picvr.h"
+
+#include <dlfcn.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <vulkan/vulkan.h>
+
+/* ---- device memory accounting (interposed Vulkan entry points) ---------------------- */
+
+typedef struct { VkDeviceMemory mem; VkDeviceSize size; } mem_rec;
+static mem_rec g_recs[4096];
+static size_t g_nrecs;
+static unsigned long long g_dev_live, g_dev_allocs, g_dev_frees;
+static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER;
+
+VKAPI_ATTR VkResult VKAPI_CALL vkAllocateMemory(VkDevice device, const VkMemoryAllocateInfo *info,
+                                                const VkAllocationCallbacks *cb, VkDeviceMemory *mem) {
+    static PFN_vkAllocateMemory real;
+    if (!real) real = (PFN_vkAllocateMemory)dlsym(RTLD_NEXT, "vkAllocateMemory");
+    VkResult r = real(device, info, cb, mem);
+    if (r == VK_SUCCESS) {
+        pthread_mutex_lock(&g_lock);
+        if (g_nrecs < sizeof g_recs / sizeof g_recs[0]) g_recs[g_nrecs++] = (mem_rec){*mem, info->allocationSize};
+        else { fprintf(stderr, "soak: more than 4096 live allocations\n"); exit(2); }
+        g_dev_live += info->allocationSize;
+        g_dev_allocs++;
+        pthread_mutex_unlock(&g_lock);
+    }
+    return r;
+}
+
+VKAPI_ATTR void VKAPI_CALL vkFreeMemory(VkDevice device, VkDeviceMemory mem, const VkAllocationCallbacks *cb) {
+    static PFN_vkFreeMemory real;
+    if (!real) real = (PFN_vkFreeMemory)dlsym(RTLD_NEXT, "vkFreeMemory");
+    if (mem != VK_NULL_HANDLE) {
+        pthread_mutex_lock(&g_lock);
+        for (size_t i = 0; i < g_nrecs; i++)
+            if (g_recs[i].mem == mem) {
+                g_dev_live -= g_recs[i].size;
+                g_recs[i] = g_recs[--g_nrecs];
+                g_dev_frees++;
+                break;
+            }
+        pthread_mutex_unlock(&g_lock);
+    }
+    real(device, mem, cb);
+}
+
+/* ---- picvr host heap accounting (allocator hooks) ------------------------------------ */
+
+static long long g_host_live;
+typedef union { size_t size; max_align_t align; } hdr;
+
+static void *h_alloc(size_t size, void *user) {
+    (void)user;
+    hdr *h = malloc(sizeof(hdr) + size);
+    if (!h) return NULL;
+    h->size = size;
+    g_host_live += (long long)size;
+    return h + 1;
+}
+static void h_free(void *p, void *user) {
+    (void)user;
+    if (!p) return;
+    hdr *h = (hdr *)p - 1;
+    g_host_live -= (long long)h->size;
+    free(h);
+}
+static void *h_realloc(void *p, size_t size, void *user) {
+    if (!p) return h_alloc(size, user);
+    hdr *h = (hdr *)p - 1;
+    size_t old = h->size;
+    hdr *n = realloc(h, sizeof(hdr) + size);
+    if (!n) return NULL;
+    n->size = size;
+    g_host_live += (long long)size - (long long)old;
+    return n + 1;
+}
+
+/* ---- helpers ---------------------------------------------------------------------------- */
+
+static double now_s(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static long long rss_bytes(void) {
+    long long size = 0, res = 0;
+    FILE *f = fopen("/proc/self/statm", "r");
+    if (!f) return -1;
+    if (fscanf(f, "%lld %lld", &size, &res) != 2) res = -1;
+    fclose(f);
+    return res < 0 ? -1 : res * sysconf(_SC_PAGESIZE);
+}
+
+static uint64_t g_rng = 0x9e3779b97f4a7c15ull;
+static double rnd(void) {
+    uint64_t z = (g_rng += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
+
+#define CHECK(call)                                                                         \
+    do {                                                                                    \
+        picvr_status s_ = (call);                                                           \
+        if (s_ != PICVR_OK) {                                                               \
+            fprintf(stderr, "soak: %s failed: %s (line %d)\n", #call, picvr_status_string(s_), __LINE__); \
+            exit(1);                                                                        \
+        }                                                                                   \
+    } while (0)
+
+/* Two volumes: a soft ball with noise (64^3) and an anisotropic slab (48x64x32). */
+static uint8_t *make_volume(uint32_t nx, uint32_t ny, uint32_t nz) {
+    uint8_t *v = malloc((size_t)nx * ny * nz);
+    if (!v) exit(2);
+    for (uint32_t z = 0; z < nz; z++)
+        for (uint32_t y = 0; y < ny; y++)
+            for (uint32_t x = 0; x < nx; x++) {
+                double dx = x - nx / 2.0, dy = y - ny / 2.0, dz = z - nz / 2.0;
+                double r = sqrt(dx * dx + dy * dy + dz * dz) / (0.45 * nx);
+                double val = 255 * (1 - r) + 40 * (rnd() - 0.5);
+                v[x + (size_t)nx * (y + (size_t)ny * z)] = (uint8_t)(val < 0 ? 0 : val > 255 ? 255 : val);
+            }
+    return v;
+}
+
+static void upload(picvr_context *ctx, const uint8_t *data, uint32_t nx, uint32_t ny, uint32_t nz) {
+    picvr_volume_desc d;
+    memset(&d, 0, sizeof d);
+    d.dims[0] = nx; d.dims[1] = ny; d.dims[2] = nz;
+    d.type = PICVR_VOXEL_UINT8;
+    d.data = data;
+    CHECK(picvr_upload_volume(ctx, &d));
+}
+
+static void random_tf(picvr_context *ctx) {
+    picvr_tf_point p[6];
+    uint32_t n = 1 + (uint32_t)(rnd() * 6);
+    float v = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        v += (float)(rnd() * (1.0 - v) * 0.6);
+        p[i].value = v;
+        for (int c = 0; c < 3; c++) p[i].albedo[c] = (float)rnd();
+        p[i].opacity = (float)(rnd() < 0.2 ? 0 : rnd());
+    }
+    CHECK(picvr_set_transfer_function(ctx, p, n, (float)pow(10.0, rnd() * 3 - 1)));
+}
+
+static void random_lights(picvr_context *ctx) {
+    picvr_light l[4];
+    memset(l, 0, sizeof l);
+    uint32_t n = (uint32_t)(rnd() * 5);
+    for (uint32_t i = 0; i < n; i++) {
+        l[i].type = (picvr_light_type)(1 + (int)(rnd() * 4));
+        for (int c = 0; c < 3; c++) {
+            l[i].color[c] = (float)rnd();
+            l[i].position[c] = (float)(rnd() * 160 - 80);
+            l[i].direction[c] = (float)(rnd() * 2 - 1);
+        }
+        l[i].direction[2] += 1.5f; /* never zero */
+        l[i].intensity = (float)(rnd() * 20);
+        l[i].radius = (float)(1 + rnd() * 10);
+        l[i].angular_diameter = (float)(rnd() < 0.3 ? 0 : rnd() * 0.5);
+        l[i].edge_u[0] = (float)(2 + rnd() * 10);
+        l[i].edge_v[1] = (float)(2 + rnd() * 10);
+    }
+    picvr_background bg = {{(float)rnd(), (float)rnd(), (float)rnd()}, (float)rnd()};
+    CHECK(picvr_set_lights(ctx, l, n, rnd() < 0.3 ? NULL : &bg));
+}
+
+static const uint32_t SIZES[3][2] = {{64, 64}, {96, 48}, {128, 128}};
+
+static void set_camera(picvr_context *ctx, int size) {
+    picvr_camera c;
+    memset(&c, 0, sizeof c);
+    double th = rnd() * 2 * M_PI, ph = (rnd() - 0.5) * 3.0, r = 50 + rnd() * 100;
+    c.position[0] = (float)(r * cos(ph) * cos(th));
+    c.position[1] = (float)(r * sin(ph));
+    c.position[2] = (float)(r * cos(ph) * sin(th));
+    c.target[0] = (float)(rnd() * 20 - 10);
+    c.fov_y_degrees = (float)(20 + rnd() * 70);
+    c.width = SIZES[size][0];
+    c.height = SIZES[size][1];
+    CHECK(picvr_set_camera(ctx, &c));
+}
+
+typedef struct { long long rss, host; unsigned long long dev; } sample;
+
+static sample measure(void) {
+    sample s;
+    s.rss = rss_bytes();
+    s.host = g_host_live;
+    pthread_mutex_lock(&g_lock);
+    s.dev = g_dev_live;
+    pthread_mutex_unlock(&g_lock);
+    return s;
+}
+
+int main(int argc, char **argv) {
+    double seconds = argc > 1 ? atof(argv[1]) : 120.0;
+    if (!(seconds > 0)) seconds = 120.0;
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.allocator.alloc = h_alloc;
+    cfg.allocator.realloc = h_realloc;
+    cfg.allocator.free = h_free;
+    const char *mode = argc > 2 ? argv[2] : "none";
+    cfg.cache.mode = strcmp(mode, "object") == 0 ? PICVR_CACHE_OBJECT_SPACE
+                   : strcmp(mode, "screen") == 0 ? PICVR_CACHE_SCREEN_SPACE : PICVR_CACHE_NONE;
+    double t_start = now_s();
+    sample boot = measure();
+    picvr_context *ctx;
+    CHECK(picvr_create(&cfg, &ctx));
+
+    uint8_t *va = make_volume(64, 64, 64), *vb = make_volume(48, 64, 32);
+    float *img = malloc(128 * 128 * 16);
+    uint8_t *img8 = malloc(128 * 128 * 4);
+    if (!img || !img8) return 2;
+
+    /* The reference configuration, restored before each measurement. */
+    const picvr_tf_point ref_tf[2] = {{0.1f, {0.9f, 0.8f, 0.7f}, 0.0f}, {0.6f, {0.9f, 0.8f, 0.7f}, 1.0f}};
+    picvr_light ref_light;
+    memset(&ref_light, 0, sizeof ref_light);
+    ref_light.type = PICVR_LIGHT_SPHERE;
+    ref_light.position[0] = 80; ref_light.position[1] = 60; ref_light.position[2] = 80;
+    ref_light.radius = 10;
+    ref_light.color[0] = ref_light.color[1] = ref_light.color[2] = 1;
+    ref_light.intensity = 5;
+    const picvr_background ref_bg = {{0.4f, 0.5f, 0.7f}, 0.3f};
+    picvr_camera ref_cam;
+    memset(&ref_cam, 0, sizeof ref_cam);
+    ref_cam.position[2] = 120;
+    ref_cam.width = 128; ref_cam.height = 128;
+
+    unsigned long steps = 0, changes = 0, reads = 0, uploads = 0, iters = 0;
+    int cur_vol = 0, size = 0;
+    upload(ctx, va, 64, 64, 64);
+    CHECK(picvr_set_camera(ctx, &ref_cam));
+    double warm = seconds < 80 ? 0.25 * seconds : 20.0;
+    sample base = {0, 0, 0};
+    int have_base = 0;
+    double next_report = 0, t0 = now_s();
+    for (;;) {
+        double t = now_s() - t0;
+        int finishing = t >= seconds;
+        if ((!have_base && t >= warm) || finishing) {
+            /* the reference configuration: the same volume, TF, lights and image size */
+            if (cur_vol != 0) { upload(ctx, va, 64, 64, 64); cur_vol = 0; uploads++; }
+            CHECK(picvr_set_transfer_function(ctx, ref_tf, 2, 1.0f));
+            CHECK(picvr_set_lights(ctx, &ref_light, 1, &ref_bg));
+            CHECK(picvr_set_camera(ctx, &ref_cam));
+            CHECK(picvr_step_iterations(ctx, 2));
+            CHECK(picvr_read_rgba32f(ctx, img, 128 * 128 * 16));
+            sample s = measure();
+            if (!have_base) {
+                base = s;
+                have_base = 1;
+                printf("soak: after %.0f s warm-up: RSS %.1f MiB, device memory %.2f MiB, picvr host heap %.1f KiB\n",
+                       t, s.rss / 1048576.0, s.dev / 1048576.0, s.host / 1024.0);
+            }
+            if (finishing) break;
+        }
+        double a = rnd();
+        if (a < 0.35) { set_camera(ctx, (size = (rnd() < 0.2 ? (int)(rnd() * 3) : size))); changes++; }
+        else if (a < 0.5) { random_tf(ctx); changes++; }
+        else if (a < 0.65) { random_lights(ctx); changes++; }
+        else if (a < 0.67) {
+            cur_vol ^= 1;
+            if (cur_vol) upload(ctx, vb, 48, 64, 32); else upload(ctx, va, 64, 64, 64);
+            uploads++;
+        } else if (a < 0.69) { CHECK(picvr_reset(ctx)); }
+        CHECK(picvr_step(ctx, 20 + rnd() * 60));
+        steps++;
+        picvr_stats st;
+        CHECK(picvr_get_stats(ctx, &st));
+        iters += st.iterations;
+        if (!isfinite(st.mean_luminance) || !isfinite(st.est_error) || !isfinite(st.est_rel_error) ||
+            !isfinite(st.samples_per_second)) {
+            fprintf(stderr, "soak: non-finite stats after %lu steps\n", steps);
+            return 1;
+        }
+        if (rnd() < 0.5) {
+            size_t n = (size_t)st.width * st.height;
+            if (rnd() < 0.5) {
+                CHECK(picvr_read_rgba32f(ctx, img, 128 * 128 * 16));
+                for (size_t i = 0; i < 4 * n; i++)
+                    if (!isfinite(img[i]) || img[i] < 0) {
+                        fprintf(stderr, "soak: pixel value %g after %lu steps\n", (double)img[i], steps);
+                        return 1;
+                    }
+            } else {
+                CHECK(picvr_read_rgba8(ctx, img8, 128 * 128 * 4, (float)(0.5 + rnd())));
+            }
+            reads++;
+        }
+        if (t >= next_report) {
+            sample s = measure();
+            printf("soak: t %5.0f s  steps %6lu  RSS %7.1f MiB  device %7.2f MiB  picvr heap %8.1f KiB\n", t, steps,
+                   s.rss / 1048576.0, s.dev / 1048576.0, s.host / 1024.0);
+            fflush(stdout);
+            next_report += 10;
+        }
+    }
+    sample end = measure();
+    double total = now_s() - t0;
+    picvr_destroy(ctx);
+    sample after = measure();
+    free(va); free(vb); free(img); free(img8);
+
+    printf("soak: %.0f s, %lu steps, %lu scene changes, %lu volume uploads, %lu image reads, %lu iterations counted\n",
+           total, steps, changes, uploads, reads, iters);
+    printf("soak: RSS          %.1f MiB -> %.1f MiB (%+.1f MiB; tolerance +16 MiB)\n", base.rss / 1048576.0,
+           end.rss / 1048576.0, (end.rss - base.rss) / 1048576.0);
+    printf("soak: device memory %.3f MiB -> %.3f MiB (%+lld bytes; tolerance 0), %llu allocations, %llu frees\n",
+           base.dev / 1048576.0, end.dev / 1048576.0, (long long)end.dev - (long long)base.dev, g_dev_allocs, g_dev_frees);
+    printf("soak: picvr heap   %lld -> %lld bytes (tolerance 0)\n", base.host, end.host);
+    printf("soak: after destroy: device memory %llu bytes, picvr heap %lld bytes (both must be 0); "
+           "RSS %.1f MiB (%.1f MiB before create)\n", after.dev, after.host, after.rss / 1048576.0, boot.rss / 1048576.0);
+    (void)t_start;
+    int ok = end.rss - base.rss <= 16ll << 20 && end.dev == base.dev && end.host == base.host &&
+             after.dev == 0 && after.host == 0 && steps > 0;
+    printf("soak: %s\n", ok ? "PASS (flat)" : "FAIL");
+    return ok ? 0 : 1;
+}

@@ -1,0 +1,850 @@
+/* test_robust_sweep.c - issue 6: stiff and extreme input across the whole pipeline.
+ *
+ * Every case renders, reads the image back with picvr_read_rgba32f and asserts:
+ *   - every float finite, radiance >= 0, alpha in [0, 1];
+ *   - every floating stat finite (tu_stats_finite), iterations as requested;
+ *   - bounded time: the case (render + read + stats) ends within CASE_MAX_S seconds
+ *     (a generous bound for a 2-core machine shared with other jobs; a runaway tracking
+ *     loop on lavapipe takes minutes);
+ *   - agreement with a closed form computed here in double precision, where one exists
+ *     (most cases; the ones without are marked "finite only").
+ * Statistics: tu_check_mean (test_util.h): |measured - expected| <= 5 SE + sys_rel *
+ * |expected|, SE from the Bhatia-Davis bound of samples in [0, M] (or the empirical
+ * block spread).  sys_rel is stated per case: 1e-4 covers the quadratures and float32
+ * ray set-up in ordinary media; larger values are explained where they appear.
+ *
+ * Closed forms used (CONVENTIONS of picvr.h; single scattering, isotropic phase):
+ *   Beer-Lambert (albedo 0, background 1): a sample is 1 with probability
+ *     T = exp(-optical depth) and 0 otherwise (alpha is the complement), M = 1.
+ *   Sun over a homogeneous box (tu_sun_ray): L = albedo E int sigma e^{-sigma (t-t0)}
+ *     e^{-sigma s(t)} dt / (4 pi), samples in [0, albedo E / (4 pi)].
+ *   Optically thick half-space seen through face n (outward), view cosine mu_v =
+ *     -d.n, sun cosine mu_s = l.n: L = albedo E / (4 pi) mu_s / (mu_s + mu_v)
+ *     (integrate sigma e^{-sigma t (1 + mu_v / mu_s)} dt); exact for sigma -> inf away
+ *     from the face's edges (band ~ 1/sigma).
+ */
+#include "test_util.h"
+
+#include <float.h>
+#include <time.h>
+
+#define CASE_MAX_S 60.0
+
+static double now_s(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* Renders n iterations, reads, checks finiteness/ranges/stats/time; returns the image. */
+static float *sweep_render(picvr_context *ctx, uint32_t w, uint32_t h, uint32_t n,
+                           const char *what) {
+    double t0 = now_s();
+    TU_OK(picvr_step_iterations(ctx, n));
+    float *img = tu_read(ctx, w, h);
+    picvr_stats st = tu_stats_finite(ctx);
+    double dt = now_s() - t0;
+    tu_assert_finite(img, (size_t)w * h * 4, what);
+    for (size_t p = 0; p < (size_t)w * h; p++) {
+        for (int c = 0; c < 3; c++)
+            if (img[4 * p + c] < 0)
+                fail_msg("%s: pixel %zu channel %d negative (%g)", what, p, c, (double)img[4 * p + c]);
+        if (img[4 * p + 3] < 0 || img[4 * p + 3] > 1)
+            fail_msg("%s: pixel %zu alpha %g outside [0,1]", what, p, (double)img[4 * p + 3]);
+    }
+    if (st.iterations != n) fail_msg("%s: %u iterations, expected %u", what, st.iterations, n);
+    if (st.width != w || st.height != h) fail_msg("%s: stats size %ux%u", what, st.width, st.height);
+    if (dt > CASE_MAX_S) fail_msg("%s: took %.1f s (bound %.0f s)", what, dt, CASE_MAX_S);
+    print_message("    %-52s %6.2f s  mean L %-10.4g trunc %llu%s\n", what, dt, st.mean_luminance,
+                  (unsigned long long)st.truncated_paths,
+                  st.cache_entries ? " (cache)" : "");
+    return img;
+}
+
+/* Checks RGB (bound M[c]) and alpha (bound 1) image means against expv. */
+static int check_all(const char *what, const float *img, const double *expv, uint32_t w, uint32_t h,
+                     uint32_t n, const double M[3], double sys_rel) {
+    int ok = 1;
+    char label[160];
+    const char *cn[4] = {"R", "G", "B", "alpha"};
+    for (int c = 0; c < 4; c++) {
+        snprintf(label, sizeof label, "%s: %s", what, cn[c]);
+        ok &= tu_check_mean(label, img, expv, w, c, 0, 0, w, h, n, c < 3 ? M[c] : 1.0, 5.0, sys_rel);
+    }
+    return ok;
+}
+
+static picvr_context *create_cache(uint32_t seed, picvr_cache_mode mode) {
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = seed;
+    cfg.cache.mode = mode;
+    return tu_create_config(&cfg);
+}
+
+static const char *mode_name(picvr_cache_mode m) {
+    return m == PICVR_CACHE_OBJECT_SPACE ? "cache object" : m == PICVR_CACHE_SCREEN_SPACE ? "cache screen" : "no cache";
+}
+
+/* ---- closed forms ------------------------------------------------------------------------ */
+
+typedef struct homog {
+    double bmin[3], bmax[3], sigma;
+} homog;
+
+/* Beer-Lambert through a homogeneous box (background 1, albedo 0). */
+static void homog_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    const homog *h = user;
+    double t0, t1, T = 1;
+    if (tu_ray_box(o, d, h->bmin, h->bmax, &t0, &t1)) T = exp(-h->sigma * (t1 - t0));
+    out[0] = out[1] = out[2] = T;
+    out[3] = 1 - T;
+}
+
+/* Optically thick half-space (see the top): the face the ray enters through. */
+typedef struct thick {
+    double bmin[3], bmax[3], l[3], albedo, E;
+} thick;
+
+static void thick_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    const thick *s = user;
+    double t0, t1;
+    out[0] = out[1] = out[2] = out[3] = 0;
+    if (!tu_ray_box(o, d, s->bmin, s->bmax, &t0, &t1)) return;
+    int axis = 0;
+    double best = -INFINITY;
+    for (int a = 0; a < 3; a++) {
+        if (d[a] == 0) continue;
+        double tn = ((d[a] > 0 ? s->bmin[a] : s->bmax[a]) - o[a]) / d[a];
+        if (tn > best) { best = tn; axis = a; }
+    }
+    double mu_v = fabs(d[axis]), mu_s = (d[axis] > 0 ? -1 : 1) * s->l[axis];
+    double L = mu_s > 0 ? s->albedo * s->E / (4 * M_PI) * mu_s / (mu_s + mu_v) : 0;
+    out[0] = out[1] = out[2] = L;
+    out[3] = 1;
+}
+
+static void unit(double v[3]) {
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    v[0] /= l; v[1] /= l; v[2] /= l;
+}
+
+/* A homogeneous n^3 cube of sigma_t = D (opacity 1 everywhere), albedo a, a delta sun
+   toward l with irradiance E, black background.  Fills the closed-form scene. */
+static void sun_cube(picvr_context *ctx, uint32_t n, float D, float a, const double l_in[3],
+                     float E, float angular, tu_sun_scene *s) {
+    tu_vol vol = tu_vol_new(n, n, n, 1.0f, 255);
+    tu_upload(ctx, &vol);
+    memset(s, 0, sizeof *s);
+    tu_vol_box(&vol, s->bmin, s->bmax);
+    tu_vol_free(&vol);
+    s->sigma = D;
+    tu_tf_const(ctx, a, a, a, 1.0f, D);
+    double l[3] = {l_in[0], l_in[1], l_in[2]};
+    unit(l);
+    memcpy(s->l, l, sizeof l);
+    for (int c = 0; c < 3; c++) { s->albedo[c] = a; s->E[c] = E; }
+    picvr_light sun;
+    memset(&sun, 0, sizeof sun);
+    sun.type = PICVR_LIGHT_DIRECTIONAL;
+    for (int i = 0; i < 3; i++) sun.direction[i] = (float)l_in[i];
+    sun.angular_diameter = angular;
+    sun.color[0] = sun.color[1] = sun.color[2] = 1;
+    sun.intensity = E;
+    TU_OK(picvr_set_lights(ctx, &sun, 1, NULL));
+}
+
+/* ---- optical thickness ------------------------------------------------------------------- */
+
+/* Beer-Lambert through an 8^3 cube with optical thickness tau per voxel from 1e-6 to 1e5
+   (T along the axis from 1 - 8e-6 down to e^-800000 = 0).  Camera at z 14, fov 30: every
+   ray enters the +z face.  sys_rel 1e-4 (quadrature, float32 D); at tau >= 10 T is 0 to
+   double precision except for the grazing corner rays, and the check is then |mean| <=
+   5 SE of a mean that is 0. */
+void test_sweep_optical_thickness_beer_lambert(void **state) {
+    (void)state;
+    picvr_context *ctx = tu_create(61);
+    tu_vol vol = tu_vol_new(8, 8, 8, 1.0f, 255);
+    tu_upload(ctx, &vol);
+    homog hm;
+    tu_vol_box(&vol, hm.bmin, hm.bmax);
+    tu_background_only(ctx, 1, 1, 1, 1);
+    const uint32_t W = 24, H = 24, N = 64;
+    tu_cam cam = tu_set_camera(ctx, 0.5, 0.3, 14, 0, 0, 0, 30, W, H);
+    const float tau[] = {1e-6f, 1e-4f, 1e-2f, 1.0f, 10.0f, 1e3f, 1e5f};
+    int ok = 1;
+    for (size_t i = 0; i < sizeof tau / sizeof tau[0]; i++) {
+        tu_tf_const(ctx, 0, 0, 0, 1.0f, tau[i]);
+        hm.sigma = tau[i];
+        char what[96];
+        snprintf(what, sizeof what, "beer-lambert tau/voxel %g", (double)tau[i]);
+        float *img = sweep_render(ctx, W, H, N, what);
+        double *expv = tu_expected_image(&cam, 4, homog_ray, &hm);
+        const double M[3] = {1, 1, 1};
+        ok &= check_all(what, img, expv, W, H, N, M, 1e-4);
+        free(expv);
+        free(img);
+    }
+    tu_vol_free(&vol);
+    if (!ok) fail_msg("a transmittance differs from exp(-optical depth) (listed above)");
+    tu_finish(ctx);
+}
+
+/* Single scattering under a delta sun from optically thin to optically thick, with the
+   cache off and on.  tau <= 10 per voxel: tu_sun_ray (64-piece Gauss-Legendre, exact to
+   1e-8 here).  tau >= 1e3: the thick half-space form (every ray enters the +z face, at
+   least 1.3 voxels from its edges, i.e. > 1e3 mean free paths).  tau 1e-6: the image is
+   ~1e-6 of the thick one: the medium is almost invisible.
+   Tolerances: sys_rel 1e-4 for tau <= 10; 2 % for tau >= 1e3, where the mean free path
+   (1e-3..1e-5 voxels) approaches the float32 resolution of positions near the face
+   (ulp(4) = 4.8e-7): the depth of a scatter point and its shadow-ray length carry a
+   relative rounding error up to ~5 % at tau 1e5, which averages out to well below 2 %
+   for a smooth exponential.  With the cache on: 3 % (test_cache measured <= 0.7 % bias
+   for this scene at tau 0.15; Eq. 10's epsilon = 0.1 bounds one entry's extrapolation
+   error, and the update procedure shrinks disagreeing entries). */
+static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t ntau, uint32_t N) {
+    picvr_context *ctx = mode == PICVR_CACHE_NONE ? tu_create(62) : create_cache(62, mode);
+    const uint32_t W = 24, H = 24;
+    const double l[3] = {0.3, 0.5, 1.0};
+    const float albedo = 0.9f, E = 4.0f;
+    int ok = 1;
+    for (size_t i = 0; i < ntau; i++) {
+        tu_sun_scene s;
+        sun_cube(ctx, 8, tau[i], albedo, l, E, 0.0f, &s);
+        tu_cam cam = tu_set_camera(ctx, 0.4, -0.2, 14, 0, 0, 0, 30, W, H);
+        char what[96];
+        snprintf(what, sizeof what, "sun, tau/voxel %g, %s", (double)tau[i], mode_name(mode));
+        float *img = sweep_render(ctx, W, H, N, what);
+        double *expv;
+        double sys;
+        if (tau[i] <= 10) {
+            expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+            sys = 1e-4;
+        } else {
+            thick th;
+            memcpy(th.bmin, s.bmin, sizeof th.bmin);
+            memcpy(th.bmax, s.bmax, sizeof th.bmax);
+            memcpy(th.l, s.l, sizeof th.l);
+            th.albedo = albedo;
+            th.E = E;
+            expv = tu_expected_image(&cam, 2, thick_ray, &th);
+            sys = 0.02;
+        }
+        if (mode != PICVR_CACHE_NONE) sys = 0.03;
+        double Mc = albedo * E / (4 * M_PI);
+        const double M[3] = {Mc, Mc, Mc};
+        if (mode != PICVR_CACHE_NONE && tau[i] > 1) {
+            /* Known limitation of the cache (reported, issue 3/6): where the irradiance
+               falls by e^-20 and more within the offset Delta = 2 voxels of Eq. 6, the
+               extrapolation is biased (measured 2026-11-22: -45 % at tau 10/voxel, -34 %
+               at 100, +8 % at 1e3, +76 % at 1e4; at 1e4 a single entry with a wide
+               validity zone serves 98 % of the scatter events).  Asserted here: finite (above) and the
+               physical bound of single scattering under one sun, mean <= albedo E/(4 pi);
+               the bias against the closed form is printed. */
+            double m = tu_region_mean(img, W, 1, 0, 0, W, H);
+            double e = 0;
+            for (size_t p = 0; p < (size_t)W * H; p++) e += expv[4 * p + 1];
+            e /= (double)W * H;
+            print_message("    %s: mean %.4g, closed form %.4g (bias %+.1f %%), bound %.4g\n", what, m, e,
+                          100 * (m / e - 1), Mc);
+            if (!(m <= Mc)) fail_msg("%s: mean %g above albedo E / (4 pi) = %g", what, m, Mc);
+        } else {
+            ok &= check_all(what, img, expv, W, H, N, M, sys);
+        }
+        free(expv);
+        free(img);
+        if (mode != PICVR_CACHE_NONE) {
+            /* the cache was used (entries exist where the medium scatters), and its debug
+               view (entry centres, hit/miss fractions) is finite too */
+            picvr_stats st = tu_stats_finite(ctx);
+            if (tau[i] >= 0.5 && st.cache_entries == 0) fail_msg("%s: the cache made no entries", what);
+            TU_OK(picvr_set_view(ctx, PICVR_VIEW_CACHE));
+            TU_OK(picvr_step_iterations(ctx, 2));
+            float *dbg = tu_read(ctx, W, H);
+            tu_assert_finite(dbg, (size_t)W * H * 4, "cache debug view");
+            free(dbg);
+            TU_OK(picvr_set_view(ctx, PICVR_VIEW_IMAGE));
+            print_message("    %s: %u entries, hit rate %.2f, debug view finite\n", what, st.cache_entries,
+                          st.cache_hit_rate);
+        }
+    }
+    if (!ok) fail_msg("%s: single scattering differs from the closed form (listed above)", mode_name(mode));
+    tu_finish(ctx);
+}
+
+void test_sweep_optical_thickness_sun(void **state) {
+    (void)state;
+    const float tau[] = {1e-6f, 1e-2f, 1.0f, 10.0f, 1e3f, 1e4f, 1e5f};
+    sun_thickness_sweep(PICVR_CACHE_NONE, tau, sizeof tau / sizeof tau[0], 64);
+}
+
+void test_sweep_optical_thickness_sun_cache(void **state) {
+    (void)state;
+    const float tau[] = {1e-6f, 0.5f, 10.0f, 1e4f};
+    sun_thickness_sweep(PICVR_CACHE_OBJECT_SPACE, tau, 4, 48);
+    sun_thickness_sweep(PICVR_CACHE_SCREEN_SPACE, tau, 4, 48);
+}
+
+/* ---- transfer functions ------------------------------------------------------------------ */
+
+/* A hard surface: an x ramp volume (voxel value 8 i of 255, i = 0..31) and a TF that steps
+   from opacity 0 to 1 between two adjacent control points at the same value v0 = 100/255
+   (albedo 0, background 1).  sigma_t = D where the trilinear value >= v0, i.e. for voxel
+   coordinate p_x >= p* = 0.5 + v0 * 255 / 8 = 13 (the ramp is linear between the
+   centres), else 0.  Closed form: T = exp(-D * length of the ray inside the part of the
+   box with x >= x*).  The expected image uses 16 x 16 jitter sub-samples per pixel (the
+   step crosses pixels: the midpoint rule is off by <= 1/32 pixel column per row).
+   Known, measured offsets of the surface (moving it toward smaller x):
+   - the TF is tabulated in 4096 entries with linear interpolation: the step is smeared
+     over 1/4095 in value = 0.008 voxels here;
+   - uint8 volumes are filtered by lavapipe with 8-bit results (the filtered value is
+     rounded to a multiple of 1/255): the surface moves by up to half a data unit over
+     the slope (8 per voxel) = 1/16 voxel.  Measured with a 512-pixel scan across the
+     step: -0.0645 voxels for uint8, -0.0078 for uint16 (this test's uint16 copy of the
+     ramp, 8 i * 257, is exact in 16 bits).
+   In the image (0.63 world units per pixel at the surface, 48 columns) a shift s of the
+   surface changes the mean transmittance by about s / 0.63 / 48 times the contrast:
+   sys_rel 0.3 % for uint16 (s 0.008 plus the quadrature), 1.5 % for uint8 (s 0.07).
+   D = 1 and D = 1e3 (the dense side is a solid black block, 8 voxels = 8000 mean free
+   paths deep). */
+typedef struct step_scene {
+    double bmin[3], bmax[3], xs, D;
+} step_scene;
+
+static void step_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    const step_scene *s = user;
+    double lo[3] = {s->xs, s->bmin[1], s->bmin[2]}, t0, t1, T = 1;
+    if (tu_ray_box(o, d, lo, s->bmax, &t0, &t1)) T = exp(-s->D * (t1 - t0));
+    out[0] = out[1] = out[2] = T;
+    out[3] = 1 - T;
+}
+
+void test_sweep_transfer_function_step_zero_and_max(void **state) {
+    (void)state;
+    picvr_context *ctx = tu_create(63);
+    tu_vol vol = tu_vol_new(32, 8, 8, 1.0f, 0);
+    static uint16_t u16[32 * 8 * 8];
+    for (uint32_t z = 0; z < 8; z++)
+        for (uint32_t y = 0; y < 8; y++)
+            for (uint32_t x = 0; x < 32; x++) {
+                *tu_vox(&vol, x, y, z) = (uint8_t)(8 * x);
+                u16[x + 32 * (y + 8 * z)] = (uint16_t)(8 * x * 257);
+            }
+    tu_background_only(ctx, 1, 1, 1, 1);
+    const uint32_t W = 48, H = 16, N = 64;
+    step_scene s;
+    tu_vol_box(&vol, s.bmin, s.bmax);
+    const double v0 = 100.0 / 255.0; /* between voxels 12 and 13: p* = 13 */
+    s.xs = s.bmin[0] + 0.5 + v0 * 255.0 / 8.0;
+    const float Ds[2] = {1.0f, 1e3f};
+    int ok = 1;
+    const double M[3] = {1, 1, 1};
+    for (int type = 0; type < 2; type++) {
+        if (type == 0) {
+            picvr_volume_desc d;
+            memset(&d, 0, sizeof d);
+            d.dims[0] = 32; d.dims[1] = 8; d.dims[2] = 8;
+            d.type = PICVR_VOXEL_UINT16;
+            d.data = u16;
+            TU_OK(picvr_upload_volume(ctx, &d));
+        } else {
+            tu_upload(ctx, &vol);
+        }
+        tu_cam cam = tu_set_camera(ctx, 0, 0, 40, 0, 0, 0, 16, W, H);
+        for (int k = 0; k < 2; k++) {
+            picvr_tf_point tf[2] = {{(float)v0, {0, 0, 0}, 0.0f}, {(float)v0, {0, 0, 0}, 1.0f}};
+            TU_OK(picvr_set_transfer_function(ctx, tf, 2, Ds[k]));
+            s.D = Ds[k];
+            char what[96];
+            snprintf(what, sizeof what, "TF step 0 -> 1 at one value, %s, D %g", type ? "uint8" : "uint16",
+                     (double)Ds[k]);
+            float *img = sweep_render(ctx, W, H, N, what);
+            double *expv = tu_expected_image(&cam, 16, step_ray, &s);
+            ok &= check_all(what, img, expv, W, H, N, M, type ? 0.015 : 0.003);
+            /* the left third (x < x*) must be exactly the background: sigma_t = 0 there */
+            for (uint32_t y = 0; y < H; y++)
+                for (uint32_t x = 0; x < W / 3; x++)
+                    if (img[4 * (y * W + x)] != 1.0f || img[4 * (y * W + x) + 3] != 0.0f)
+                        fail_msg("%s: pixel (%u,%u) = %g alpha %g in front of the transparent side", what, x,
+                                 y, (double)img[4 * (y * W + x)], (double)img[4 * (y * W + x) + 3]);
+            free(expv);
+            free(img);
+        }
+    }
+    tu_cam cam = tu_set_camera(ctx, 0, 0, 40, 0, 0, 0, 16, W, H);
+
+    /* All-zero TF (opacity 0 at every value, any D): exactly the background. */
+    picvr_tf_point zero[2] = {{0.0f, {1, 1, 1}, 0.0f}, {1.0f, {1, 1, 1}, 0.0f}};
+    TU_OK(picvr_set_transfer_function(ctx, zero, 2, 1e5f));
+    tu_sun(ctx, 1, 1, 1, 1, 1, 1, 1e3f, 0.7f);
+    float *img = sweep_render(ctx, W, H, 8, "all-zero TF, D 1e5, sun + background 0.7");
+    for (size_t p = 0; p < (size_t)W * H; p++)
+        if (img[4 * p] != 0.7f || img[4 * p + 1] != 0.7f || img[4 * p + 2] != 0.7f || img[4 * p + 3] != 0)
+            fail_msg("all-zero TF: pixel %zu = (%g %g %g %g), expected exactly the background", p,
+                     (double)img[4 * p], (double)img[4 * p + 1], (double)img[4 * p + 2], (double)img[4 * p + 3]);
+    free(img);
+
+    /* All-max TF (opacity 1 at every value, value-independent): a homogeneous block even
+       where the data is 0: Beer-Lambert through the whole box. */
+    picvr_tf_point full[1] = {{0.5f, {0, 0, 0}, 1.0f}};
+    TU_OK(picvr_set_transfer_function(ctx, full, 1, 0.05f));
+    tu_background_only(ctx, 1, 1, 1, 1);
+    homog hm;
+    memcpy(hm.bmin, s.bmin, sizeof hm.bmin);
+    memcpy(hm.bmax, s.bmax, sizeof hm.bmax);
+    hm.sigma = (double)0.05f;
+    img = sweep_render(ctx, W, H, N, "all-max TF (one point, opacity 1), D 0.05");
+    double *expv = tu_expected_image(&cam, 4, homog_ray, &hm);
+    ok &= check_all("all-max TF", img, expv, W, H, N, M, 1e-4);
+    free(expv);
+    free(img);
+    tu_vol_free(&vol);
+    if (!ok) fail_msg("a TF case differs from its closed form (listed above)");
+    tu_finish(ctx);
+}
+
+/* ---- lights ----------------------------------------------------------------------------- */
+
+/* Sun intensities 1e-8 .. 1e8 on a tau = 0.15/voxel cube: the closed form scales
+   linearly; sys_rel 1e-4 (quadrature; float32 keeps 1e8 * albedo / 4 pi exactly
+   enough).  With the cache (object space) at 1e-8 and 1e8: 3 % as above. */
+void test_sweep_light_intensity(void **state) {
+    (void)state;
+    const float I[] = {1e-8f, 1e-4f, 1.0f, 1e4f, 1e8f};
+    for (int pass = 0; pass < 2; pass++) {
+        picvr_cache_mode mode = pass ? PICVR_CACHE_OBJECT_SPACE : PICVR_CACHE_NONE;
+        picvr_context *ctx = pass ? create_cache(64, mode) : tu_create(64);
+        int ok = 1;
+        for (size_t i = 0; i < sizeof I / sizeof I[0]; i++) {
+            if (pass && i != 0 && i != 4) continue;
+            tu_sun_scene s;
+            const double l[3] = {0.6, 0.45, 0.66};
+            sun_cube(ctx, 8, 0.15f, 0.8f, l, I[i], 0.0f, &s);
+            const uint32_t W = 16, H = 16, N = 64;
+            tu_cam cam = tu_set_camera(ctx, 0, 0, 14, 0, 0, 0, 30, W, H);
+            char what[96];
+            snprintf(what, sizeof what, "sun intensity %g, %s", (double)I[i], mode_name(mode));
+            float *img = sweep_render(ctx, W, H, N, what);
+            double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+            double Mc = 0.8 * (double)I[i] / (4 * M_PI);
+            const double M[3] = {Mc, Mc, Mc};
+            ok &= check_all(what, img, expv, W, H, N, M, pass ? 0.03 : 1e-4);
+            free(expv);
+            free(img);
+        }
+        if (!ok) fail_msg("%s: a light intensity differs from the closed form", mode_name(mode));
+        tu_finish(ctx);
+    }
+}
+
+/* A point light inside a homogeneous medium, exactly on a voxel centre (voxel (4,4,4)
+   of an 8^3 cube: world (0.5, 0.5, 0.5)).  Closed form:
+     L = int sigma e^{-sigma (t - t0)} albedo I e^{-sigma r} / (4 pi r^2) dt,
+   r = |x - c| (the shadow segment is inside the box), 8-point Gauss-Legendre on 256
+   pieces split at the closest approach.  A sample is albedo I T / (4 pi r^2) at the
+   scatter point: unbounded near the light, so the check is on the left quarter of the
+   image, whose rays pass at least b_min from the light (computed from the pixel-corner
+   rays, so M = albedo I / (4 pi b_min^2)); the whole image is checked finite only.
+   sys_rel 1e-3 (the quadrature of the 1/r^2 peak). */
+typedef struct inside_pt {
+    double bmin[3], bmax[3], sigma, c[3], I, albedo;
+    double o[3], d[3], t0;
+} inside_pt;
+
+static double inside_integrand(double t, void *user) {
+    const inside_pt *s = user;
+    double x[3] = {s->o[0] + t * s->d[0], s->o[1] + t * s->d[1], s->o[2] + t * s->d[2]};
+    double r2 = 0;
+    for (int i = 0; i < 3; i++) r2 += (x[i] - s->c[i]) * (x[i] - s->c[i]);
+    return s->sigma * exp(-s->sigma * (t - s->t0)) * s->albedo * s->I * exp(-s->sigma * sqrt(r2)) /
+           (4 * M_PI * r2);
+}
+
+static void inside_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    inside_pt s = *(const inside_pt *)user;
+    double t0, t1;
+    out[0] = out[1] = out[2] = out[3] = 0;
+    if (!tu_ray_box(o, d, s.bmin, s.bmax, &t0, &t1)) return;
+    memcpy(s.o, o, sizeof s.o);
+    memcpy(s.d, d, sizeof s.d);
+    s.t0 = t0;
+    double tc = 0;
+    for (int i = 0; i < 3; i++) tc += (s.c[i] - o[i]) * d[i];
+    if (tc < t0) tc = t0;
+    if (tc > t1) tc = t1;
+    double L = tu_integrate(inside_integrand, &s, t0, tc, 128) + tu_integrate(inside_integrand, &s, tc, t1, 128);
+    out[0] = out[1] = out[2] = L;
+    out[3] = 1 - exp(-s.sigma * (t1 - t0));
+}
+
+static double ray_point_distance(const tu_cam *cam, double sx, double sy, const double c[3]) {
+    double d[3], v[3], t = 0, r2 = 0;
+    tu_cam_dir(cam, sx, sy, d);
+    for (int i = 0; i < 3; i++) { v[i] = c[i] - cam->pos[i]; t += v[i] * d[i]; }
+    for (int i = 0; i < 3; i++) r2 += (v[i] - t * d[i]) * (v[i] - t * d[i]);
+    return sqrt(r2);
+}
+
+void test_sweep_lights_inside_grazing_tiny_sun_none(void **state) {
+    (void)state;
+    picvr_context *ctx = tu_create(65);
+    tu_vol vol = tu_vol_new(8, 8, 8, 1.0f, 255);
+    tu_upload(ctx, &vol);
+    const float D = 0.1f, albedo = 0.9f, I = 50.0f;
+    tu_tf_const(ctx, albedo, albedo, albedo, 1.0f, D);
+    int ok = 1;
+
+    /* point light on the centre of voxel (4,4,4) */
+    inside_pt ip;
+    memset(&ip, 0, sizeof ip);
+    tu_vol_box(&vol, ip.bmin, ip.bmax);
+    ip.sigma = D; ip.I = I; ip.albedo = albedo;
+    ip.c[0] = ip.c[1] = ip.c[2] = ip.bmin[0] + 4.5;
+    picvr_light pt;
+    memset(&pt, 0, sizeof pt);
+    pt.type = PICVR_LIGHT_POINT;
+    for (int i = 0; i < 3; i++) pt.position[i] = (float)ip.c[i];
+    pt.color[0] = pt.color[1] = pt.color[2] = 1;
+    pt.intensity = I;
+    TU_OK(picvr_set_lights(ctx, &pt, 1, NULL));
+    const uint32_t W = 32, H = 32, N = 128;
+    tu_cam cam = tu_set_camera(ctx, 0, 0, 16, 0, 0, 0, 40, W, H);
+    float *img = sweep_render(ctx, W, H, N, "point light on a voxel centre, inside");
+    double *expv = tu_expected_image(&cam, 4, inside_ray, &ip);
+    double bmin_d = INFINITY;
+    for (uint32_t y = 0; y <= H; y++)
+        for (uint32_t x = 0; x <= W / 4; x++) {
+            double b = ray_point_distance(&cam, x, y, ip.c);
+            if (b < bmin_d) bmin_d = b;
+        }
+    double Mp = albedo * I / (4 * M_PI * bmin_d * bmin_d);
+    print_message("    left quarter: rays pass >= %.3f from the light, sample bound %.3g\n", bmin_d, Mp);
+    ok &= tu_check_mean("point light inside: left quarter", img, expv, W, 1, 0, 0, W / 4, H, N, Mp, 5.0, 1e-3);
+    free(expv);
+    free(img);
+
+    /* the camera inside too, next to the light (finite only: the pixel through the light
+       has unbounded variance) */
+    tu_set_camera(ctx, 0.5, 0.5, 2.0, 0.5, 0.5, 0.5, 60, 16, 16);
+    free(sweep_render(ctx, 16, 16, 16, "point light and camera inside (finite only)"));
+    /* a sphere light inside the volume around a voxel centre (finite only) */
+    picvr_light sph = pt;
+    sph.type = PICVR_LIGHT_SPHERE;
+    sph.radius = 0.25f;
+    picvr_background bg = {{0.2f, 0.3f, 0.4f}, 1.0f};
+    TU_OK(picvr_set_lights(ctx, &sph, 1, &bg));
+    tu_set_camera(ctx, 0, 0, 16, 0, 0, 0, 40, 16, 16);
+    free(sweep_render(ctx, 16, 16, 16, "sphere light inside + background (finite only)"));
+
+    /* grazing sun: exactly parallel to the +z face the camera looks at, and 1e-3 rad off
+       it (tu_sun_ray; sys_rel 1e-4) */
+    const double graze[2][3] = {{1, 0, 0}, {1, 0, 1e-3}};
+    for (int g = 0; g < 2; g++) {
+        tu_sun_scene s;
+        sun_cube(ctx, 8, D, albedo, graze[g], 3.0f, 0.0f, &s);
+        tu_cam c2 = tu_set_camera(ctx, 0.3, 0.2, 14, 0, 0, 0, 30, 24, 24);
+        char what[96];
+        snprintf(what, sizeof what, "grazing sun (%g, 0, %g)", graze[g][0], graze[g][2]);
+        img = sweep_render(ctx, 24, 24, 64, what);
+        expv = tu_expected_image(&c2, 4, tu_sun_ray, &s);
+        double Mc = albedo * 3.0 / (4 * M_PI);
+        const double M[3] = {Mc, Mc, Mc};
+        ok &= check_all(what, img, expv, 24, 24, 64, M, 1e-4);
+        free(expv);
+        free(img);
+    }
+
+    /* a sun of zero angular size (a delta light) and of 1e-6 rad (1 - cos is 1.25e-13:
+       below float32 resolution; must behave as the delta sun, which differs by O(theta^2)) */
+    const float ang[2] = {0.0f, 1e-6f};
+    for (int k = 0; k < 2; k++) {
+        tu_sun_scene s;
+        const double l[3] = {0.2, 0.7, 0.5};
+        sun_cube(ctx, 8, D, albedo, l, 3.0f, ang[k], &s);
+        tu_cam c2 = tu_set_camera(ctx, 0, 0, 14, 0, 0, 0, 30, 24, 24);
+        char what[96];
+        snprintf(what, sizeof what, "sun angular diameter %g rad", (double)ang[k]);
+        img = sweep_render(ctx, 24, 24, 64, what);
+        expv = tu_expected_image(&c2, 4, tu_sun_ray, &s);
+        double Mc = albedo * 3.0 / (4 * M_PI);
+        const double M[3] = {Mc, Mc, Mc};
+        ok &= check_all(what, img, expv, 24, 24, 64, M, 1e-4);
+        free(expv);
+        free(img);
+    }
+
+    /* background only, medium transparent: exactly the background; no light at all,
+       dense medium: exactly 0 (also the coverage is then 1 - T, not 0) */
+    picvr_tf_point clear[1] = {{0.0f, {1, 1, 1}, 0.0f}};
+    TU_OK(picvr_set_transfer_function(ctx, clear, 1, 1.0f));
+    tu_background_only(ctx, 0.25f, 0.5f, 1.0f, 2.0f);
+    tu_set_camera(ctx, 0, 0, 14, 0, 0, 0, 30, 16, 16);
+    img = sweep_render(ctx, 16, 16, 8, "background only, transparent medium");
+    for (size_t p = 0; p < 16 * 16; p++)
+        if (img[4 * p] != 0.5f || img[4 * p + 1] != 1.0f || img[4 * p + 2] != 2.0f || img[4 * p + 3] != 0)
+            fail_msg("background only: pixel %zu (%g %g %g %g)", p, (double)img[4 * p], (double)img[4 * p + 1],
+                     (double)img[4 * p + 2], (double)img[4 * p + 3]);
+    free(img);
+    tu_tf_const(ctx, 0.9f, 0.9f, 0.9f, 1.0f, 1e3f);
+    TU_OK(picvr_set_lights(ctx, NULL, 0, NULL));
+    img = sweep_render(ctx, 16, 16, 8, "no light, dense medium");
+    for (size_t p = 0; p < 16 * 16; p++)
+        if (img[4 * p] != 0 || img[4 * p + 1] != 0 || img[4 * p + 2] != 0)
+            fail_msg("no light: pixel %zu not exactly 0", p);
+    free(img);
+    tu_vol_free(&vol);
+    if (!ok) fail_msg("a light case differs from its closed form (listed above)");
+    tu_finish(ctx);
+}
+
+/* No light with the cache on (the irradiance field is exactly zero: the cache's log-space
+   formulas must not produce NaN): the image is exactly 0 in both locking modes. */
+void test_sweep_cache_zero_irradiance(void **state) {
+    (void)state;
+    for (int m = 0; m < 2; m++) {
+        picvr_cache_mode mode = m ? PICVR_CACHE_SCREEN_SPACE : PICVR_CACHE_OBJECT_SPACE;
+        picvr_context *ctx = create_cache(66, mode);
+        tu_vol vol = tu_vol_ball(16);
+        tu_upload(ctx, &vol);
+        tu_tf_ramp(ctx, 0.9f, 0.9f, 0.9f, 2.0f);
+        TU_OK(picvr_set_lights(ctx, NULL, 0, NULL));
+        tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 40, 16, 16);
+        char what[64];
+        snprintf(what, sizeof what, "no light, %s", mode_name(mode));
+        float *img = sweep_render(ctx, 16, 16, 16, what);
+        for (size_t p = 0; p < 16 * 16; p++)
+            if (img[4 * p] != 0 || img[4 * p + 1] != 0 || img[4 * p + 2] != 0)
+                fail_msg("%s: pixel %zu = %g, expected exactly 0", what, p, (double)img[4 * p]);
+        free(img);
+        tu_vol_free(&vol);
+        tu_finish(ctx);
+    }
+}
+
+/* ---- volumes ---------------------------------------------------------------------------- */
+
+/* Homogeneous boxes of extreme shapes and spacings, Beer-Lambert (background 1,
+   albedo 0, opacity 1 at every value): T = exp(-D * chord).  Shapes 1x1x1, 1x64x1,
+   2049x3x3 (the brick size grows so the majorant grid stays <= 64 per axis) and
+   spacing (0.01, 10, 1); the density is chosen so that the optical depth across the
+   view is about 1.  sys_rel 1e-4. */
+void test_sweep_volume_shapes_and_spacing(void **state) {
+    (void)state;
+    picvr_context *ctx = tu_create(67);
+    tu_background_only(ctx, 1, 1, 1, 1);
+    struct {
+        const char *what;
+        uint32_t n[3];
+        float sp[3], D;
+        double cam[3], tgt[3], fov;
+        uint32_t w, h;
+    } cases[] = {
+        {"volume 1x1x1", {1, 1, 1}, {1, 1, 1}, 1.0f, {0.3, 0.2, 3}, {0, 0, 0}, 30, 16, 16},
+        {"volume 1x64x1", {1, 64, 1}, {1, 1, 1}, 1.0f, {0.2, 3, 8}, {0, 0, 0}, 30, 8, 32},
+        /* camera inside at the centre, looking down the long axis: chords up to 1024 voxels
+           (bricks of 64 voxels), T smooth in the direction (the midpoint rule is exact
+           enough) */
+        {"volume 2049x3x3, inside along x", {2049, 3, 3}, {1, 1, 1}, 0.003f, {0, 0.2, 0.1}, {100, 0.2, 0.1}, 0.2, 16, 16},
+        /* seen along x (chord 0.32 through 32 voxels of 0.01): box 0.32 x 320 x 32 */
+        {"spacing (0.01, 10, 1) 32^3", {32, 32, 32}, {0.01f, 10, 1}, 3.0f, {400, 5, 3}, {0, 0, 0}, 50, 8, 64},
+    };
+    int ok = 1;
+    const double M[3] = {1, 1, 1};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        tu_vol vol = tu_vol_new(cases[i].n[0], cases[i].n[1], cases[i].n[2], 1.0f, 255);
+        memcpy(vol.spacing, cases[i].sp, sizeof vol.spacing);
+        tu_upload(ctx, &vol);
+        homog hm;
+        tu_vol_box(&vol, hm.bmin, hm.bmax);
+        tu_vol_free(&vol);
+        hm.sigma = cases[i].D;
+        tu_tf_const(ctx, 0, 0, 0, 1.0f, cases[i].D);
+        tu_cam cam = tu_set_camera(ctx, cases[i].cam[0], cases[i].cam[1], cases[i].cam[2], cases[i].tgt[0],
+                                   cases[i].tgt[1], cases[i].tgt[2], cases[i].fov, cases[i].w, cases[i].h);
+        float *img = sweep_render(ctx, cases[i].w, cases[i].h, 64, cases[i].what);
+        double *expv = tu_expected_image(&cam, 4, homog_ray, &hm);
+        ok &= check_all(cases[i].what, img, expv, cases[i].w, cases[i].h, 64, M, 1e-4);
+        free(expv);
+        free(img);
+    }
+    if (!ok) fail_msg("an extreme volume shape differs from Beer-Lambert (listed above)");
+    tu_finish(ctx);
+}
+
+/* float32 data spanning 1e-30 .. 1e30 and uint16 data using 12 bits, both built so that
+   the normalized value is exactly k / 255 for a uint8 reference volume k (a ball), then
+   Beer-Lambert against tu_absorption_ray (exact trilinear integral).
+   float32: voxel k > 0 holds k / 255 * 1e30, k = 0 holds 1e-30 (and a few 1e-20 and
+   1e-10: all normalize to 0 within 1e-40); value range left 0 (the data's own min..max
+   = 1e-30..1e30), so the shader scale is 1e-30.  uint16: 16 k (0..4080, 12 bits), range
+   0..4080.  sys_rel 1e-4 plus the float32 normalization (relative 1e-7). */
+void test_sweep_float32_huge_range_and_uint16_12bit(void **state) {
+    (void)state;
+    picvr_context *ctx = tu_create(68);
+    tu_vol ref = tu_vol_ball(16);
+    const size_t n = 16 * 16 * 16;
+    float *f = malloc(n * sizeof *f);
+    uint16_t *u = malloc(n * sizeof *u);
+    assert_non_null(f); assert_non_null(u);
+    size_t zeros = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint8_t k = ref.v[i];
+        if (k) f[i] = (float)(k / 255.0 * 1e30);
+        else f[i] = (zeros++ % 3 == 0) ? 1e-30f : (zeros % 3 == 1) ? 1e-20f : 1e-10f;
+        u[i] = (uint16_t)(16 * k);
+    }
+    /* the extremes are present: max 255 -> 1e30 exactly as k/255 * 1e30 */
+    int has_max = 0;
+    for (size_t i = 0; i < n; i++) has_max |= ref.v[i] == 255;
+    assert_true(has_max && zeros > 0);
+    tu_background_only(ctx, 1, 1, 1, 1);
+    tu_tf_ramp(ctx, 0, 0, 0, 0.3f);
+    tu_absorption ab;
+    ab.vol = &ref;
+    tu_vol_box(&ref, ab.bmin, ab.bmax);
+    ab.D = (double)0.3f;
+    const uint32_t W = 24, H = 24, N = 64;
+    tu_cam cam = tu_set_camera(ctx, 1, 2, 30, 0, 0, 0, 40, W, H);
+    double *expv = tu_expected_image(&cam, 4, tu_absorption_ray, &ab);
+    const double M[3] = {1, 1, 1};
+    int ok = 1;
+    for (int k = 0; k < 2; k++) {
+        picvr_volume_desc d;
+        memset(&d, 0, sizeof d);
+        d.dims[0] = d.dims[1] = d.dims[2] = 16;
+        d.type = k ? PICVR_VOXEL_UINT16 : PICVR_VOXEL_FLOAT32;
+        d.data = k ? (const void *)u : (const void *)f;
+        if (k) { d.value_min = 0; d.value_max = 4080; }
+        TU_OK(picvr_upload_volume(ctx, &d));
+        const char *what = k ? "uint16, 12 bits used (0..4080)" : "float32 1e-30 .. 1e30";
+        float *img = sweep_render(ctx, W, H, N, what);
+        ok &= check_all(what, img, expv, W, H, N, M, 1e-4);
+        free(img);
+    }
+    free(expv);
+    free(f);
+    free(u);
+    tu_vol_free(&ref);
+    if (!ok) fail_msg("a data range case differs from Beer-Lambert (listed above)");
+    tu_finish(ctx);
+}
+
+/* ---- cameras and image sizes ------------------------------------------------------------ */
+
+/* Beer-Lambert through a 16^3 cube (sigma 0.1, background 1) seen from inside, from the
+   far side, looking away (exactly the background), with fov 1 and 170 degrees, and at
+   image sizes 1x1 and 4096x16; the first, the 1x1 and the inside case also with the cache
+   on (object space; albedo 0: the cache has nothing to store but must stay finite and
+   unbiased: sys_rel 1e-4 as without it).  sys_rel 1e-4; fov 170: 2e-3, the midpoint
+   quadrature over a pixel's jitter is coarser where the pixels are ~6 degrees wide. */
+void test_sweep_cameras_and_image_sizes(void **state) {
+    (void)state;
+    for (int pass = 0; pass < 2; pass++) {
+        picvr_context *ctx = pass ? create_cache(69, PICVR_CACHE_OBJECT_SPACE) : tu_create(69);
+        tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
+        tu_upload(ctx, &vol);
+        homog hm;
+        tu_vol_box(&vol, hm.bmin, hm.bmax);
+        tu_vol_free(&vol);
+        hm.sigma = (double)0.1f;
+        tu_tf_const(ctx, 0, 0, 0, 1.0f, 0.1f);
+        tu_background_only(ctx, 1, 1, 1, 1);
+        struct {
+            const char *what;
+            double p[3], t[3], fov;
+            uint32_t w, h, n;
+            double sys;
+            int cache;
+        } cases[] = {
+            {"camera inside, off-centre", {2, -3, 1}, {5, 4, -2}, 60, 16, 16, 64, 1e-4, 1},
+            {"camera at the far side (-z)", {0.5, 0.2, -30}, {0, 0, 0}, 30, 16, 16, 64, 1e-4, 0},
+            {"camera looking away", {0, 0, 30}, {0, 0, 60}, 60, 16, 16, 4, 0, 0},
+            {"fov 1 degree", {0.2, 0.1, 40}, {0, 0, 0}, 1, 16, 16, 64, 1e-4, 0},
+            {"fov 170 degrees", {0.2, 0.1, 10}, {0, 0, 0}, 170, 32, 32, 64, 2e-3, 0},
+            {"image 1x1", {0.1, 0.2, 30}, {0, 0, 0}, 10, 1, 1, 4096, 1e-4, 1},
+            {"image 4096x16", {0, 0, 30}, {0, 0, 0}, 40, 4096, 16, 8, 1e-4, 0},
+        };
+        int ok = 1;
+        const double M[3] = {1, 1, 1};
+        for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+            if (pass && !cases[i].cache) continue;
+            tu_cam cam = tu_set_camera(ctx, cases[i].p[0], cases[i].p[1], cases[i].p[2], cases[i].t[0],
+                                       cases[i].t[1], cases[i].t[2], cases[i].fov, cases[i].w, cases[i].h);
+            char what[96];
+            snprintf(what, sizeof what, "%s, %s", cases[i].what, pass ? "cache object" : "no cache");
+            float *img = sweep_render(ctx, cases[i].w, cases[i].h, cases[i].n, what);
+            double *expv = tu_expected_image(&cam, cases[i].w > 1000 ? 2 : 4, homog_ray, &hm);
+            if (cases[i].sys == 0) { /* looking away: exactly the background */
+                for (size_t p = 0; p < (size_t)cases[i].w * cases[i].h; p++)
+                    if (img[4 * p] != 1.0f || img[4 * p + 3] != 0.0f)
+                        fail_msg("%s: pixel %zu = %g, expected exactly the background", what, p, (double)img[4 * p]);
+            } else {
+                ok &= check_all(what, img, expv, cases[i].w, cases[i].h, cases[i].n, M, cases[i].sys);
+            }
+            free(expv);
+            free(img);
+        }
+        if (!ok) fail_msg("a camera case differs from Beer-Lambert (listed above)");
+        tu_finish(ctx);
+    }
+}
+
+/* ---- long runs --------------------------------------------------------------------------- */
+
+/* 1e6 samples in one pixel.  Scene: Beer-Lambert with T = exp(-1) on the pixel's rays
+   (albedo 0, background 1): every sample is exactly 0 or 1 in R, G, B and the complement
+   in alpha.  After N samples with k ones the exact mean is k / N, and:
+   (1) R is within one float32 ulp of some k / N (|N R - round(N R)| <= N ulp(R), i.e.
+       0.06 for N = 1e6): an accumulator that lost precision drifts from the lattice
+       k / N by a random walk of its rounding errors (~ulp sqrt(N) / 2 = 3e-5 relative,
+       so N R would be off by ~30);
+   (2) R + alpha = 1 within ulp(R) + ulp(alpha) (complementary samples);
+   (3) R is within 5 standard errors of T (the mean still converges: a mean that stopped
+       changing after 2^24 / ... samples would be stuck at an earlier value);
+   (4) the mean keeps moving: after N and 2N... the checks hold at N = 1e4, 1e5, 1e6
+       (the run continues without reset), so the last 9e5 samples changed it correctly.
+   Cost: 1e6 dispatches of one workgroup. */
+void test_sweep_long_run_precision_1e6(void **state) {
+    (void)state;
+    picvr_context *ctx = tu_create(70);
+    tu_vol vol = tu_vol_new(4, 4, 4, 1.0f, 255);
+    tu_upload(ctx, &vol);
+    homog hm;
+    tu_vol_box(&vol, hm.bmin, hm.bmax);
+    tu_vol_free(&vol);
+    hm.sigma = 0.25; /* exact in float32: the chord 4 along z gives T = e^-1 */
+    tu_tf_const(ctx, 0, 0, 0, 1.0f, 0.25f);
+    tu_background_only(ctx, 1, 1, 1, 1);
+    tu_cam cam = tu_set_camera(ctx, 0, 0, 10, 0, 0, 0, 0.01, 1, 1);
+    double ex[4];
+    double *expv = tu_expected_image(&cam, 4, homog_ray, &hm);
+    memcpy(ex, expv, sizeof ex);
+    free(expv);
+    const char *env = getenv("PICVR_LONG_RUN");
+    uint32_t total = env && atoi(env) > 0 ? (uint32_t)atoi(env) : 1000000u;
+    uint32_t done = 0;
+    const uint32_t checkpoints[3] = {total / 100, total / 10, total};
+    double t0 = now_s();
+    for (int c = 0; c < 3; c++) {
+        TU_OK(picvr_step_iterations(ctx, checkpoints[c] - done));
+        done = checkpoints[c];
+        float px[4];
+        TU_OK(picvr_read_rgba32f(ctx, px, sizeof px));
+        picvr_stats st = tu_stats_finite(ctx);
+        if (st.iterations != done || st.iterations_min != done)
+            fail_msg("after %u iterations: stats say %u (min %u)", done, st.iterations, st.iterations_min);
+        tu_assert_finite(px, 4, "long run");
+        double R = px[0], A = px[3], N = done;
+        double ulp = nextafterf(px[0], 2.0f) - px[0], ulp_a = nextafterf(px[3], 2.0f) - px[3];
+        double lattice = fabs(N * R - nearbyint(N * R));
+        double sum_err = fabs(R + A - 1.0);
+        double se = sqrt(ex[0] * (1 - ex[0]) / N);
+        print_message("    N %-8u R %.8f (T %.8f, %.2f SE)  |N R - k| %.4f (bound %.4f)  |R + A - 1| %.2e  %.1f s\n",
+                      done, R, ex[0], (R - ex[0]) / se, lattice, N * ulp, sum_err, now_s() - t0);
+        if (px[0] != px[1] || px[0] != px[2]) fail_msg("R G B differ: samples are grey");
+        if (lattice > N * ulp) fail_msg("N = %u: mean %.9g is not within 1 ulp of any k / N", done, R);
+        if (sum_err > ulp + ulp_a) fail_msg("N = %u: R + alpha - 1 = %.3g (> 1 ulp each)", done, R + A - 1);
+        if (fabs(R - ex[0]) > 5 * se + 1e-6) fail_msg("N = %u: mean %.8f, expected T = %.8f", done, R, ex[0]);
+    }
+    tu_finish(ctx);
+}
