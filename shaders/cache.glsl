@@ -19,7 +19,7 @@
 // sigma_v per half-axis cannot extrapolate; the radius is the smallest over channels.
 struct Entry {
     vec4 pos_rmax;        // xyz centre (world), w = largest of the six radii
-    vec4 e0;              // rgb E_0, w unused
+    vec4 e0;              // rgb E_0, w the entry's offset delta_e (world; entry_delta)
     float sigma_v[18];    // [half-axis * 3 + channel], per world unit
     uint radius[6];       // per half-axis, world units, as float bits: positive floats
                           // order like their bits, so the update procedure can shrink
@@ -47,6 +47,10 @@ layout(set = 0, binding = 14, std430) coherent buffer CacheSuperpixels { uint su
 #define LOCK_SUPERPIXEL 0x80000000u   // request.node: a superpixel index, not a node
 
 float entry_radius(uint e, uint h) { return uintBitsToFloat(entries[e].radius[h]); }
+// The entry's minimum radius, scaled like its offset (cache_math.glsl, entry_r_min).
+float entry_r_min_of(uint e) {
+    return CM_FN(entry_r_min)(scene.cache_radii.x, entries[e].e0.w, scene.cache_params.z);
+}
 
 // ---- local frame: the normalized gradient of extinction (central differences), so
 // the frame is recomputed on demand and never stored (§4.2).  Rule: where the gradient
@@ -93,14 +97,16 @@ Prediction predict(uint e, vec3 x) {
     float w = CM_FN(weight)(dist, r);
     if (!(w > 0.0)) return pr;
     float d1 = CM_FN(length1)(a.x, a.y, a.z);               // the distance of Eq. 7 (see length1)
+    float delta_e = entries[e].e0.w;
+    float rmin_e = entry_r_min_of(e);
     for (uint c = 0u; c < 3u; c++) {
         float sx = entries[e].sigma_v[half_axis.x * 3u + c];
         float sy = entries[e].sigma_v[half_axis.y * 3u + c];
         float sz = entries[e].sigma_v[half_axis.z * 3u + c];
         float s = CM_FN(sigma_interp)(sx, sy, sz, a.x, a.y, a.z);        // Eq. 8
         // Fig. 4: discard beyond the validity radius of the interpolated sigma_v.
-        if (!(d1 <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, scene.cache_params.z,
-                                                  scene.cache_params.y, scene.cache_radii.x,
+        if (!(d1 <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, delta_e,
+                                                  scene.cache_params.y, rmin_e,
                                                   scene.cache_radii.y))) return pr;
         pr.lnE[c] = CM_FN(log_extrapolate)(entries[e].e0[c], s, d1);     // Eq. 7 in log space
     }

@@ -1,7 +1,8 @@
 #version 450
 // cache_create.comp - the cache-entry creation procedure (paper §4.2, §7): one
 // workgroup of 128 threads per request.  Each thread estimates the irradiance (Eq. 4)
-// at the centre and at the six points offset by Delta along the local axes, by Monte
+// at the centre and at the six points offset by Delta along the local axes (at most two
+// mean free paths: entry_delta in cache_math.glsl), by Monte
 // Carlo with MIS (one light sample + one phase sample per point and round); rounds
 // repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached.  Then
 // thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10), and eight threads insert
@@ -55,8 +56,15 @@ void main() {
 
     vec3 t, b, n;
     entry_frame(x0, t, b, n);
-    float delta = scene.cache_params.z;
     vec3 axis[3] = vec3[3](t, b, n);
+    // The entry's offset (cache_math.glsl, entry_delta): Table 1's Delta, or two mean free
+    // paths of the densest of the centre and the six Table 1 offset points if shorter.
+    float sigma_local = sigma_t(x0);
+    for (uint k = 0u; k < 3u; k++) {
+        sigma_local = max(sigma_local, sigma_t(x0 + scene.cache_params.z * axis[k]));
+        sigma_local = max(sigma_local, sigma_t(x0 - scene.cache_params.z * axis[k]));
+    }
+    float delta = CM_FN(entry_delta)(scene.cache_params.z, sigma_local);
     vec3 p[7];
     p[0] = x0;
     for (uint k = 0u; k < 3u; k++) { p[1u + 2u * k] = x0 + delta * axis[k]; p[2u + 2u * k] = x0 - delta * axis[k]; }
@@ -118,7 +126,8 @@ void main() {
             s_done = false;                              // no insertion
         } else {
             float eps = scene.cache_params.y;
-            float rmin = scene.cache_radii.x, rmax_cap = scene.cache_radii.y;
+            float rmin = CM_FN(entry_r_min)(scene.cache_radii.x, delta, scene.cache_params.z);
+            float rmax_cap = scene.cache_radii.y;
             float rmax = 0.0;
             for (uint h = 0u; h < 6u; h++) {
                 float r = rmax_cap;
@@ -130,7 +139,7 @@ void main() {
                 entries[e].radius[h] = floatBitsToUint(r);
                 rmax = max(rmax, r);
             }
-            entries[e].e0 = vec4(s_E[0], 0.0);
+            entries[e].e0 = vec4(s_E[0], delta);         // w: the entry's own Delta
             entries[e].pos_rmax = vec4(x0, rmax);
             s_E[1] = vec3(float(e), rmax, 0.0);          // hand the index to the inserters
             s_done = true;

@@ -426,6 +426,45 @@ CM_API real CM_FN(reduced_radius)(real r, real f, real r_min) {
     return cm_min(rs, cm_max(CM_FN(san_len)(r_min), fs * rs));
 }
 
+// ---- the entry's own offset: Delta of Eq. 6 at most CM_DELTA_MFP mean free paths ------
+
+// Table 1's Delta = 2 voxels presumes that the irradiance changes on the scale of voxels.
+// In a medium denser than one extinction per voxel it falls by e^-(sigma_t Delta) over
+// the offset: at 10 per voxel by e^-20, which a few hundred Monte-Carlo samples at the
+// offset point cannot resolve (the estimate E_delta is 0 or one lucky sample), so Eq. 6
+// and 10 got sigma_v and the radii wrong and the cache was biased by -45 % to +76 %
+// (tests/test_robust_sweep.c, measured 2026-11-22).  So each entry takes
+//   delta_e = min(Delta, CM_DELTA_MFP / sigma_local),
+// sigma_local the largest extinction at the centre and at the six Table 1 offset points:
+// at most two mean free paths, where E_delta / E_0 >= e^-2 for light along the axis.
+// Scenes with sigma_t <= 1 per voxel (CM_DELTA_MFP / Delta) keep Table 1's Delta exactly.
+// Rules: sigma_local <= 0, NaN or below the threshold -> Delta (san_len); +inf or any
+// larger value -> at least CM_DELTA_FLOOR Delta (1e-5: two offset points stay distinct
+// in float near the box, and the ratio of lengths stays far from underflow); decided
+// without forming sigma_local * Delta (which could overflow).
+#ifndef CM_DELTA_CONSTANTS
+#define CM_DELTA_CONSTANTS 1
+#define CM_DELTA_MFP     CM_REAL(2.0)     // the offset in mean free paths, at most
+#define CM_DELTA_FLOOR   CM_REAL(1e-5)    // delta_e >= this * Delta
+#endif
+CM_API real CM_FN(entry_delta)(real delta, real sigma_local) {
+    real d = CM_FN(san_len)(delta);
+    real lo = cm_max(d * CM_DELTA_FLOOR, CM_LEN_MIN);
+    if (!cm_isfinite(sigma_local)) return sigma_local > CM_REAL(0.0) ? lo : d;
+    if (!(sigma_local > CM_DELTA_MFP / d)) return d;           // CM_DELTA_MFP / d <= 2e12
+    return cm_clamp(CM_DELTA_MFP / sigma_local, lo, d);         // sigma_local > 2e-12
+}
+
+// The entry's minimum radius: Table 1's r_min scaled like its offset, r_min delta_e /
+// Delta, so that an entry in a dense medium is not forced to cover hundreds of mean free
+// paths (r_min = 0.01 voxel is 100 of them at 1e4 per voxel).  Equals r_min when
+// delta_e = Delta.  Rules: lengths by san_len; the ratio delta_e / Delta is clamped to
+// [0, 1] (an entry never gets a larger minimum); the result is at least CM_LEN_MIN.
+CM_API real CM_FN(entry_r_min)(real r_min, real delta_e, real delta) {
+    real q = cm_clamp(CM_FN(san_len)(delta_e) / CM_FN(san_len)(delta), CM_REAL(0.0), CM_REAL(1.0));
+    return cm_max(CM_FN(san_len)(r_min) * q, CM_LEN_MIN);
+}
+
 #ifdef CM_GLSL
 #undef real
 #endif

@@ -82,7 +82,7 @@ void main() {
         vec3 a = abs(l);
         float rx = entry_radius(e, h.x), ry = entry_radius(e, h.y), rz = entry_radius(e, h.z);
         float f = CM_FN(reduce_factor)(a.x, a.y, a.z, rx, ry, rz);
-        float rmin = scene.cache_radii.x;
+        float rmin = entry_r_min_of(e);
         atomicMin(entries[e].radius[h.x], floatBitsToUint(CM_FN(reduced_radius)(rx, f, rmin)));
         atomicMin(entries[e].radius[h.y], floatBitsToUint(CM_FN(reduced_radius)(ry, f, rmin)));
         atomicMin(entries[e].radius[h.z], floatBitsToUint(CM_FN(reduced_radius)(rz, f, rmin)));

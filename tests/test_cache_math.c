@@ -76,7 +76,9 @@
     X(2, weighted_ln)                                                                    \
     X(2, log_average_finalize)                                                           \
     X(6, reduce_factor)                                                                  \
-    X(3, reduced_radius)
+    X(3, reduced_radius)                                                                 \
+    X(2, entry_delta)                                                                    \
+    X(3, entry_r_min)
 
 #define CMT_MEMBER(n, name) double (*name)(CMT_A##n);
 #define CMT_WRAP(n, name) \
@@ -712,13 +714,66 @@ static void degenerate(const cmt_impl *im) {
         CMT_IN("log_average_finalize", im->log_average_finalize(a, b), 0, 1.0001e30);
         CMT_IN("reduce_factor", im->reduce_factor(a, b, c, d, e, f), 0, 1);
         CMT_IN("reduced_radius", im->reduced_radius(a, b, c), 0.99e-12, 1.0001e12);
+        CMT_IN("entry_delta", im->entry_delta(a, b), 0.99e-12, cmt_r(im, im->san_len(a)));
+        CMT_IN("entry_r_min", im->entry_r_min(a, b, c), 0.99e-12, cmt_r(im, im->san_len(a)));
         (void)BIG;
 #undef CMT_IN
     }
 #undef CMT_PICK
 }
 
+/* The entry's own offset (entry_delta, entry_r_min): Table 1's Delta up to one extinction
+   per voxel, two mean free paths beyond; and with it Eq. 6 and Eq. 9/10 on the field of a
+   dense medium, E(x) = E0 exp(-sigma_t x) along the inward axis: the offset point sees
+   E_delta / E0 = e^-2 (resolvable by Monte Carlo) instead of e^-(2 sigma_t) (e^-20000
+   at 1e4 per voxel: below every float), sigma_v = sigma_t exactly, and the radius is
+   where the extrapolation is eps below E_delta, clamped to the scaled minimum. */
+static void entry_offset(const cmt_impl *im) {
+    const double D = 2, rmin = 0.01, rmax = 16, eps = 0.1;
+    const double sig[] = {0, 0.1, 0.5, 1, 1.0000001, 10, 100, 1e4, 1e5, 1e8};
+    for (size_t i = 0; i < sizeof sig / sizeof sig[0]; i++) {
+        double s = sig[i];
+        char what[96];
+        double de = im->entry_delta(D, s);
+        double want = s <= 1 ? D : fmax(2 / s, D * 1e-5);
+        snprintf(what, sizeof what, "entry_delta(2, %g)", s);
+        CMT_REL(im, what, de, want);
+        snprintf(what, sizeof what, "entry_r_min(0.01, delta_e, 2) at sigma %g", s);
+        CMT_REL(im, what, im->entry_r_min(rmin, de, D), rmin * want / D);
+        /* beyond 1e5 per voxel the floor D 1e-5 makes E_delta / E0 smaller than e^-2 */
+        if (s <= 0 || s > 1e5) continue;
+        /* the exact field: E_delta = E0 exp(-sigma_t delta_e), E0 = 1 */
+        double Ed = exp(-s * de);
+        snprintf(what, sizeof what, "E_delta / E0 at sigma %g", s);
+        cmt_close(im, what, Ed, s <= 1 ? exp(-s * D) : exp(-2.0), 1e-5, 0);
+        snprintf(what, sizeof what, "Eq. 6 sigma_v at sigma %g", s);
+        cmt_close(im, what, im->sigma_v(1, Ed, de), s, im == &cmt_impls[0] ? 1e-9 : 2e-4, 0);
+        double rm = im->entry_r_min(rmin, de, D);
+        double R = im->validity_radius(1, Ed, de, eps, rm, rmax);
+        double Rexp = fmin(fmax(de - log(1 - eps) / s, rm), rmax);
+        snprintf(what, sizeof what, "Eq. 9/10 radius at sigma %g", s);
+        cmt_close(im, what, R, Rexp, im == &cmt_impls[0] ? 1e-9 : 2e-4, 0);
+        if (Rexp > rm && Rexp < rmax) {   /* unclamped: the extrapolation there is (1 - eps) E_delta */
+            snprintf(what, sizeof what, "E(R) / E_delta at sigma %g", s);
+            cmt_close(im, what, im->extrapolate(1, s, R) / Ed, 1 - eps, im == &cmt_impls[0] ? 1e-9 : 1e-3, 0);
+        }
+    }
+    /* rules */
+    cmt_exact(im, "entry_delta, sigma NaN", im->entry_delta(D, NAN), D);
+    cmt_exact(im, "entry_delta, sigma -1", im->entry_delta(D, -1), D);
+    cmt_exact(im, "entry_delta, sigma inf", im->entry_delta(D, INFINITY), cmt_r(im, D * 1e-5));
+    cmt_exact(im, "entry_delta, sigma 1e38", im->entry_delta(D, 1e38), cmt_r(im, D * 1e-5));
+    cmt_exact(im, "entry_delta, delta NaN", im->entry_delta(NAN, 1), cmt_r(im, 1e-12));
+    cmt_exact(im, "entry_r_min, delta_e > Delta", im->entry_r_min(rmin, 5, D), cmt_r(im, rmin));
+    cmt_exact(im, "entry_r_min, NaN", im->entry_r_min(rmin, NAN, D), cmt_r(im, 1e-12));
+}
+
 /* ---- the cmocka tests ---------------------------------------------------------------- */
+
+void test_cache_math_entry_offset(void **state) {
+    (void)state;
+    for (int k = 0; k < 2; k++) entry_offset(&cmt_impls[k]);
+}
 
 void test_cache_math_exponential_field(void **state) {
     (void)state;

@@ -234,13 +234,21 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
         double Mc = albedo * E / (4 * M_PI);
         const double M[3] = {Mc, Mc, Mc};
         if (mode != PICVR_CACHE_NONE && tau[i] > 1) {
-            /* Known limitation of the cache (reported, issue 3/6): where the irradiance
-               falls by e^-20 and more within the offset Delta = 2 voxels of Eq. 6, the
-               extrapolation is biased (measured 2026-11-22: -45 % at tau 10/voxel, -34 %
-               at 100, +8 % at 1e3, +76 % at 1e4; at 1e4 a single entry with a wide
-               validity zone serves 98 % of the scatter events).  Asserted here: finite (above) and the
-               physical bound of single scattering under one sun, mean <= albedo E/(4 pi);
-               the bias against the closed form is printed. */
+            /* Dense media.  With Table 1's fixed Delta = 2 voxels the irradiance fell by
+               e^-20 and more across Eq. 6's offset, and the cache was biased by -45 % at
+               tau 10/voxel, -34 % at 100, +8 % at 1e3, +76 % at 1e4 (measured 2026-11-22).
+               Each entry now takes an offset of at most two mean free paths
+               (entry_delta in shaders/cache_math.glsl): measured 2026-11-28 over four runs
+               -5 % to -15 % from tau 10 to 1e5 per voxel, both locking modes (scale-free,
+               as it should be now).  What
+               remains is the kink of the field at the lit face: every scatter event lies
+               within a few mean free paths of it, so an entry's outward offset point is
+               outside the medium, where E no longer grows, and Eq. 6 underestimates the
+               growth toward the face (the paper's one-sided differences assume a field
+               that is exponential across the whole offset).  Asserted: finite (above), the
+               physical bound of single scattering under one sun, mean <= albedo E/(4 pi),
+               and |bias| <= 25 % (was up to 76 %; the bound leaves room for the
+               run-to-run spread of the entries' placement, which is scheduling-dependent). */
             double m = tu_region_mean(img, W, 1, 0, 0, W, H);
             double e = 0;
             for (size_t p = 0; p < (size_t)W * H; p++) e += expv[4 * p + 1];
@@ -248,6 +256,7 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
             print_message("    %s: mean %.4g, closed form %.4g (bias %+.1f %%), bound %.4g\n", what, m, e,
                           100 * (m / e - 1), Mc);
             if (!(m <= Mc)) fail_msg("%s: mean %g above albedo E / (4 pi) = %g", what, m, Mc);
+            if (!(fabs(m / e - 1) <= 0.25)) fail_msg("%s: bias %+.1f %% beyond 25 %%", what, 100 * (m / e - 1));
         } else {
             ok &= check_all(what, img, expv, W, H, N, M, sys);
         }
@@ -280,9 +289,9 @@ void test_sweep_optical_thickness_sun(void **state) {
 
 void test_sweep_optical_thickness_sun_cache(void **state) {
     (void)state;
-    const float tau[] = {1e-6f, 0.5f, 10.0f, 1e4f};
-    sun_thickness_sweep(PICVR_CACHE_OBJECT_SPACE, tau, 4, 48);
-    sun_thickness_sweep(PICVR_CACHE_SCREEN_SPACE, tau, 4, 48);
+    const float tau[] = {1e-6f, 0.5f, 10.0f, 100.0f, 1e3f, 1e4f, 1e5f};
+    sun_thickness_sweep(PICVR_CACHE_OBJECT_SPACE, tau, sizeof tau / sizeof tau[0], 48);
+    sun_thickness_sweep(PICVR_CACHE_SCREEN_SPACE, tau, sizeof tau / sizeof tau[0], 48);
 }
 
 /* ---- transfer functions ------------------------------------------------------------------ */
