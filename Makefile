@@ -12,7 +12,7 @@ SHADER_INC  := $(wildcard shaders/*.glsl)
 TEST_SRC    := $(wildcard tests/test_*.c)
 LIB_OBJ     := $(B)/picvr_vk.o
 
-.PHONY: all deps lib test demo bench-speed bench-scheduler bench-image-size shaders check-shaders clean help
+.PHONY: all deps lib test demo bench-speed bench-scheduler bench-long-run shaders check-shaders clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
 
 help:
@@ -20,7 +20,7 @@ help:
 	@echo "make test         install deps, build, run the test suite (validation layer on)"
 	@echo "make bench-speed  samples/s of the Vulkan kernel vs the C/OpenMP reference"
 	@echo "make bench-scheduler  error vs time with/without priorities, device-time shares"
-	@echo "make bench-image-size plain vs cached estimated error at 128^2, 256^2, 512^2"
+	@echo "make bench-long-run   10 min plain vs cached: hit rate and error ratio over time"
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
 	@echo "make bench        error against run time, reduced (bonsai, 128x128; minutes)"
 	@echo "make bench-full   error against run time, the whole matrix (hours; resumable)"
@@ -86,8 +86,8 @@ bench-speed: deps $(B)/picvr-bench-speed
 bench-scheduler: deps $(B)/picvr-render
 	DATA=$(DATA) sh bench/scheduler.sh $(SECS)
 
-bench-image-size: deps $(B)/picvr-render
-	DATA=$(DATA) sh bench/image_size.sh $(SECS)
+bench-long-run: deps $(B)/picvr-render
+	DATA=$(DATA) sh bench/long_run.sh $(SECS)
 
 clean:
 	rm -rf $(B)

@@ -13,6 +13,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#if defined(__unix__) || defined(__APPLE__)
+#include <unistd.h>
+#endif
 
 #define FINE_THRESHOLD 64.0          /* expected steps per brick above which the shader
                                       tracks at voxel level (shaders: FINE_THRESHOLD) */
@@ -137,6 +140,7 @@ struct picvr_context {
     double cost[3];                  /* device ms per work package, PROC_*; 0: not measured */
     double overhead_ms;              /* wall time of a round beyond its device time */
     double credit_ms[2];             /* PROC_CREATE, PROC_UPDATE: device time owed by the shares */
+    uint32_t create_batch;           /* entries a creation dispatch waits for (creation_batch) */
     uint32_t requests_pending;       /* valid requests the last round queued (each holds a lock) */
     struct round_record { double end_ms, device_ms[3]; uint32_t hits, misses; } history[SCHED_HISTORY];
     uint32_t history_count;          /* records in history (ring, newest at history_count-1 mod N) */
@@ -677,6 +681,7 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
 static picvr_status create_cache_buffers(picvr_context *ctx);
 static picvr_status create_timestamps(picvr_context *ctx);
 static void update_targets(picvr_context *ctx);
+static uint32_t creation_batch(const picvr_context *ctx);
 
 static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
     picvr_status s;
@@ -717,6 +722,7 @@ static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
     VK_TRY(ctx, vkCreateFence(ctx->device, &fi, NULL, &ctx->fence));
 
     if ((s = create_pipelines(ctx)) || (s = create_sampler(ctx)) || (s = create_timestamps(ctx))) return s;
+    ctx->create_batch = creation_batch(ctx);
     if (ctx->cache_on && (s = create_cache_buffers(ctx))) return s;
     if ((s = buffer_create(ctx, &ctx->round_readback, ROUND_READBACK_BYTES, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1))) return s;
     if ((s = buffer_create(ctx, &ctx->scene_ubo, sizeof(gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
@@ -829,7 +835,7 @@ void picvr_destroy(picvr_context *ctx) {
 /* irradiance cache: configuration, pools, clearing                                    */
 
 #define CACHE_PREBUILT_MAX_DEPTH 4u
-#define CACHE_ENTRY_BYTES 128u     /* sizeof(Entry) in shaders/cache.glsl (std430) */
+#define CACHE_ENTRY_BYTES 144u     /* sizeof(Entry) in shaders/cache.glsl (std430) */
 #ifndef CACHE_PIXELS_PER_REQUEST
 #define CACHE_PIXELS_PER_REQUEST 4096u
 #endif
@@ -1879,13 +1885,19 @@ static void update_targets(picvr_context *ctx) {
 }
 
 /* After a round: the procedure was owed its target share of the round's device time
-   and used dev_ms.  Rule: the credit stays within one round's share plus one package
-   either way, so a stretch without work (no requests) is not paid back later in a
-   burst, and one long package is not paid for by starving the procedure for long. */
+   and used dev_ms.  Rules: the credit stays below one round's share plus one batch of
+   packages, so a stretch without work (no requests) is not paid back later in a burst;
+   the debt stays below one round's share plus this round's use (or one batch if more),
+   so a dispatch that ran long (entries vary several-fold in cost) is paid back in full -
+   forgiving it made creation overshoot its share by 15-20 % with batches - but debts do
+   not pile up beyond that. */
 static void settle_credit(picvr_context *ctx, int proc, double device_total, double dev_ms) {
     double c = ctx->credit_ms[proc] + ctx->target[proc] * device_total - dev_ms;
-    double cap = ctx->target[proc] * 1000.0 / ctx->sched.rounds_per_second + ctx->cost[proc];
-    ctx->credit_ms[proc] = c > cap ? cap : c < -cap ? -cap : c;
+    double batch = proc == PROC_CREATE ? ctx->create_batch : 1.0;
+    double share = ctx->target[proc] * 1000.0 / ctx->sched.rounds_per_second;
+    double hi = share + batch * ctx->cost[proc];
+    double lo = -(share + (dev_ms > batch * ctx->cost[proc] ? dev_ms : batch * ctx->cost[proc]));
+    ctx->credit_ms[proc] = c > hi ? hi : c < lo ? lo : c;
 }
 
 /* Reads back a finished round: device time per procedure, work done, cache counters;
@@ -1984,12 +1996,32 @@ static picvr_status run_round(picvr_context *ctx, const round_plan *p) {
    settled with measured times, an estimate that is off (packages of varying cost, a
    cost that drifts as the cache fills) does not bias the long-run share, and a package
    longer than one round's share still runs every few rounds.
-   Rule: an unmeasured cost (first round) allows one package. */
-static uint32_t packages(const picvr_context *ctx, int proc, double share_ms, uint32_t available) {
-    if (ctx->cost[proc] <= 0.0) return available < 1 ? available : 1;
+   A procedure runs only when it is owed at least `batch` packages (creation_batch).
+   Rule: an unmeasured cost (first round) allows one batch. */
+static uint32_t packages(const picvr_context *ctx, int proc, double share_ms, uint32_t available, uint32_t batch) {
+    if (ctx->cost[proc] <= 0.0) return available < batch ? available : batch;
     double owed = (ctx->credit_ms[proc] + share_ms) / ctx->cost[proc];
-    if (!(owed >= 1.0)) return 0;                     /* also NaN */
+    if (!(owed >= (double)batch)) return 0;           /* also NaN */
     return owed < (double)available ? (uint32_t)owed : available;
+}
+
+/* Entry creation runs one workgroup per entry, and a round's procedures are separated by
+   barriers.  A CPU driver (lavapipe) runs one workgroup per thread, one thread per core,
+   so a creation dispatch of fewer entries than threads leaves cores idle for its whole
+   length: with one entry per dispatch (a 20 ms entry against a 7.5 ms share per round,
+   bonsai) half of the creation share was idle time on 2 cores.  So on a CPU device
+   creation waits until it is owed one entry per thread (LP_NUM_THREADS, lavapipe's own
+   setting, else the online cores; at most 64), and the measured cost per entry halves.
+   A GPU runs a round's many entries side by side anyway: 1. */
+static uint32_t creation_batch(const picvr_context *ctx) {
+    if (ctx->props.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU) return 1;
+    long n = 0;
+    const char *env = getenv("LP_NUM_THREADS");
+    if (env && *env) n = strtol(env, NULL, 10);
+#if defined(_SC_NPROCESSORS_ONLN)
+    if (n <= 0) n = sysconf(_SC_NPROCESSORS_ONLN);
+#endif
+    return n < 1 ? 1u : n > 64 ? 64u : (uint32_t)n;
 }
 
 
@@ -2002,11 +2034,12 @@ static round_plan plan_round(picvr_context *ctx, double round_ms) {
     double left = avail;
     if (ctx->cache_on) {
         double create_ms = ctx->target[PROC_CREATE] * avail, update_ms = ctx->target[PROC_UPDATE] * avail;
-        p.create_budget = packages(ctx, PROC_CREATE, create_ms, ctx->requests_pending);
-        p.update_groups = packages(ctx, PROC_UPDATE, update_ms, UINT32_MAX);
-        /* requests for the next round: what its creation share can take (at least one) */
+        p.create_budget = packages(ctx, PROC_CREATE, create_ms, ctx->requests_pending, ctx->create_batch);
+        p.update_groups = packages(ctx, PROC_UPDATE, update_ms, UINT32_MAX, 1);
+        /* requests for the next round: what its creation share can take, at least one batch */
         double next = ctx->cost[PROC_CREATE] > 0.0 ? ceil(create_ms / ctx->cost[PROC_CREATE]) : 4.0;
-        p.request_cap = next < 1.0 ? 1 : next > ctx->cache.max_requests ? ctx->cache.max_requests : (uint32_t)next;
+        if (next < ctx->create_batch) next = ctx->create_batch;
+        p.request_cap = next > ctx->cache.max_requests ? ctx->cache.max_requests : (uint32_t)next;
         p.rebuild = ctx->cache_since_rebuild_ms >= ctx->cache.rebuild_interval_ms;
         /* Work conserving: time creation and update cannot use goes to rendering. */
         left -= p.create_budget * ctx->cost[PROC_CREATE] + p.update_groups * ctx->cost[PROC_UPDATE];

@@ -49,6 +49,7 @@ typedef struct options {
     int validation;
     picvr_cache_mode cache;
     picvr_switch priorities;
+    float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
     const char *debug_view;
     float exposure;
     float azimuth, elevation, distance, fov;
@@ -132,6 +133,9 @@ static void print_help(FILE *f)
         "                         for now), object- or screen-space locking\n"
         "  --priorities on|off    render the blocks with the largest expected error\n"
         "                         reduction first (Eq. 12; default on)\n"
+        "  --shares CMIN,CMAX,UMIN,UMAX  device-time shares of cache-entry creation and\n"
+        "                         update at hit rate 1 and 0 (paper §6; default\n"
+        "                         0.05,0.15,0.01,0.02)\n"
         "  --debug-view cache     show where the cache is: hits green, misses red, entry\n"
         "                         centres white (needs --cache object|screen)\n"
         "  --device NAME          Vulkan device whose name contains NAME\n"
@@ -294,6 +298,11 @@ static int apply_option(options *o, const char *name, const char *value)
         else if (!strcmp(value, "object")) o->cache = PICVR_CACHE_OBJECT_SPACE;
         else if (!strcmp(value, "screen")) o->cache = PICVR_CACHE_SCREEN_SPACE;
         else ok = 0;
+    } else if (!strcmp(name, "shares")) {
+        char tail;
+        ok = sscanf(value, "%f,%f,%f,%f%c", &o->shares[0], &o->shares[1], &o->shares[2], &o->shares[3],
+                    &tail) == 4;
+        for (int k = 0; ok && k < 4; k++) ok = o->shares[k] > 0.0f && o->shares[k] < 1.0f;
     } else if (!strcmp(name, "priorities")) {
         if (!strcmp(value, "on")) o->priorities = PICVR_SWITCH_ON;
         else if (!strcmp(value, "off")) o->priorities = PICVR_SWITCH_OFF;
@@ -324,7 +333,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "priorities", "debug-view", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "priorities", "shares", "debug-view", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -774,6 +783,10 @@ static int render(const options *o, const pvio_layout *layout)
     cfg.validation = o->validation;
     cfg.cache.mode = o->cache;
     cfg.scheduler.priorities = o->priorities;
+    cfg.scheduler.create_min = o->shares[0];   /* 0 (not given): the defaults */
+    cfg.scheduler.create_max = o->shares[1];
+    cfg.scheduler.update_min = o->shares[2];
+    cfg.scheduler.update_max = o->shares[3];
     cfg.seed = o->seed;
     cfg.log = log_message;
     cfg.log_user = &prog;

@@ -54,8 +54,8 @@ void main() {
     }
     vec3 x0 = requests[req].pos.xyz;
 
-    vec3 t, b, n;
-    entry_frame(x0, t, b, n);
+    vec3 n = entry_normal(x0), t, b;
+    basis(n, t, b);
     vec3 axis[3] = vec3[3](t, b, n);
     // The entry's offset (cache_math.glsl, entry_delta): Table 1's Delta, or two mean free
     // paths of the densest of the centre and the six Table 1 offset points if shorter.
@@ -140,6 +140,7 @@ void main() {
                 rmax = max(rmax, r);
             }
             entries[e].e0 = vec4(s_E[0], delta);         // w: the entry's own Delta
+            entries[e].normal = vec4(n, 0.0);
             entries[e].pos_rmax = vec4(x0, rmax);
             s_E[1] = vec3(float(e), rmax, 0.0);          // hand the index to the inserters
             s_done = true;

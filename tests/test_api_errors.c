@@ -642,8 +642,8 @@ void test_create_config_errors(void **state) {
     CFG_ROW("cache.max_entries 2^25", PICVR_ERROR_SIZE_OVERFLOW, cfg.cache.max_entries = 1u << 25);
     CFG_ROW("cache.max_nodes 100 (< pre-built top)", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_nodes = 100);
     CFG_ROW("cache.max_refs 1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_refs = 1);
-    /* a pool larger than the device's storage-buffer range (2^24 entries x 128 B =
-       2 GiB; lavapipe allows 128 MiB): the cache on, the pool cannot be created */
+    /* a pool larger than the device's storage-buffer range (2^24 entries x 144 B =
+       2.25 GiB; lavapipe allows 128 MiB): the cache on, the pool cannot be created */
     CFG_ROW("cache pool 2^24 entries (2 GiB)", PICVR_ERROR_SIZE_OVERFLOW,
             (cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE, cfg.cache.max_entries = 1u << 24));
     /* scheduler (zero = default; shares are fractions of device time) */
