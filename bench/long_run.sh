@@ -30,7 +30,7 @@ done
 awk -F, 'FNR == 1 { next }
      FILENAME ~ /_off/ { n++; pt[n] = $2; pe[n] = $4; pi[n] = $3; next }
      { t = $2; j = 1; while (j < n && pt[j + 1] < t) j++;
-       if (j >= n || t < pt[1]) next;
+       if (j >= n || t < pt[1] || $4 <= 0) next;     # no sample yet: no ratio
        f = (t - pt[j]) / (pt[j + 1] - pt[j]); e = pe[j] + f * (pe[j + 1] - pe[j]);
        it = pi[j] + f * (pi[j + 1] - pi[j]);
        printf "%.1f,%.6g,%.6g,%.4f,%.4f,%d,%d,%.0f,%d\n", t / 1000, e, $4, e / $4, $7, $8, $9, it, $3 }
@@ -38,5 +38,6 @@ awk -F, 'FNR == 1 { next }
     "$OUT/long_run_off.csv" "$OUT/long_run_object.csv" > "$OUT/long_run.csv"
 echo
 echo "bonsai, paper1, $SIZE: plain vs cache (object space), ratio_est = plain / cached est_error (> 1: the cache wins)"
-awk -F, 'NR == 1 || $1 + 0 == 10 || $1 + 0 == 30 || ($1 + 0) % 60 < 1 && $1 + 0 >= 60 {
-         printf "%8s %14s %16s %9s %8s %8s %8s %16s %17s\n", $1, $2, $3, $4, $5, $6, $7, $8, $9 }' "$OUT/long_run.csv"
+awk -F, 'function show() { printf "%8s %14s %16s %9s %8s %8s %8s %16s %17s\n", $1, $2, $3, $4, $5, $6, $7, $8, $9 }
+         NR == 1 || $1 + 0 == 10 || $1 + 0 == 30 || ($1 + 0) % 60 < 1 && $1 + 0 >= 60 { show(); shown = NR }
+         { last = $0 } END { if (shown != NR) { $0 = last; show() } }' "$OUT/long_run.csv"
