@@ -835,6 +835,7 @@ void picvr_destroy(picvr_context *ctx) {
 /* irradiance cache: configuration, pools, clearing                                    */
 
 #define CACHE_PREBUILT_MAX_DEPTH 4u
+#define CACHE_NODE_RADII 1.0f     /* as in shaders/cache.glsl (insertion_depth) */
 #define CACHE_ENTRY_BYTES 144u     /* sizeof(Entry) in shaders/cache.glsl (std430) */
 #ifndef CACHE_PIXELS_PER_REQUEST
 #define CACHE_PIXELS_PER_REQUEST 4096u
@@ -915,7 +916,7 @@ static uint32_t cache_update_params(picvr_context *ctx) {
     if (g->box_size[1] < edge) edge = g->box_size[1];
     if (g->box_size[2] < edge) edge = g->box_size[2];
     uint32_t depth = 0;
-    while (depth < CACHE_PREBUILT_MAX_DEPTH && edge * 0.5f >= 2.0f * g->cache_radii[1]) { edge *= 0.5f; depth++; }
+    while (depth < CACHE_PREBUILT_MAX_DEPTH && edge * 0.5f >= CACHE_NODE_RADII * g->cache_radii[1]) { edge *= 0.5f; depth++; }
     return depth;
 }
 

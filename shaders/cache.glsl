@@ -234,12 +234,22 @@ void cache_request(vec3 x, uint node, uvec2 px, uint round, float u, uint cap) {
 }
 
 // ---- insertion (creation procedure) ----
-// The depth whose nodes are at least twice the entry's largest radius along every
-// axis, so that the entry's bounding box overlaps at most 2x2x2 nodes there.
+// The depth whose nodes are at least CACHE_NODE_RADII times the entry's largest radius
+// along every axis.  With 1, the entry's bounding box (2 rmax wide) overlaps at most
+// 3 x 3 x 3 nodes there.  Why not 2 (at most 2 x 2 x 2 nodes, 4.7 references per entry on
+// bonsai, close to the paper's 6-7): a lookup visits every reference of the nodes on its
+// path, and with nodes twice as large those lists held 4x more entries that do not
+// cover the point; on lavapipe the visits grew to 20 per scatter event at 1200 entries
+// (18 % of them inside the entry's sphere) and made the cached renderer slower as the
+// cache grew: 20 iterations per second at 700 entries, 12 at 6,400, against 18-19
+// throughout with this rule (bonsai 128x128, 300 s runs, 2026-11-28); 9 visits at 1,200
+// entries.  The price: about 12 references per entry instead of 5.  picvr_vk.c mirrors
+// this rule for the pre-built top of the tree (prebuilt_depth).
+#define CACHE_NODE_RADII 1.0
 uint insertion_depth(float rmax) {
     float edge = min(scene.box_size.x, min(scene.box_size.y, scene.box_size.z));
     uint depth = 0u;
-    while (depth < CACHE_MAX_DEPTH && edge * 0.5 >= 2.0 * rmax) { edge *= 0.5; depth++; }
+    while (depth < CACHE_MAX_DEPTH && edge * 0.5 >= CACHE_NODE_RADII * rmax) { edge *= 0.5; depth++; }
     return depth;
 }
 
@@ -285,19 +295,20 @@ void push_ref(uint node, uint e) {
     refs[r].next = atomicExchange(nodes[node].refs, r);
 }
 
-vec3 bbox_corner(vec3 x0, float rmax, uint k) {
-    return x0 + rmax * (vec3((uvec3(k) >> uvec3(0u, 1u, 2u)) & 1u) * 2.0 - 1.0);
-}
-
-// Inserts entry e (centre x0, largest radius rmax) into the node at corner k (0..7) of
-// its bounding box at the insertion depth; corners sharing a node insert once (the
-// lowest k).  The creation procedure runs the 8 corners on 8 threads, the rebuild on
-// one thread per entry.
-void insert_corner(uint e, vec3 x0, float rmax, uint k) {
+// Inserts entry e (centre x0, largest radius rmax) into cell k (0..26) of the up to
+// 3 x 3 x 3 cells its bounding box overlaps at the insertion depth, if that cell exists
+// and the sphere of radius rmax reaches into it (the entry's zone lies in that sphere).
+// The creation procedure runs the 27 cells on 27 threads, the rebuild on one thread
+// per entry.
+void insert_cell(uint e, vec3 x0, float rmax, uint k) {
     uint depth = insertion_depth(rmax);
-    uvec3 cell = cell_at(bbox_corner(x0, rmax, k), depth);
-    for (uint j = 0u; j < k; j++)
-        if (all(equal(cell_at(bbox_corner(x0, rmax, j), depth), cell))) return;
+    uvec3 lo = cell_at(x0 - vec3(rmax), depth), hi = cell_at(x0 + vec3(rmax), depth);
+    uvec3 cell = lo + uvec3(k % 3u, (k / 3u) % 3u, k / 9u);
+    if (any(greaterThan(cell, hi))) return;
+    vec3 size = scene.box_size.xyz / float(1u << depth);
+    vec3 bmin = scene.box_min.xyz + vec3(cell) * size;
+    vec3 d = max(max(bmin - x0, x0 - (bmin + size)), vec3(0.0));   // sphere-box distance
+    if (dot(d, d) > rmax * rmax) return;
     uint node = descend_create(cell, depth);
     if (node != CACHE_NO_NODE) push_ref(node, e);
 }

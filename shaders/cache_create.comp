@@ -5,8 +5,8 @@
 // mean free paths: entry_delta in cache_math.glsl), by Monte
 // Carlo with MIS (one light sample + one phase sample per point and round); rounds
 // repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached.  Then
-// thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10), and eight threads insert
-// the entry into the octree (one per corner of its bounding box); the request's lock
+// thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10), and 27 threads insert
+// the entry into the octree (one per node its bounding box may overlap); the request's lock
 // (node or superpixel) is released.  Requests beyond this round's budget only unlock.
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 128) in;
@@ -148,7 +148,7 @@ void main() {
     }
     memoryBarrierBuffer();
     barrier();
-    if (s_done && lid < 8u) insert_corner(uint(s_E[1].x), x0, s_E[1].y, lid);
+    if (s_done && lid < 27u) insert_cell(uint(s_E[1].x), x0, s_E[1].y, lid);
     barrier();
     if (lid == 0u) cache_unlock(locked);
 }

@@ -17,5 +17,5 @@ void main() {
     for (uint h = 0u; h < 6u; h++) rmax = max(rmax, entry_radius(e, h));
     entries[e].pos_rmax.w = rmax;
     vec3 x0 = entries[e].pos_rmax.xyz;
-    for (uint k = 0u; k < 8u; k++) insert_corner(e, x0, rmax, k);
+    for (uint k = 0u; k < 27u; k++) insert_cell(e, x0, rmax, k);
 }
