@@ -16,17 +16,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct homog {
-    double bmin[3], bmax[3], sigma;
-} homog;
-
-static void homog_ray(const double o[3], const double d[3], void *user, double out[4]) {
-    const homog *h = user;
-    double t0, t1, T = 1;
-    if (tu_ray_box(o, d, h->bmin, h->bmax, &t0, &t1)) T = exp(-h->sigma * (t1 - t0));
-    out[0] = out[1] = out[2] = T;
-    out[3] = 1 - T;
-}
 
 
 /* Renders n iterations, checks the image mean (RGB, alpha), the four quadrants, that
@@ -72,7 +61,7 @@ static void homogeneous_case(double tau_axis, const char *name) {
     picvr_context *ctx = tu_create(1);
     tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
     tu_upload(ctx, &vol);
-    homog hm;
+    tu_homog hm;
     tu_vol_box(&vol, hm.bmin, hm.bmax);
     hm.sigma = (double)(float)(tau_axis / 16.0); /* the device gets D as a float */
     tu_tf_const(ctx, 0, 0, 0, 1.0f, (float)hm.sigma);
@@ -80,7 +69,7 @@ static void homogeneous_case(double tau_axis, const char *name) {
     tu_cam cam = tu_set_camera(ctx, 0, 0, 20, 0, 0, 0, 40, 48, 48);
     /* sys_rel 1e-4: 8x8 midpoint quadrature of a smooth function over the jitter and
        float32 ray setup; negligible against the 5-sigma bound (~0.5-8 % here). */
-    double *expv = tu_expected_image(&cam, 8, homog_ray, &hm);
+    double *expv = tu_expected_image(&cam, 8, tu_homog_ray, &hm);
     check_transmittance_image(ctx, &cam, expv, 256, 1e-4, name);
     free(expv);
     tu_vol_free(&vol);
@@ -135,8 +124,8 @@ void test_beer_lambert_uint16_and_float32_volumes(void **state) {
         d.value_max = cases[c].hi;
         TU_OK(picvr_upload_volume(ctx, &d));
         tu_cam cam = tu_set_camera(ctx, 0, 0, 20, 0, 0, 0, 40, 32, 32);
-        homog hm = {{-8, -8, -8}, {8, 8, 8}, (double)D * v0};
-        double *expv = tu_expected_image(&cam, 8, homog_ray, &hm);
+        tu_homog hm = {{-8, -8, -8}, {8, 8, 8}, (double)D * v0};
+        double *expv = tu_expected_image(&cam, 8, tu_homog_ray, &hm);
         /* sys_rel 1e-3: the normalized value 0.6 is computed in float32 on the device
            (and a UNORM texture holds it to 2^-16); the 5-sigma bound is ~1.5 %. */
         check_transmittance_image(ctx, &cam, expv, 256, 1e-3, cases[c].name);

@@ -12,14 +12,7 @@ static float *render_checked(picvr_context *ctx, uint32_t w, uint32_t h, uint32_
                              const char *what) {
     TU_OK(picvr_step_iterations(ctx, n));
     float *img = tu_read(ctx, w, h);
-    tu_assert_finite(img, (size_t)w * h * 4, what);
-    for (size_t p = 0; p < (size_t)w * h; p++) {
-        for (int c = 0; c < 3; c++)
-            if (img[4 * p + c] < 0)
-                fail_msg("%s: pixel %zu channel %d negative (%g)", what, p, c, (double)img[4 * p + c]);
-        if (img[4 * p + 3] < 0 || img[4 * p + 3] > 1)
-            fail_msg("%s: pixel %zu alpha %g outside [0,1]", what, p, (double)img[4 * p + 3]);
-    }
+    tu_assert_image_valid(img, w, h, what);
     picvr_stats st = tu_stats_finite(ctx);
     if (st.iterations != n) fail_msg("%s: %u iterations, expected %u", what, st.iterations, n);
     print_message("    %-40s mean luminance %-11.4g truncated_paths %llu\n", what,

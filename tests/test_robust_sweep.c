@@ -44,14 +44,7 @@ static float *sweep_render(picvr_context *ctx, uint32_t w, uint32_t h, uint32_t 
     float *img = tu_read(ctx, w, h);
     picvr_stats st = tu_stats_finite(ctx);
     double dt = now_s() - t0;
-    tu_assert_finite(img, (size_t)w * h * 4, what);
-    for (size_t p = 0; p < (size_t)w * h; p++) {
-        for (int c = 0; c < 3; c++)
-            if (img[4 * p + c] < 0)
-                fail_msg("%s: pixel %zu channel %d negative (%g)", what, p, c, (double)img[4 * p + c]);
-        if (img[4 * p + 3] < 0 || img[4 * p + 3] > 1)
-            fail_msg("%s: pixel %zu alpha %g outside [0,1]", what, p, (double)img[4 * p + 3]);
-    }
+    tu_assert_image_valid(img, w, h, what);
     if (st.iterations != n) fail_msg("%s: %u iterations, expected %u", what, st.iterations, n);
     if (st.width != w || st.height != h) fail_msg("%s: stats size %ux%u", what, st.width, st.height);
     if (dt > CASE_MAX_S) fail_msg("%s: took %.1f s (bound %.0f s)", what, dt, CASE_MAX_S);
@@ -88,18 +81,6 @@ static const char *mode_name(picvr_cache_mode m) {
 
 /* ---- closed forms ------------------------------------------------------------------------ */
 
-typedef struct homog {
-    double bmin[3], bmax[3], sigma;
-} homog;
-
-/* Beer-Lambert through a homogeneous box (background 1, albedo 0). */
-static void homog_ray(const double o[3], const double d[3], void *user, double out[4]) {
-    const homog *h = user;
-    double t0, t1, T = 1;
-    if (tu_ray_box(o, d, h->bmin, h->bmax, &t0, &t1)) T = exp(-h->sigma * (t1 - t0));
-    out[0] = out[1] = out[2] = T;
-    out[3] = 1 - T;
-}
 
 /* Optically thick half-space (see the top): the face the ray enters through. */
 typedef struct thick {
@@ -166,7 +147,7 @@ void test_sweep_optical_thickness_beer_lambert(void **state) {
     picvr_context *ctx = tu_create(61);
     tu_vol vol = tu_vol_new(8, 8, 8, 1.0f, 255);
     tu_upload(ctx, &vol);
-    homog hm;
+    tu_homog hm;
     tu_vol_box(&vol, hm.bmin, hm.bmax);
     tu_background_only(ctx, 1, 1, 1, 1);
     const uint32_t W = 24, H = 24, N = 64;
@@ -179,7 +160,7 @@ void test_sweep_optical_thickness_beer_lambert(void **state) {
         char what[96];
         snprintf(what, sizeof what, "beer-lambert tau/voxel %g", (double)tau[i]);
         float *img = sweep_render(ctx, W, H, N, what);
-        double *expv = tu_expected_image(&cam, 4, homog_ray, &hm);
+        double *expv = tu_expected_image(&cam, 4, tu_homog_ray, &hm);
         const double M[3] = {1, 1, 1};
         ok &= check_all(what, img, expv, W, H, N, M, 1e-4);
         free(expv);
@@ -398,12 +379,12 @@ void test_sweep_transfer_function_step_zero_and_max(void **state) {
     picvr_tf_point full[1] = {{0.5f, {0, 0, 0}, 1.0f}};
     TU_OK(picvr_set_transfer_function(ctx, full, 1, 0.05f));
     tu_background_only(ctx, 1, 1, 1, 1);
-    homog hm;
+    tu_homog hm;
     memcpy(hm.bmin, s.bmin, sizeof hm.bmin);
     memcpy(hm.bmax, s.bmax, sizeof hm.bmax);
     hm.sigma = (double)0.05f;
     img = sweep_render(ctx, W, H, N, "all-max TF (one point, opacity 1), D 0.05");
-    double *expv = tu_expected_image(&cam, 4, homog_ray, &hm);
+    double *expv = tu_expected_image(&cam, 4, tu_homog_ray, &hm);
     ok &= check_all("all-max TF", img, expv, W, H, N, M, 1e-4);
     free(expv);
     free(img);
@@ -663,7 +644,7 @@ void test_sweep_volume_shapes_and_spacing(void **state) {
         tu_vol vol = tu_vol_new(cases[i].n[0], cases[i].n[1], cases[i].n[2], 1.0f, 255);
         memcpy(vol.spacing, cases[i].sp, sizeof vol.spacing);
         tu_upload(ctx, &vol);
-        homog hm;
+        tu_homog hm;
         tu_vol_box(&vol, hm.bmin, hm.bmax);
         tu_vol_free(&vol);
         hm.sigma = cases[i].D;
@@ -671,7 +652,7 @@ void test_sweep_volume_shapes_and_spacing(void **state) {
         tu_cam cam = tu_set_camera(ctx, cases[i].cam[0], cases[i].cam[1], cases[i].cam[2], cases[i].tgt[0],
                                    cases[i].tgt[1], cases[i].tgt[2], cases[i].fov, cases[i].w, cases[i].h);
         float *img = sweep_render(ctx, cases[i].w, cases[i].h, 64, cases[i].what);
-        double *expv = tu_expected_image(&cam, 4, homog_ray, &hm);
+        double *expv = tu_expected_image(&cam, 4, tu_homog_ray, &hm);
         ok &= check_all(cases[i].what, img, expv, cases[i].w, cases[i].h, 64, M, 1e-4);
         free(expv);
         free(img);
@@ -752,7 +733,7 @@ void test_sweep_cameras_and_image_sizes(void **state) {
         picvr_context *ctx = pass ? create_cache(69, PICVR_CACHE_OBJECT_SPACE) : tu_create(69);
         tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
         tu_upload(ctx, &vol);
-        homog hm;
+        tu_homog hm;
         tu_vol_box(&vol, hm.bmin, hm.bmax);
         tu_vol_free(&vol);
         hm.sigma = (double)0.1f;
@@ -782,7 +763,7 @@ void test_sweep_cameras_and_image_sizes(void **state) {
             char what[96];
             snprintf(what, sizeof what, "%s, %s", cases[i].what, pass ? "cache object" : "no cache");
             float *img = sweep_render(ctx, cases[i].w, cases[i].h, cases[i].n, what);
-            double *expv = tu_expected_image(&cam, cases[i].w > 1000 ? 2 : 4, homog_ray, &hm);
+            double *expv = tu_expected_image(&cam, cases[i].w > 1000 ? 2 : 4, tu_homog_ray, &hm);
             if (cases[i].sys == 0) { /* looking away: exactly the background */
                 for (size_t p = 0; p < (size_t)cases[i].w * cases[i].h; p++)
                     if (img[4 * p] != 1.0f || img[4 * p + 3] != 0.0f)
@@ -818,7 +799,7 @@ void test_sweep_long_run_precision_1e6(void **state) {
     picvr_context *ctx = tu_create(70);
     tu_vol vol = tu_vol_new(4, 4, 4, 1.0f, 255);
     tu_upload(ctx, &vol);
-    homog hm;
+    tu_homog hm;
     tu_vol_box(&vol, hm.bmin, hm.bmax);
     tu_vol_free(&vol);
     hm.sigma = 0.25; /* exact in float32: the chord 4 along z gives T = e^-1 */
@@ -826,7 +807,7 @@ void test_sweep_long_run_precision_1e6(void **state) {
     tu_background_only(ctx, 1, 1, 1, 1);
     tu_cam cam = tu_set_camera(ctx, 0, 0, 10, 0, 0, 0, 0.01, 1, 1);
     double ex[4];
-    double *expv = tu_expected_image(&cam, 4, homog_ray, &hm);
+    double *expv = tu_expected_image(&cam, 4, tu_homog_ray, &hm);
     memcpy(ex, expv, sizeof ex);
     free(expv);
     const char *env = getenv("PICVR_LONG_RUN");

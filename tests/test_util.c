@@ -424,6 +424,25 @@ void tu_assert_finite(const float *x, size_t n, const char *what) {
                      (double)x[i]);
 }
 
+void tu_assert_image_valid(const float *img, uint32_t w, uint32_t h, const char *what) {
+    tu_assert_finite(img, (size_t)w * h * 4, what);
+    for (size_t p = 0; p < (size_t)w * h; p++) {
+        for (int c = 0; c < 3; c++)
+            if (img[4 * p + c] < 0)
+                fail_msg("%s: pixel %zu channel %d negative (%g)", what, p, c, (double)img[4 * p + c]);
+        if (img[4 * p + 3] < 0 || img[4 * p + 3] > 1)
+            fail_msg("%s: pixel %zu alpha %g outside [0,1]", what, p, (double)img[4 * p + 3]);
+    }
+}
+
+void tu_homog_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    const tu_homog *h = user;
+    double t0, t1, T = 1;
+    if (tu_ray_box(o, d, h->bmin, h->bmax, &t0, &t1)) T = exp(-h->sigma * (t1 - t0));
+    out[0] = out[1] = out[2] = T;
+    out[3] = 1 - T;
+}
+
 picvr_stats tu_stats_finite(picvr_context *ctx) {
     picvr_stats st;
     TU_OK(picvr_get_stats(ctx, &st));

@@ -248,6 +248,12 @@ double tu_segment_in_box(const double a[3], const double b[3], const double bmin
 /* Integral of f over [a, b]: `pieces` equal pieces, 8-point Gauss-Legendre each. */
 double tu_integrate(double (*f)(double t, void *user), void *user, double a, double b,
                     int pieces);
+/* A homogeneous absorbing box (extinction sigma, albedo 0) in front of background 1. */
+typedef struct tu_homog {
+    double bmin[3], bmax[3], sigma;
+} tu_homog;
+/* Beer-Lambert through a tu_homog (user): rgb = T, alpha = 1 - T; for tu_expected_image. */
+void tu_homog_ray(const double o[3], const double d[3], void *user, double out[4]);
 /* Solid angle of the triangle (a, b, c) seen from x (Van Oosterom-Strackee). */
 double tu_triangle_solid_angle(const double x[3], const double a[3], const double b[3],
                                const double c[3]);
@@ -262,6 +268,8 @@ static inline double tu_lum(double r, double g, double b) {
 }
 /* Fails (with the first offending index) unless all n floats are finite. */
 void tu_assert_finite(const float *x, size_t n, const char *what);
+/* Fails unless the w x h RGBA image is finite, radiance >= 0 and alpha in [0, 1]. */
+void tu_assert_image_valid(const float *img, uint32_t w, uint32_t h, const char *what);
 /* Reads stats (asserts OK) and checks every floating field is finite. */
 picvr_stats tu_stats_finite(picvr_context *ctx);
 /* Mean of channel ch over the pixel rectangle [x0,x1) x [y0,y1) of an RGBA image. */
