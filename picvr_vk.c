@@ -141,6 +141,7 @@ struct picvr_context {
     double overhead_ms;              /* wall time of a round beyond its device time */
     double credit_ms[2];             /* PROC_CREATE, PROC_UPDATE: device time owed by the shares */
     uint32_t create_batch;           /* entries a creation dispatch waits for (creation_batch) */
+    VkDeviceSize max_volume_bytes;   /* largest volume image the device can hold; 0: unknown */
     uint32_t requests_pending;       /* valid requests the last round queued (each holds a lock) */
     struct round_record { double end_ms, device_ms[3]; uint32_t hits, misses; } history[SCHED_HISTORY];
     uint32_t history_count;          /* records in history (ring, newest at history_count-1 mod N) */
@@ -683,6 +684,21 @@ static picvr_status create_timestamps(picvr_context *ctx);
 static void update_targets(picvr_context *ctx);
 static uint32_t creation_batch(const picvr_context *ctx);
 
+/* The smaller of one allocation's limit (maxMemoryAllocationSize) and the largest
+   device-local heap; 0 when neither is known. */
+static VkDeviceSize volume_alloc_limit(const picvr_context *ctx) {
+    VkPhysicalDeviceMaintenance3Properties m3 = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES};
+    VkPhysicalDeviceProperties2 p2 = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, &m3};
+    vkGetPhysicalDeviceProperties2(ctx->phys, &p2);
+    VkDeviceSize heap = 0;
+    for (uint32_t i = 0; i < ctx->mem_props.memoryHeapCount; i++)
+        if ((ctx->mem_props.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) && ctx->mem_props.memoryHeaps[i].size > heap)
+            heap = ctx->mem_props.memoryHeaps[i].size;
+    VkDeviceSize lim = m3.maxMemoryAllocationSize;
+    if (heap && (!lim || heap < lim)) lim = heap;
+    return lim;
+}
+
 static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
     picvr_status s;
     if (cfg->vk_device) {
@@ -723,6 +739,7 @@ static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
 
     if ((s = create_pipelines(ctx)) || (s = create_sampler(ctx)) || (s = create_timestamps(ctx))) return s;
     ctx->create_batch = creation_batch(ctx);
+    ctx->max_volume_bytes = volume_alloc_limit(ctx);
     if (ctx->cache_on && (s = create_cache_buffers(ctx))) return s;
     if ((s = buffer_create(ctx, &ctx->round_readback, ROUND_READBACK_BYTES, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1))) return s;
     if ((s = buffer_create(ctx, &ctx->scene_ubo, sizeof(gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
@@ -1104,6 +1121,8 @@ static picvr_status validate_tf(const picvr_tf_point *p, uint32_t n, float densi
         for (int c = 0; c < 3; c++)
             if (p[i].albedo[c] < 0.0f || p[i].albedo[c] > 1.0f) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
         if (i > 0 && p[i].value < p[i - 1].value) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
+        /* sigma_t = D * opacity must fit a float */
+        if ((double)p[i].opacity * density > FLT_MAX) return PICVR_ERROR_INVALID_ARGUMENT;
     }
     return PICVR_OK;
 }
@@ -1131,8 +1150,6 @@ picvr_status picvr_set_transfer_function(picvr_context *ctx, const picvr_tf_poin
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     picvr_status s = validate_tf(points, count, density);
     if (s) return s;
-    for (uint32_t i = 0; i < count; i++)   /* issue 6: sigma_t = D * opacity must fit a float */
-        if ((double)points[i].opacity * density > FLT_MAX) return PICVR_ERROR_INVALID_ARGUMENT;
     return apply_tf(ctx, points, count, density);
 }
 
@@ -1311,17 +1328,11 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
         }
         if (!(sqrt(diag2) < FLT_MAX)) return PICVR_ERROR_INVALID_ARGUMENT;
     }
-    {   /* issue 6: a volume larger than one device allocation (maxMemoryAllocationSize)
-           or than the largest device-local heap is refused before anything is allocated */
-        VkPhysicalDeviceMaintenance3Properties m3 = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES};
-        VkPhysicalDeviceProperties2 p2 = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, &m3};
-        vkGetPhysicalDeviceProperties2(ctx->phys, &p2);
-        VkDeviceSize heap = 0, dev = (VkDeviceSize)(bytes / voxel_bytes(desc->type)) *
+    {   /* issue 6: a volume larger than the device can allocate (volume_alloc_limit) is
+           refused before anything is allocated */
+        VkDeviceSize dev = (VkDeviceSize)(bytes / voxel_bytes(desc->type)) *
             (desc->type == PICVR_VOXEL_FLOAT32 && ctx->float_volume_format == VK_FORMAT_R16_UNORM ? 2 : voxel_bytes(desc->type));
-        for (uint32_t i = 0; i < ctx->mem_props.memoryHeapCount; i++)
-            if ((ctx->mem_props.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) && ctx->mem_props.memoryHeaps[i].size > heap)
-                heap = ctx->mem_props.memoryHeaps[i].size;
-        if ((m3.maxMemoryAllocationSize && dev > m3.maxMemoryAllocationSize) || (heap && dev > heap)) {
+        if (ctx->max_volume_bytes && dev > ctx->max_volume_bytes) {
             logf_(ctx, PICVR_LOG_WARNING, "volume of %llu bytes exceeds the device's allocation limit", (unsigned long long)dev);
             return PICVR_ERROR_OUT_OF_DEVICE_MEMORY;
         }

@@ -174,18 +174,22 @@ static picvr_volume_desc good_desc(const uint8_t *data) {
     return d;
 }
 
-void test_bad_inputs_rejected_and_state_kept(void **state) {
-    (void)state;
+/* A fresh table: a context (seed 9) with the baseline scene (a ball of radius 8). */
+static table_state *table_begin(tu_vol *vol) {
     static table_state T;
     memset(&T, 0, sizeof T);
-    table_state *t = &T;
-    t->ctx = tu_create(9);
-    picvr_context *ctx = t->ctx;
+    T.ctx = tu_create(9);
+    *vol = tu_vol_ball(8);
+    T.vol = vol;
+    set_baseline(&T);
+    return &T;
+}
 
-    /* Baseline scene. */
-    tu_vol vol = tu_vol_ball(8);
-    t->vol = &vol;
-    set_baseline(t);
+void test_bad_inputs_rejected_and_state_kept(void **state) {
+    (void)state;
+    tu_vol vol;
+    table_state *t = table_begin(&vol);   /* baseline scene */
+    picvr_context *ctx = t->ctx;
     picvr_tf_point tf[2];
     memcpy(tf, BASE_TF, sizeof tf);
     picvr_light sun = base_sun();
@@ -462,14 +466,9 @@ void test_bad_inputs_rejected_and_state_kept(void **state) {
    then the context renders the bit-identical baseline image. */
 void test_bad_inputs_rest_of_api_and_device_limits(void **state) {
     (void)state;
-    static table_state T;
-    memset(&T, 0, sizeof T);
-    table_state *t = &T;
-    t->ctx = tu_create(9);
+    tu_vol vol;
+    table_state *t = table_begin(&vol);
     picvr_context *ctx = t->ctx;
-    tu_vol vol = tu_vol_ball(8);
-    t->vol = &vol;
-    set_baseline(t);
     TU_OK(picvr_step_iterations(ctx, 2));
     TU_OK(picvr_read_rgba32f(ctx, t->baseline, sizeof t->baseline));
 
