@@ -12,7 +12,7 @@ SHADER_INC  := $(wildcard shaders/*.glsl)
 TEST_SRC    := $(wildcard tests/test_*.c)
 LIB_OBJ     := $(B)/picvr_vk.o
 
-.PHONY: all deps lib test demo bench-speed bench-scheduler bench-long-run shaders check-shaders clean help
+.PHONY: all deps lib test demo bench-speed bench-scheduler bench-long-run bench-hit-rate shaders check-shaders clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
 
 help:
@@ -21,6 +21,7 @@ help:
 	@echo "make bench-speed  samples/s of the Vulkan kernel vs the C/OpenMP reference"
 	@echo "make bench-scheduler  error vs time with/without priorities, device-time shares"
 	@echo "make bench-long-run   10 min plain vs cached: hit rate and error ratio over time"
+	@echo "make bench-hit-rate   hit rate against entry count; time to 0.8 on this device"
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
 	@echo "make bench        error against run time, reduced (bonsai, 128x128; minutes)"
 	@echo "make bench-full   error against run time, the whole matrix (hours; resumable)"
@@ -88,6 +89,9 @@ bench-scheduler: deps $(B)/picvr-render
 
 bench-long-run: deps $(B)/picvr-render
 	DATA=$(DATA) sh bench/long_run.sh $(SECS)
+
+bench-hit-rate: deps $(B)/picvr-render
+	DATA=$(DATA) sh bench/hit_rate.sh $(SECS)
 
 clean:
 	rm -rf $(B)

@@ -49,6 +49,7 @@ typedef struct options {
     int validation;
     picvr_cache_mode cache;
     picvr_switch priorities;
+    picvr_switch curvature;
     float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
     const char *debug_view;
     float exposure;
@@ -136,6 +137,9 @@ static void print_help(FILE *f)
         "  --shares CMIN,CMAX,UMIN,UMAX  device-time shares of cache-entry creation and\n"
         "                         update at hit rate 1 and 0 (paper §6; default\n"
         "                         0.05,0.15,0.01,0.02)\n"
+        "  --curvature on|off     shrink cache entries where the field bends within Delta\n"
+        "                         (lit faces, shadow edges; default on; off: the paper's\n"
+        "                         Eq. 9, 10 radii alone)\n"
         "  --debug-view cache     show where the cache is: hits green, misses red, entry\n"
         "                         centres white (needs --cache object|screen)\n"
         "  --device NAME          Vulkan device whose name contains NAME\n"
@@ -303,9 +307,10 @@ static int apply_option(options *o, const char *name, const char *value)
         ok = sscanf(value, "%f,%f,%f,%f%c", &o->shares[0], &o->shares[1], &o->shares[2], &o->shares[3],
                     &tail) == 4;
         for (int k = 0; ok && k < 4; k++) ok = o->shares[k] > 0.0f && o->shares[k] < 1.0f;
-    } else if (!strcmp(name, "priorities")) {
-        if (!strcmp(value, "on")) o->priorities = PICVR_SWITCH_ON;
-        else if (!strcmp(value, "off")) o->priorities = PICVR_SWITCH_OFF;
+    } else if (!strcmp(name, "priorities") || !strcmp(name, "curvature")) {
+        picvr_switch *sw = name[0] == 'p' ? &o->priorities : &o->curvature;
+        if (!strcmp(value, "on")) *sw = PICVR_SWITCH_ON;
+        else if (!strcmp(value, "off")) *sw = PICVR_SWITCH_OFF;
         else ok = 0;
     } else if (!strcmp(name, "device")) {
         o->device = value;
@@ -333,7 +338,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "priorities", "shares", "debug-view", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "shares", "debug-view", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -680,6 +685,7 @@ static int write_json(const options *o, const picvr_stats *s)
         json_number(f, share[i]);
     }
     fprintf(f, ", \"priorities\": \"%s\"", o->priorities == PICVR_SWITCH_OFF ? "off" : "on");
+    fprintf(f, ", \"curvature_limit\": \"%s\"", o->curvature == PICVR_SWITCH_OFF ? "off" : "on");
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
         fail("cannot write %s: %s", o->json_path, strerror(errno));
@@ -783,6 +789,7 @@ static int render(const options *o, const pvio_layout *layout)
     cfg.validation = o->validation;
     cfg.cache.mode = o->cache;
     cfg.scheduler.priorities = o->priorities;
+    cfg.cache.curvature_limit = o->curvature;
     cfg.scheduler.create_min = o->shares[0];   /* 0 (not given): the defaults */
     cfg.scheduler.create_max = o->shares[1];
     cfg.scheduler.update_min = o->shares[2];

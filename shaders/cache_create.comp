@@ -5,7 +5,8 @@
 // mean free paths: entry_delta in cache_math.glsl), by Monte
 // Carlo with MIS (one light sample + one phase sample per point and round); rounds
 // repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached.  Then
-// thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10), and 27 threads insert
+// thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10, and the curvature limit
+// of cache_math.glsl unless turned off), and 27 threads insert
 // the entry into the octree (one per node its bounding box may overlap); the request's lock
 // (node or superpixel) is released.  Requests beyond this round's budget only unlock.
 #extension GL_GOOGLE_include_directive : require
@@ -135,6 +136,13 @@ void main() {
                     float e0 = s_E[0][c], ed = s_E[1u + h][c];
                     entries[e].sigma_v[h * 3u + c] = CM_FN(sigma_v)(e0, ed, delta);          // Eq. 6
                     r = min(r, CM_FN(validity_radius)(e0, ed, delta, eps, rmin, rmax_cap)); // Eq. 9, 10
+                    if (scene.cache_radii.z != 0.0) {   // the curvature limit of this axis
+                        uint ax = h / 2u;
+                        r = min(r, CM_FN(curvature_radius)(CM_FN(ln_irradiance)(s_E[2u + 2u * ax][c]),
+                                                           CM_FN(ln_irradiance)(e0),
+                                                           CM_FN(ln_irradiance)(s_E[1u + 2u * ax][c]),
+                                                           delta, eps, rmin, rmax_cap));
+                    }
                 }
                 entries[e].radius[h] = floatBitsToUint(r);
                 rmax = max(rmax, r);

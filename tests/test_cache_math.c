@@ -15,6 +15,9 @@
  *  - ellipsoid radius r(x), Eq. 11 weights (1 at the centre, 0 on the edge, monotone),
  *    the log-space average (identical entries return their value);
  *  - Fig. 6 radius reduction (the event ends just outside, common factor);
+ *  - the curvature limit of the radius: no limit for any exponential field; for a field
+ *    whose logarithm is quadratic, the secant's error at the limited radius is exactly
+ *    ln(1 + eps); a lit face and a shadow edge are limited, a flat shadow is not;
  *  - degenerate inputs (zero, equal, 1e-30 / 1e30 ratios, delta 1e-20, zero and
  *    infinite radii, a fully shadowed entry, NaN and inf everywhere): every output is
  *    finite and equals the rule documented in cache_math.glsl.
@@ -78,7 +81,8 @@
     X(6, reduce_factor)                                                                  \
     X(3, reduced_radius)                                                                 \
     X(2, entry_delta)                                                                    \
-    X(3, entry_r_min)
+    X(3, entry_r_min)                                                                    \
+    X(7, curvature_radius)
 
 #define CMT_MEMBER(n, name) double (*name)(CMT_A##n);
 #define CMT_WRAP(n, name) \
@@ -768,7 +772,84 @@ static void entry_offset(const cmt_impl *im) {
     cmt_exact(im, "entry_r_min, NaN", im->entry_r_min(rmin, NAN, D), cmt_r(im, 1e-12));
 }
 
+/* ---- curvature limit of the radius (cache_math.glsl, curvature_radius) -------------- */
+
+static void curvature_limit(const cmt_impl *im) {
+    const double D = 2.0, eps = 0.1, L = log(1.1), lo = 1e-12, hi = 1e12;
+    char what[160];
+    /* every exponential field: ln E linear along the axis, m = 0 (in float up to the
+       rounding of the logs, far below 8 L = 0.76): no limit */
+    const double s_list[6] = {0.0, 0.7, -0.3, 5.0, -20.0, 1e-4};
+    const double E0s[3] = {1.0, 2e-6, 4e3};
+    for (int is = 0; is < 6; is++)
+        for (int k = 0; k < 3; k++) {
+            double s = s_list[is], l0 = log(E0s[k]);
+            snprintf(what, sizeof what, "exponential field s %g E0 %g: no limit", s, E0s[k]);
+            cmt_exact(im, what, im->curvature_radius(l0 + s * D, l0, l0 - s * D, D, eps, lo, hi),
+                      cmt_r(im, hi));
+        }
+    /* quadratic ln E(x) = a - g x - kappa x^2 / 2: m = kappa D^2.  Above 8 L the radius r
+       satisfies the defining property kappa r (D - r) / 2 = L (the largest error of the
+       one-sided secant within r) and r < D / 2; at or below 8 L there is no limit */
+    const double m_list[7] = {0.1, 0.7, 8 * log(1.1) * 1.0001, 1.0, 3.0, 30.0, 100.0};
+    double prev = INFINITY;
+    for (int j = 0; j < 7; j++)
+        for (int sign = -1; sign <= 1; sign += 2) {
+            double kappa = sign * m_list[j] / (D * D), a = 0.4, g = -1.3;
+            double lp = a - g * D - kappa * D * D / 2, lm = a + g * D - kappa * D * D / 2;
+            double r = im->curvature_radius(lm, a, lp, D, eps, lo, hi);
+            snprintf(what, sizeof what, "quadratic field m %g sign %d", m_list[j], sign);
+            if (m_list[j] <= 8 * L) { cmt_exact(im, what, r, cmt_r(im, hi)); continue; }
+            /* the float logs carry ~1e-7 absolute error, m ~1e-7 relative; r's
+               sensitivity grows near m = 8 L, where dr/dm diverges */
+            double tol = im == &cmt_impls[0] ? 1e-9 : (m_list[j] < 0.8 ? 2e-2 : 1e-4);
+            cmt_close(im, what, fabs(kappa) * r * (D - r) / 2, L, tol, 0);
+            if (!(r < D / 2)) fail_msg("[%s] %s: r = %g not below delta / 2", im->prec, what, r);
+            if (sign > 0) {
+                if (!(r <= prev)) fail_msg("[%s] r not monotone in m at %g", im->prec, m_list[j]);
+                prev = r;
+            }
+        }
+    /* a lit face: the centre 0.5 mean free paths deep in a half-space of extinction 1
+       under a sun along the axis, the outward point (D = 2) in air: ln E = -x inside,
+       flat outside, m = 1.5 > 8 L: limited, below D / 2 */
+    double r = im->curvature_radius(-2.5, -0.5, 0.0, D, eps, lo, hi);
+    if (!(r < D / 2 && r > 0.1)) fail_msg("[%s] lit face: r = %g", im->prec, r);
+    /* shadow edge: E_0 = 0 next to lit points, or a lit centre next to a zero: r_min */
+    double rmin = CM_R_MIN_VOXELS, rmax = CM_R_MAX_VOXELS, z = CM_LN_E_MIN;
+    cmt_exact(im, "E0 = 0, lit on one side", im->curvature_radius(z, z, 0.0, D, eps, rmin, rmax),
+              cmt_r(im, rmin));
+    cmt_exact(im, "E0 = 0, lit on both sides", im->curvature_radius(1.0, z, 0.0, D, eps, rmin, rmax),
+              cmt_r(im, rmin));
+    cmt_exact(im, "lit centre, zero on one side", im->curvature_radius(z, 0.0, -0.1, D, eps, rmin, rmax),
+              cmt_r(im, rmin));
+    /* a fully shadowed stretch (all three zero) is flat: no limit */
+    cmt_exact(im, "all zero", im->curvature_radius(z, z, z, D, eps, rmin, rmax), cmt_r(im, rmax));
+    /* rules: eps 0 -> any curvature gives r_min, NaN eps counts as 0; NaN logs are the
+       code for 0; delta NaN -> 1e-12; every output finite and within [r_min, r_max] */
+    cmt_exact(im, "eps 0, slight curvature", im->curvature_radius(0.01, 0.0, 0.01, D, 0.0, rmin, rmax),
+              cmt_r(im, rmin));
+    cmt_exact(im, "eps NaN", im->curvature_radius(0.01, 0.0, 0.01, D, NAN, rmin, rmax), cmt_r(im, rmin));
+    cmt_exact(im, "NaN logs (all zero)", im->curvature_radius(NAN, NAN, NAN, D, eps, rmin, rmax),
+              cmt_r(im, rmax));
+    const double bad[6] = {NAN, INFINITY, -INFINITY, 0.0, 1e30, -1e30};
+    for (int i = 0; i < 6; i++)
+        for (int j = 0; j < 6; j++) {
+            double v = im->curvature_radius(bad[i], 0.0, bad[j], bad[(i + j) % 6], bad[j], rmin, rmax);
+            snprintf(what, sizeof what, "degenerate %d %d", i, j);
+            CMT_FINITE(im, what, v);
+            if (!(v >= cmt_r(im, rmin) && v <= cmt_r(im, rmax)))
+                fail_msg("[%s] %s: %g outside [r_min, r_max]", im->prec, what, v);
+        }
+}
+
 /* ---- the cmocka tests ---------------------------------------------------------------- */
+
+void test_cache_math_curvature_radius(void **state) {
+    (void)state;
+    for (int k = 0; k < 2; k++) curvature_limit(&cmt_impls[k]);
+}
+
 
 void test_cache_math_entry_offset(void **state) {
     (void)state;
