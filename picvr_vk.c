@@ -866,7 +866,7 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
     if (!c->superpixel_size) c->superpixel_size = 32;
     if (c->superpixel_size > 4096) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)c->curvature_limit > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
-    if (c->curvature_limit == PICVR_SWITCH_DEFAULT) c->curvature_limit = PICVR_SWITCH_ON;
+    if (c->curvature_limit == PICVR_SWITCH_DEFAULT) c->curvature_limit = PICVR_SWITCH_OFF;
     float *f[7] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels,
                    &c->update_threshold, &c->rebuild_interval_ms};
     const float def[7] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f, 0.1f, 1000.0f};

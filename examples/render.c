@@ -138,8 +138,8 @@ static void print_help(FILE *f)
         "                         update at hit rate 1 and 0 (paper §6; default\n"
         "                         0.05,0.15,0.01,0.02)\n"
         "  --curvature on|off     shrink cache entries where the field bends within Delta\n"
-        "                         (lit faces, shadow edges; default on; off: the paper's\n"
-        "                         Eq. 9, 10 radii alone)\n"
+        "                         (lit faces, shadow edges): less bias, far lower hit rate\n"
+        "                         (default off: the paper's Eq. 9, 10 radii alone)\n"
         "  --debug-view cache     show where the cache is: hits green, misses red, entry\n"
         "                         centres white (needs --cache object|screen)\n"
         "  --device NAME          Vulkan device whose name contains NAME\n"
@@ -685,7 +685,7 @@ static int write_json(const options *o, const picvr_stats *s)
         json_number(f, share[i]);
     }
     fprintf(f, ", \"priorities\": \"%s\"", o->priorities == PICVR_SWITCH_OFF ? "off" : "on");
-    fprintf(f, ", \"curvature_limit\": \"%s\"", o->curvature == PICVR_SWITCH_OFF ? "off" : "on");
+    fprintf(f, ", \"curvature_limit\": \"%s\"", o->curvature == PICVR_SWITCH_ON ? "on" : "off");
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
         fail("cannot write %s: %s", o->json_path, strerror(errno));

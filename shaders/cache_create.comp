@@ -6,7 +6,7 @@
 // Carlo with MIS (one light sample + one phase sample per point and round); rounds
 // repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached.  Then
 // thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10, and the curvature limit
-// of cache_math.glsl unless turned off), and 27 threads insert
+// of cache_math.glsl when turned on), and 27 threads insert
 // the entry into the octree (one per node its bounding box may overlap); the request's lock
 // (node or superpixel) is released.  Requests beyond this round's budget only unlock.
 #extension GL_GOOGLE_include_directive : require

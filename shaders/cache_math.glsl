@@ -481,9 +481,11 @@ CM_API real CM_FN(entry_r_min)(real r_min, real delta_e, real delta) {
 // half-axes of that axis get the radius at which the secant's error reaches L:
 //   kappa r (delta - r) / 2 = L   =>   r = delta (1 - sqrt(1 - 8 L / m)) / 2 < delta / 2,
 // computed as 4 delta L / (m (1 + sqrt(1 - 8 L / m))) (no cancellation for large m);
-// elsewhere no limit (r_max).  Why: without it the cache darkened bonsai under one area
-// light by 9-11 % once the hit rate was high (the lit faces and shadow edges of every
-// leaf); with it by < 1 % (README, "The irradiance cache").
+// elsewhere no limit (r_max).  Why: with Eq. 9, 10 alone the cache darkened bonsai under
+// one area light by 11 % at a hit rate of 0.93 (the lit faces and shadow edges of every
+// leaf); with this limit by 1.1 % at 0.46 - but the entries shrink so much (a zero next
+// to a lit estimate gives r_min) that the hit rate stayed below 0.6 with 50,000 entries,
+// so it is off by default (cfg.cache.curvature_limit; README, "The irradiance cache").
 // Rules: logs by san_ln (E = 0 is ln 1e-30, so a zero next to a positive estimate gives
 // m >= 69 - |ln E|, hence r below 3e-3 delta: r_min in practice; all three zero: m = 0,
 // no limit); eps: NaN -> 0, clamped to [0, CM_EPS_MAX] (eps = 0: any curvature gives

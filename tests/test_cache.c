@@ -11,17 +11,23 @@
  */
 #include "test_util.h"
 
-static picvr_context *create_cached_mode(picvr_cache_mode mode, uint32_t seed, uint32_t max_entries,
-                                        float gamma, float eps) {
+static picvr_context *create_cached_curv(picvr_cache_mode mode, picvr_switch curvature, uint32_t seed,
+                                        uint32_t max_entries, float gamma, float eps) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
     cfg.cache.mode = mode;
+    cfg.cache.curvature_limit = curvature;
     cfg.cache.max_entries = max_entries;
     cfg.cache.gamma = gamma;
     cfg.cache.epsilon = eps;
     cfg.cache.max_requests = 16;   /* per iteration: fills the cache of these tiny images fast */
     return tu_create_config(&cfg);
+}
+
+static picvr_context *create_cached_mode(picvr_cache_mode mode, uint32_t seed, uint32_t max_entries,
+                                        float gamma, float eps) {
+    return create_cached_curv(mode, PICVR_SWITCH_DEFAULT, seed, max_entries, gamma, eps);
 }
 
 static picvr_context *create_cached(uint32_t seed, uint32_t max_entries, float gamma, float eps) {
@@ -61,8 +67,8 @@ void test_cache_off_by_default_allocates_nothing(void **state) {
     tu_finish(ctx);
 }
 
-static void cached_cube_matches_closed_form(picvr_cache_mode mode) {
-    picvr_context *ctx = create_cached_mode(mode, 7, 0, 0.05f, 0.05f);
+static void cached_cube_matches_closed_form(picvr_cache_mode mode, picvr_switch curvature) {
+    picvr_context *ctx = create_cached_curv(mode, curvature, 7, 0, 0.05f, 0.05f);
     tu_vol vol;
     tu_sun_scene s;
     setup_cube(ctx, &vol, &s);
@@ -94,12 +100,19 @@ static void cached_cube_matches_closed_form(picvr_cache_mode mode) {
 
 void test_cache_homogeneous_sun_matches_closed_form(void **state) {
     (void)state;
-    cached_cube_matches_closed_form(PICVR_CACHE_OBJECT_SPACE);
+    cached_cube_matches_closed_form(PICVR_CACHE_OBJECT_SPACE, PICVR_SWITCH_DEFAULT);
+}
+
+/* The same with the curvature limit of the radii on (cfg.cache.curvature_limit): the
+   limit only shrinks entries, so the image stays within the same bound. */
+void test_cache_curvature_limit_matches_closed_form(void **state) {
+    (void)state;
+    cached_cube_matches_closed_form(PICVR_CACHE_OBJECT_SPACE, PICVR_SWITCH_ON);
 }
 
 void test_cache_screen_space_locking_matches_closed_form(void **state) {
     (void)state;
-    cached_cube_matches_closed_form(PICVR_CACHE_SCREEN_SPACE);
+    cached_cube_matches_closed_form(PICVR_CACHE_SCREEN_SPACE, PICVR_SWITCH_DEFAULT);
 }
 
 void test_cache_invalidation_and_camera_keeps_cache(void **state) {

@@ -227,9 +227,9 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
                outside the medium, where E no longer grows, and Eq. 6 underestimates the
                growth toward the face (the paper's one-sided differences assume a field
                that is exponential across the whole offset).  The curvature limit of the
-               radius (cache_math.glsl, curvature_radius), which took bonsai's darkening
-               from 9-11 % to < 1 %, leaves this case in the same range (-4 % to -13 %,
-               2026-11-28): a step from vacuum to 10-1e5 per voxel bends ln E at one point,
+               radius (cache_math.glsl, curvature_radius; off by default), which took
+               bonsai's darkening from 11 % to about 1 %, leaves this case in the same
+               range (-4 % to -13 % with it on, 2026-11-28): a step from vacuum to 10-1e5 per voxel bends ln E at one point,
                and for centres deeper than about 1.3 mean free paths the second difference
                stays under its threshold although the secant misses the face by up to
                e^-0.4.  Asserted: finite (above), the

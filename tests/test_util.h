@@ -52,6 +52,7 @@
     /* test_cache.c */                                              \
     X(test_cache_off_by_default_allocates_nothing)                  \
     X(test_cache_homogeneous_sun_matches_closed_form)               \
+    X(test_cache_curvature_limit_matches_closed_form )               \
     X(test_cache_screen_space_locking_matches_closed_form)          \
     X(test_cache_invalidation_and_camera_keeps_cache)               \
     X(test_cache_pool_full_is_reported_and_safe)                    \
