@@ -159,6 +159,7 @@ typedef struct options {
     double run_ms, slice_ms, rotate_ms, after_ms, ref_chunk_ms;
     double bias_ms;            /* > 0: separate long runs for the bias split */
     double warm_ms;            /* > 0: also the bias of a warm cache (--bias-warm) */
+    picvr_switch curvature;    /* --curvature: cfg.cache.curvature_limit of every run */
     int repeats, ref_max_chunks;
     int list;                  /* --list: print the scenes and their reference folders */
 } options;
@@ -191,6 +192,8 @@ static void print_help(FILE *f)
         "                       that first fill the cache for MS with creation at a\n"
         "                       0.85 share of the time, then restart the image (the\n"
         "                       cache is kept) and render --bias-time (or --time) MS\n"
+        "  --curvature on|off   the cache's curvature limit of the radii (default: the\n"
+        "                       library's, off)\n"
         "  --ref-chunk MS       time per reference chunk (default 60000)\n"
         "  --ref-max-chunks N   refuse a reference that needs more (default 200)\n"
         "  --out DIR            results (default bench/results)\n"
@@ -203,7 +206,8 @@ static int parse_args(int argc, char **argv, options *o)
 {
     *o = (options){"bench/scenes.txt", "../shared/data", "bench/results", "bench/refs",
                    NULL, NULL, "plain,object,object-noprio,screen,screen-noprio",
-                   "bonsai", "bonsai", 128, 128, 10000, 200, 4000, 6000, 60000, 0, 0, 2, 200};
+                   "bonsai", "bonsai", 128, 128, 10000, 200, 4000, 6000, 60000, 0, 0,
+                   PICVR_SWITCH_DEFAULT, 2, 200};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--help")) { print_help(stdout); exit(0); }
@@ -232,6 +236,11 @@ static int parse_args(int argc, char **argv, options *o)
         else if (!strcmp(a, "--ref-chunk")) o->ref_chunk_ms = atof(v);
         else if (!strcmp(a, "--bias-time")) o->bias_ms = atof(v);
         else if (!strcmp(a, "--bias-warm")) o->warm_ms = atof(v);
+        else if (!strcmp(a, "--curvature")) {
+            if (!strcmp(v, "on")) o->curvature = PICVR_SWITCH_ON;
+            else if (!strcmp(v, "off")) o->curvature = PICVR_SWITCH_OFF;
+            else { fail("bad --curvature %s", v); return 0; }
+        }
         else if (!strcmp(a, "--repeats")) o->repeats = atoi(v);
         else if (!strcmp(a, "--ref-max-chunks")) o->ref_max_chunks = atoi(v);
         else { fail("unknown option %s", a); print_help(stderr); return 0; }
@@ -421,6 +430,9 @@ static int set_look(const scene *s, session *ss)
 }
 
 /* A fresh context (empty cache) with the scene set up for condition c and a seed. */
+/* --curvature, for every cached context (set once after the options are parsed). */
+static picvr_switch run_curvature;
+
 /* create_share > 0: the creation procedure's share of the time, at every hit rate
    (t_c,min = t_c,max; the warm-up of --bias-warm); 0: the defaults of Table 1. */
 static int session_open(const scene *s, const pvio_volume *vol, const condition *c,
@@ -433,6 +445,7 @@ static int session_open(const scene *s, const pvio_volume *vol, const condition 
     cfg.cache.mode = c->mode;
     cfg.scheduler.priorities = c->priorities;
     cfg.scheduler.create_min = cfg.scheduler.create_max = create_share;
+    cfg.cache.curvature_limit = c->mode == PICVR_CACHE_NONE ? PICVR_SWITCH_DEFAULT : run_curvature;
     if (!check(picvr_create(&cfg, &ss->ctx), "picvr_create")) return 0;
     picvr_volume_desc desc;
     pvio_to_desc(vol, &desc);
@@ -1607,6 +1620,7 @@ int main(int argc, char **argv)
     options o;
     scene_file sf;
     if (!parse_args(argc, argv, &o)) return EXIT_USAGE;
+    run_curvature = o.curvature;
     if (!read_scene_file(o.scenes_path, &sf)) return EXIT_USAGE;
     char runs_dir[PATH_LEN];
     snprintf(runs_dir, sizeof runs_dir, "%s/runs", o.out_dir);

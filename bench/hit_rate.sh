@@ -50,7 +50,7 @@ awk -F, 'FNR == 1 { next }
          rate = dt > 0 ? dn / dt : 0;
          f = "'"$OUT"'/hit_rate.csv";
          print "curvature,t_s,hit_rate,hit_rate_mean5,entries,refs" > f;
-         printf "default shares (curvature limit on): %d entries in %.0f s = %.1f entries/s\n", dn, dt, rate;
+         printf "default shares and radii: %d entries in %.0f s = %.1f entries/s\n", dn, dt, rate;
          printf "%10s %9s %12s %10s %12s %28s\n", "curvature", "hit rate", "first at s", "entries",
                 "refs/entry", "time at default shares (s, >=)";
          split("on off", name, " ");
