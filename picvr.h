@@ -173,7 +173,10 @@ typedef struct picvr_cache_config {
     float delta_voxels;        /* position offset Delta in voxels (of the smallest
                                   spacing); 0: 2 */
     float radius_min_voxels;   /* 0: 0.01 */
-    float radius_max_voxels;   /* 0: 16 */
+    float radius_max_voxels;   /* 0: 16.  Where the medium is denser than 2 / delta_voxels
+                                  extinction per voxel, an entry's offset is two mean free
+                                  paths and both radius bounds shrink in proportion
+                                  (README, "Robustness") */
     float update_threshold;    /* §4.3: predictions conflict when they differ by more than
                                   this relative amount; 0: 0.1 */
     float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */

@@ -52,6 +52,10 @@ float entry_radius(uint e, uint h) { return uintBitsToFloat(entries[e].radius[h]
 float entry_r_min_of(uint e) {
     return CM_FN(entry_r_min)(scene.cache_radii.x, entries[e].e0.w, scene.cache_params.z);
 }
+// Its maximum radius (cache_math.glsl, entry_r_max).
+float entry_r_max_of(uint e) {
+    return CM_FN(entry_r_max)(scene.cache_radii.y, entries[e].e0.w, scene.cache_params.z);
+}
 
 // ---- local frame: n is the normalized gradient of extinction (central differences),
 // t and b follow from n by basis() (§4.2).  Rule: where the gradient vanishes (|grad|
@@ -115,7 +119,7 @@ Prediction predict(uint e, vec3 x) {
         // Fig. 4: discard beyond the validity radius of the interpolated sigma_v.
         if (!(d1 <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, delta_e,
                                                   scene.cache_params.y, rmin_e,
-                                                  scene.cache_radii.y))) return pr;
+                                                  entry_r_max_of(e)))) return pr;
         pr.lnE[c] = CM_FN(log_extrapolate)(entries[e].e0[c], s, d1);     // Eq. 7 in log space
     }
     pr.w = w;

@@ -128,7 +128,7 @@ void main() {
         } else {
             float eps = scene.cache_params.y;
             float rmin = CM_FN(entry_r_min)(scene.cache_radii.x, delta, scene.cache_params.z);
-            float rmax_cap = scene.cache_radii.y;
+            float rmax_cap = CM_FN(entry_r_max)(scene.cache_radii.y, delta, scene.cache_params.z);
             float rmax = 0.0;
             for (uint h = 0u; h < 6u; h++) {
                 float r = rmax_cap;

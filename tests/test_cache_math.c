@@ -82,6 +82,7 @@
     X(3, reduced_radius)                                                                 \
     X(2, entry_delta)                                                                    \
     X(3, entry_r_min)                                                                    \
+    X(3, entry_r_max)                                                                    \
     X(7, curvature_radius)
 
 #define CMT_MEMBER(n, name) double (*name)(CMT_A##n);
@@ -744,6 +745,10 @@ static void entry_offset(const cmt_impl *im) {
         CMT_REL(im, what, de, want);
         snprintf(what, sizeof what, "entry_r_min(0.01, delta_e, 2) at sigma %g", s);
         CMT_REL(im, what, im->entry_r_min(rmin, de, D), rmin * want / D);
+        /* the maximum radius scales the same way: 16 voxels at <= 1 per voxel, 16
+           offsets of two mean free paths beyond */
+        snprintf(what, sizeof what, "entry_r_max(16, delta_e, 2) at sigma %g", s);
+        CMT_REL(im, what, im->entry_r_max(rmax, de, D), rmax * want / D);
         /* beyond 1e5 per voxel the floor D 1e-5 makes E_delta / E0 smaller than e^-2 */
         if (s <= 0 || s > 1e5) continue;
         /* the exact field: E_delta = E0 exp(-sigma_t delta_e), E0 = 1 */
@@ -770,6 +775,9 @@ static void entry_offset(const cmt_impl *im) {
     cmt_exact(im, "entry_delta, delta NaN", im->entry_delta(NAN, 1), cmt_r(im, 1e-12));
     cmt_exact(im, "entry_r_min, delta_e > Delta", im->entry_r_min(rmin, 5, D), cmt_r(im, rmin));
     cmt_exact(im, "entry_r_min, NaN", im->entry_r_min(rmin, NAN, D), cmt_r(im, 1e-12));
+    cmt_exact(im, "entry_r_max, delta_e > Delta", im->entry_r_max(rmax, 5, D), cmt_r(im, rmax));
+    /* NaN delta_e reads as 1e-12 (san_len): r_max 1e-12 / Delta */
+    CMT_REL(im, "entry_r_max, NaN", im->entry_r_max(rmax, NAN, D), rmax * 1e-12 / D);
 }
 
 /* ---- curvature limit of the radius (cache_math.glsl, curvature_radius) -------------- */

@@ -226,16 +226,18 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
                within a few mean free paths of it, so an entry's outward offset point is
                outside the medium, where E no longer grows, and Eq. 6 underestimates the
                growth toward the face (the paper's one-sided differences assume a field
-               that is exponential across the whole offset).  The curvature limit of the
-               radius (cache_math.glsl, curvature_radius; off by default), which took
-               bonsai's darkening from 11 % to about 1 %, leaves this case in the same
-               range (-4 % to -13 % with it on, 2026-11-28): a step from vacuum to 10-1e5 per voxel bends ln E at one point,
-               and for centres deeper than about 1.3 mean free paths the second difference
-               stays under its threshold although the secant misses the face by up to
-               e^-0.4.  Asserted: finite (above), the
+               that is exponential across the whole offset).  That was not it: neither
+               the curvature limit nor a trial rule that used the inner half-axis's rate
+               at the face changed the bias.  The maximum radius was: it stayed at Table
+               1's 16 voxels, so an axis that looked flat over two mean free paths was
+               extrapolated over up to 1.6e6 of them, from the top face into the side
+               faces, lit from another direction.  With r_max scaled like the offset
+               (entry_r_max): -0.2 % to -2.5 % over three runs, both locking modes
+               (2026-11-28).  Asserted: finite (above), the
                physical bound of single scattering under one sun, mean <= albedo E/(4 pi),
-               and |bias| <= 25 % (was up to 76 %; the bound leaves room for the
-               run-to-run spread of the entries' placement, which is scheduling-dependent). */
+               and |bias| <= 5 % (was up to 76 %, then 15 %; the bound leaves room for
+               the run-to-run spread of the entries' placement, which is
+               scheduling-dependent, and for the 2 % of the thick closed form). */
             double m = tu_region_mean(img, W, 1, 0, 0, W, H);
             double e = 0;
             for (size_t p = 0; p < (size_t)W * H; p++) e += expv[4 * p + 1];
@@ -243,7 +245,7 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
             print_message("    %s: mean %.4g, closed form %.4g (bias %+.1f %%), bound %.4g\n", what, m, e,
                           100 * (m / e - 1), Mc);
             if (!(m <= Mc)) fail_msg("%s: mean %g above albedo E / (4 pi) = %g", what, m, Mc);
-            if (!(fabs(m / e - 1) <= 0.25)) fail_msg("%s: bias %+.1f %% beyond 25 %%", what, 100 * (m / e - 1));
+            if (!(fabs(m / e - 1) <= 0.05)) fail_msg("%s: bias %+.1f %% beyond 5 %%", what, 100 * (m / e - 1));
         } else {
             ok &= check_all(what, img, expv, W, H, N, M, sys);
         }
