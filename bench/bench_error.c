@@ -430,13 +430,12 @@ static int set_look(const scene *s, session *ss)
 }
 
 /* A fresh context (empty cache) with the scene set up for condition c and a seed. */
-/* --curvature, for every cached context (set once after the options are parsed). */
-static picvr_switch run_curvature;
-
 /* create_share > 0: the creation procedure's share of the time, at every hit rate
-   (t_c,min = t_c,max; the warm-up of --bias-warm); 0: the defaults of Table 1. */
+   (t_c,min = t_c,max; the warm-up of --bias-warm); 0: the defaults of Table 1.
+   curvature: cfg.cache.curvature_limit (--curvature; ignored without the cache). */
 static int session_open(const scene *s, const pvio_volume *vol, const condition *c,
-                        uint32_t seed, float create_share, session *ss)
+                        uint32_t seed, float create_share, picvr_switch curvature,
+                        session *ss)
 {
     memset(ss, 0, sizeof *ss);
     picvr_config cfg = {0};
@@ -445,7 +444,7 @@ static int session_open(const scene *s, const pvio_volume *vol, const condition 
     cfg.cache.mode = c->mode;
     cfg.scheduler.priorities = c->priorities;
     cfg.scheduler.create_min = cfg.scheduler.create_max = create_share;
-    cfg.cache.curvature_limit = c->mode == PICVR_CACHE_NONE ? PICVR_SWITCH_DEFAULT : run_curvature;
+    cfg.cache.curvature_limit = curvature;
     if (!check(picvr_create(&cfg, &ss->ctx), "picvr_create")) return 0;
     picvr_volume_desc desc;
     pvio_to_desc(vol, &desc);
@@ -632,7 +631,8 @@ static int ref_render_chunk(const options *o, const scene *s, const pvio_volume 
                             const reference *r, uint32_t k)
 {
     session ss;
-    if (!session_open(s, vol, find_condition("plain"), REF_SEED0 + k, 0.0f, &ss)) return 0;
+    if (!session_open(s, vol, find_condition("plain"), REF_SEED0 + k, 0.0f,
+                      PICVR_SWITCH_DEFAULT, &ss)) return 0;
     double spent = 0, last = 0;
     int ok = 1;
     while (ok && spent < o->ref_chunk_ms) {
@@ -914,7 +914,7 @@ static int do_run(const options *o, const run_spec *rs, run *out)
     run_free(out);
     session ss;
     if (!session_open(rs->s, rs->vol, rs->c, RUN_SEED0 + (uint32_t)rs->repeat,
-                      rs->warm_ms > 0 ? WARM_CREATE_SHARE : 0.0f, &ss))
+                      rs->warm_ms > 0 ? WARM_CREATE_SHARE : 0.0f, o->curvature, &ss))
         return 0;
     if (rs->warm_ms > 0 && !warm_up(rs, &ss)) { session_close(&ss); return 0; }
     char tmp[PATH_LEN], sig[256];
@@ -1620,7 +1620,6 @@ int main(int argc, char **argv)
     options o;
     scene_file sf;
     if (!parse_args(argc, argv, &o)) return EXIT_USAGE;
-    run_curvature = o.curvature;
     if (!read_scene_file(o.scenes_path, &sf)) return EXIT_USAGE;
     char runs_dir[PATH_LEN];
     snprintf(runs_dir, sizeof runs_dir, "%s/runs", o.out_dir);

@@ -110,7 +110,7 @@ Prediction predict(uint e, vec3 x) {
     if (!(w > 0.0)) return pr;
     float d1 = CM_FN(length1)(a.x, a.y, a.z);               // the distance of Eq. 7 (see length1)
     float delta_e = entries[e].e0.w;
-    float rmin_e = entry_r_min_of(e);
+    float rmin_e = entry_r_min_of(e), rmax_e = entry_r_max_of(e);
     for (uint c = 0u; c < 3u; c++) {
         float sx = entries[e].sigma_v[half_axis.x * 3u + c];
         float sy = entries[e].sigma_v[half_axis.y * 3u + c];
@@ -119,7 +119,7 @@ Prediction predict(uint e, vec3 x) {
         // Fig. 4: discard beyond the validity radius of the interpolated sigma_v.
         if (!(d1 <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, delta_e,
                                                   scene.cache_params.y, rmin_e,
-                                                  entry_r_max_of(e)))) return pr;
+                                                  rmax_e))) return pr;
         pr.lnE[c] = CM_FN(log_extrapolate)(entries[e].e0[c], s, d1);     // Eq. 7 in log space
     }
     pr.w = w;
