@@ -429,8 +429,8 @@ static int set_look(const scene *s, session *ss)
                  "picvr_set_lights");
 }
 
-/* A fresh context (empty cache) with the scene set up for condition c and a seed. */
-/* create_share > 0: the creation procedure's share of the time, at every hit rate
+/* A fresh context (empty cache) with the scene set up for condition c and a seed.
+   create_share > 0: the creation procedure's share of the time, at every hit rate
    (t_c,min = t_c,max; the warm-up of --bias-warm); 0: the defaults of Table 1.
    curvature: cfg.cache.curvature_limit (--curvature; ignored without the cache). */
 static int session_open(const scene *s, const pvio_volume *vol, const condition *c,
