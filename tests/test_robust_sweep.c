@@ -180,9 +180,10 @@ void test_sweep_optical_thickness_beer_lambert(void **state) {
    (1e-3..1e-5 voxels) approaches the float32 resolution of positions near the face
    (ulp(4) = 4.8e-7): the depth of a scatter point and its shadow-ray length carry a
    relative rounding error up to ~5 % at tau 1e5, which averages out to well below 2 %
-   for a smooth exponential.  With the cache on: 3 % (test_cache measured <= 0.7 % bias
-   for this scene at tau 0.15; Eq. 10's epsilon = 0.1 bounds one entry's extrapolation
-   error, and the update procedure shrinks disagreeing entries). */
+   for a smooth exponential.  With the cache on: 3 % at tau 1e-6 (test_cache measured
+   <= 0.7 % bias for this scene at tau 0.15; Eq. 10's epsilon = 0.1 bounds one entry's
+   extrapolation error, and the update procedure shrinks disagreeing entries); from tau
+   0.5 up an explicit bound on the bias of the mean, explained below. */
 static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t ntau, uint32_t N) {
     picvr_context *ctx = mode == PICVR_CACHE_NONE ? tu_create(62) : create_cache(62, mode);
     const uint32_t W = 24, H = 24;
@@ -214,7 +215,7 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
         if (mode != PICVR_CACHE_NONE) sys = 0.03;
         double Mc = albedo * E / (4 * M_PI);
         const double M[3] = {Mc, Mc, Mc};
-        if (mode != PICVR_CACHE_NONE && tau[i] > 1) {
+        if (mode != PICVR_CACHE_NONE && tau[i] >= 0.5f) {
             /* Dense media.  With Table 1's fixed Delta = 2 voxels the irradiance fell by
                e^-20 and more across Eq. 6's offset, and the cache was biased by -45 % at
                tau 10/voxel, -34 % at 100, +8 % at 1e3, +76 % at 1e4 (measured 2026-11-22).
@@ -237,7 +238,19 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
                physical bound of single scattering under one sun, mean <= albedo E/(4 pi),
                and |bias| <= 5 % (was up to 76 %, then 15 %; the bound leaves room for
                the run-to-run spread of the entries' placement, which is
-               scheduling-dependent, and for the 2 % of the thick closed form). */
+               scheduling-dependent, and for the 2 % of the thick closed form).
+               tau 0.5 per voxel (optical depth 4 across the cube): the statistical check
+               with 3 % for the cache (check_all) failed once in CI, -6.8 % (screen
+               space).  Measured 2026-11-29 over 26 runs per mode: object space -2.4 %
+               mean, sd 1.2 %; screen space -3.0 %, sd 1.6 % (the statistical error of
+               one run is 0.6 %, so most of the spread is the entries' placement: only
+               47 entries cover this cube, each up to r_max = 16 voxels).  The sign is
+               the model's: ln E here is piecewise linear with convex kinks (where the
+               ray to the sun changes its exit face, and at the lit faces), and a
+               one-sided secant extrapolated across a convex kink undershoots.  Tighter
+               radii confirm it: epsilon 0.03, r_max 3 voxels, the curvature limit or an
+               update threshold of 0.03 each gave -1.0 % to -1.8 % (8 runs each).
+               Bound 10 % at tau 0.5, 4 sd beyond the screen-space mean. */
             double m = tu_region_mean(img, W, 1, 0, 0, W, H);
             double e = 0;
             for (size_t p = 0; p < (size_t)W * H; p++) e += expv[4 * p + 1];
@@ -245,7 +258,14 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
             print_message("    %s: mean %.4g, closed form %.4g (bias %+.1f %%), bound %.4g\n", what, m, e,
                           100 * (m / e - 1), Mc);
             if (!(m <= Mc)) fail_msg("%s: mean %g above albedo E / (4 pi) = %g", what, m, Mc);
-            if (!(fabs(m / e - 1) <= 0.05)) fail_msg("%s: bias %+.1f %% beyond 5 %%", what, 100 * (m / e - 1));
+            double bound = tau[i] > 1 ? 0.05 : 0.10;
+            if (!(fabs(m / e - 1) <= bound))
+                fail_msg("%s: bias %+.1f %% beyond %.0f %%", what, 100 * (m / e - 1), 100 * bound);
+            /* alpha is the camera ray's opacity, which the cache does not touch: the
+               plain tolerances (1e-4, 2 % for the thick closed form) */
+            char label[128];
+            snprintf(label, sizeof label, "%s: alpha", what);
+            ok &= tu_check_mean(label, img, expv, W, 3, 0, 0, W, H, N, 1.0, 5.0, tau[i] > 10 ? 0.02 : 1e-4);
         } else {
             ok &= check_all(what, img, expv, W, H, N, M, sys);
         }
