@@ -51,7 +51,8 @@ layout(set = 0, binding = 0, std140) uniform Scene {
     vec4 background;   // rgb radiance, w = selection probability
     vec4 value_map;    // x scale, y offset: normalized value = clamp(texel * x + y, 0, 1)
     vec4 cache_params; // x gamma (Eq. 5), y epsilon (Eq. 10), z Delta (world), w unused
-    vec4 cache_radii;  // x minimum, y maximum validity radius (world), z 1: curvature limit on
+    vec4 cache_radii;  // x minimum, y maximum validity radius (world), z 1: curvature limit on,
+                       // w 1: medium model on (cache_math.glsl, medium_fraction)
     uvec4 cache_caps;  // pool capacities: entries, nodes, refs, requests
     uvec4 cache_screen;// x superpixel side, y superpixels per row, z superpixel count,
                        // w locking: 0 object space, 1 screen space

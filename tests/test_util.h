@@ -49,6 +49,7 @@
     X(test_cache_math_degenerate_inputs)                            \
     X(test_cache_math_entry_offset)                                 \
     X(test_cache_math_curvature_radius)                             \
+    X(test_cache_math_medium_model)                                 \
     /* test_cache.c */                                              \
     X(test_cache_off_by_default_allocates_nothing)                  \
     X(test_cache_homogeneous_sun_matches_closed_form)               \
