@@ -199,6 +199,17 @@ typedef struct picvr_cache_config {
                                   image by 11 % at a hit rate of 0.93; ON darkens it by
                                   1.1 % at 0.46, but the hit rate stays below 0.6 even
                                   with 50,000 entries */
+    picvr_switch medium_model; /* ON (default): along an entry's normal axis, where the
+                                  offset point lies beyond the medium's face, Eq. 6's change
+                                  is placed over the part of Delta inside the medium (the
+                                  light is attenuated there only) and the field is flat
+                                  beyond (cache_math.glsl, medium_fraction).  Entries whose
+                                  axis stays in the medium are unchanged.  OFF: the paper's
+                                  Eq. 6, 7 literally, whose one-sided secant undershoots at
+                                  every lit face: a full cache on a dense cube under a sun
+                                  darkened the image by 12 % (5 % with the model; tests/
+                                  test_cache.c, test_cache_full_dense_lit_face); on bonsai
+                                  README "The irradiance cache" */
 } picvr_cache_config;
 
 /* The scheduler (paper §6, §7): how picvr_step splits device time between rendering,

@@ -867,6 +867,8 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
     if (c->superpixel_size > 4096) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)c->curvature_limit > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->curvature_limit == PICVR_SWITCH_DEFAULT) c->curvature_limit = PICVR_SWITCH_OFF;
+    if ((unsigned)c->medium_model > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->medium_model == PICVR_SWITCH_DEFAULT) c->medium_model = PICVR_SWITCH_ON;
     float *f[7] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels,
                    &c->update_threshold, &c->rebuild_interval_ms};
     const float def[7] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f, 0.1f, 1000.0f};
@@ -921,6 +923,7 @@ static uint32_t cache_update_params(picvr_context *ctx) {
     g->cache_radii[0] = ctx->cache.radius_min_voxels * voxel;
     g->cache_radii[1] = ctx->cache.radius_max_voxels * voxel;
     g->cache_radii[2] = ctx->cache.curvature_limit == PICVR_SWITCH_ON ? 1.0f : 0.0f;
+    g->cache_radii[3] = ctx->cache.medium_model == PICVR_SWITCH_ON ? 1.0f : 0.0f;
     g->cache_caps[0] = ctx->cache.max_entries;
     g->cache_caps[1] = ctx->cache.max_nodes;
     g->cache_caps[2] = ctx->cache.max_refs;

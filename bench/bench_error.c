@@ -160,6 +160,7 @@ typedef struct options {
     double bias_ms;            /* > 0: separate long runs for the bias split */
     double warm_ms;            /* > 0: also the bias of a warm cache (--bias-warm) */
     picvr_switch curvature;    /* --curvature: cfg.cache.curvature_limit of every run */
+    picvr_switch medium;       /* --medium: cfg.cache.medium_model of every run */
     int repeats, ref_max_chunks;
     int list;                  /* --list: print the scenes and their reference folders */
 } options;
@@ -194,6 +195,8 @@ static void print_help(FILE *f)
         "                       cache is kept) and render --bias-time (or --time) MS\n"
         "  --curvature on|off   the cache's curvature limit of the radii (default: the\n"
         "                       library's, off)\n"
+        "  --medium on|off      the cache's medium model along the normal axis (default:\n"
+        "                       the library's, on)\n"
         "  --ref-chunk MS       time per reference chunk (default 60000)\n"
         "  --ref-max-chunks N   refuse a reference that needs more (default 200)\n"
         "  --out DIR            results (default bench/results)\n"
@@ -240,6 +243,11 @@ static int parse_args(int argc, char **argv, options *o)
             if (!strcmp(v, "on")) o->curvature = PICVR_SWITCH_ON;
             else if (!strcmp(v, "off")) o->curvature = PICVR_SWITCH_OFF;
             else { fail("bad --curvature %s", v); return 0; }
+        }
+        else if (!strcmp(a, "--medium")) {
+            if (!strcmp(v, "on")) o->medium = PICVR_SWITCH_ON;
+            else if (!strcmp(v, "off")) o->medium = PICVR_SWITCH_OFF;
+            else { fail("bad --medium %s", v); return 0; }
         }
         else if (!strcmp(a, "--repeats")) o->repeats = atoi(v);
         else if (!strcmp(a, "--ref-max-chunks")) o->ref_max_chunks = atoi(v);
@@ -432,9 +440,11 @@ static int set_look(const scene *s, session *ss)
 /* A fresh context (empty cache) with the scene set up for condition c and a seed.
    create_share > 0: the creation procedure's share of the time, at every hit rate
    (t_c,min = t_c,max; the warm-up of --bias-warm); 0: the defaults of Table 1.
-   curvature: cfg.cache.curvature_limit (--curvature; ignored without the cache). */
+   curvature, medium: cfg.cache.curvature_limit and medium_model (--curvature, --medium;
+   ignored without the cache). */
 static int session_open(const scene *s, const pvio_volume *vol, const condition *c,
                         uint32_t seed, float create_share, picvr_switch curvature,
+                        picvr_switch medium,
                         session *ss)
 {
     memset(ss, 0, sizeof *ss);
@@ -445,6 +455,7 @@ static int session_open(const scene *s, const pvio_volume *vol, const condition 
     cfg.scheduler.priorities = c->priorities;
     cfg.scheduler.create_min = cfg.scheduler.create_max = create_share;
     cfg.cache.curvature_limit = curvature;
+    cfg.cache.medium_model = medium;
     if (!check(picvr_create(&cfg, &ss->ctx), "picvr_create")) return 0;
     picvr_volume_desc desc;
     pvio_to_desc(vol, &desc);
@@ -632,7 +643,7 @@ static int ref_render_chunk(const options *o, const scene *s, const pvio_volume 
 {
     session ss;
     if (!session_open(s, vol, find_condition("plain"), REF_SEED0 + k, 0.0f,
-                      PICVR_SWITCH_DEFAULT, &ss)) return 0;
+                      PICVR_SWITCH_DEFAULT, PICVR_SWITCH_DEFAULT, &ss)) return 0;
     double spent = 0, last = 0;
     int ok = 1;
     while (ok && spent < o->ref_chunk_ms) {
@@ -914,7 +925,7 @@ static int do_run(const options *o, const run_spec *rs, run *out)
     run_free(out);
     session ss;
     if (!session_open(rs->s, rs->vol, rs->c, RUN_SEED0 + (uint32_t)rs->repeat,
-                      rs->warm_ms > 0 ? WARM_CREATE_SHARE : 0.0f, o->curvature, &ss))
+                      rs->warm_ms > 0 ? WARM_CREATE_SHARE : 0.0f, o->curvature, o->medium, &ss))
         return 0;
     if (rs->warm_ms > 0 && !warm_up(rs, &ss)) { session_close(&ss); return 0; }
     char tmp[PATH_LEN], sig[256];

@@ -50,6 +50,7 @@ typedef struct options {
     picvr_cache_mode cache;
     picvr_switch priorities;
     picvr_switch curvature;
+    picvr_switch medium;
     float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
     const char *debug_view;
     float exposure;
@@ -140,6 +141,9 @@ static void print_help(FILE *f)
         "  --curvature on|off     shrink cache entries where the field bends within Delta\n"
         "                         (lit faces, shadow edges): less bias, far lower hit rate\n"
         "                         (default off: the paper's Eq. 9, 10 radii alone)\n"
+        "  --medium on|off        place an entry's change along its normal axis within the\n"
+        "                         medium, flat beyond a face (default on; off: the paper's\n"
+        "                         Eq. 6, 7 literally, darker lit faces)\n"
         "  --debug-view cache     show where the cache is: hits green, misses red, entry\n"
         "                         centres white (needs --cache object|screen)\n"
         "  --device NAME          Vulkan device whose name contains NAME\n"
@@ -307,8 +311,8 @@ static int apply_option(options *o, const char *name, const char *value)
         ok = sscanf(value, "%f,%f,%f,%f%c", &o->shares[0], &o->shares[1], &o->shares[2], &o->shares[3],
                     &tail) == 4;
         for (int k = 0; ok && k < 4; k++) ok = o->shares[k] > 0.0f && o->shares[k] < 1.0f;
-    } else if (!strcmp(name, "priorities") || !strcmp(name, "curvature")) {
-        picvr_switch *sw = name[0] == 'p' ? &o->priorities : &o->curvature;
+    } else if (!strcmp(name, "priorities") || !strcmp(name, "curvature") || !strcmp(name, "medium")) {
+        picvr_switch *sw = name[0] == 'p' ? &o->priorities : name[0] == 'c' ? &o->curvature : &o->medium;
         if (!strcmp(value, "on")) *sw = PICVR_SWITCH_ON;
         else if (!strcmp(value, "off")) *sw = PICVR_SWITCH_OFF;
         else ok = 0;
@@ -338,7 +342,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "shares", "debug-view", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "shares", "debug-view", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -686,6 +690,7 @@ static int write_json(const options *o, const picvr_stats *s)
     }
     fprintf(f, ", \"priorities\": \"%s\"", o->priorities == PICVR_SWITCH_OFF ? "off" : "on");
     fprintf(f, ", \"curvature_limit\": \"%s\"", o->curvature == PICVR_SWITCH_ON ? "on" : "off");
+    fprintf(f, ", \"medium_model\": \"%s\"", o->medium == PICVR_SWITCH_OFF ? "off" : "on");
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
         fail("cannot write %s: %s", o->json_path, strerror(errno));
@@ -790,6 +795,7 @@ static int render(const options *o, const pvio_layout *layout)
     cfg.cache.mode = o->cache;
     cfg.scheduler.priorities = o->priorities;
     cfg.cache.curvature_limit = o->curvature;
+    cfg.cache.medium_model = o->medium;
     cfg.scheduler.create_min = o->shares[0];   /* 0 (not given): the defaults */
     cfg.scheduler.create_max = o->shares[1];
     cfg.scheduler.update_min = o->shares[2];

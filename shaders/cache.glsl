@@ -20,7 +20,9 @@
 struct Entry {
     vec4 pos_rmax;        // xyz centre (world), w = largest of the six radii
     vec4 e0;              // rgb E_0, w the entry's offset delta_e (world; entry_delta)
-    vec4 normal;          // xyz n of the local frame (t, b = basis(n)); w unused
+    vec3 normal;          // n of the local frame (t, b = basis(n))
+    uint medium_f;        // 1 - medium_fraction of +n (low 16 bits) and -n (high), unorm16;
+                          // 0: f = 1, the paper's Eq. 6 secant (cache_math.glsl)
     float sigma_v[18];    // [half-axis * 3 + channel], per world unit
     uint radius[6];       // per half-axis, world units, as float bits: positive floats
                           // order like their bits, so the update procedure can shrink
@@ -48,6 +50,11 @@ layout(set = 0, binding = 14, std430) coherent buffer CacheSuperpixels { uint su
 #define LOCK_SUPERPIXEL 0x80000000u   // request.node: a superpixel index, not a node
 
 float entry_radius(uint e, uint h) { return uintBitsToFloat(entries[e].radius[h]); }
+// The medium fraction of entry e's half-axis +n (neg false) or -n (neg true).
+float entry_medium_fraction(uint e, bool neg) {
+    vec2 q = unpackUnorm2x16(entries[e].medium_f);
+    return 1.0 - (neg ? q.y : q.x);
+}
 // The entry's minimum radius, scaled like its offset (cache_math.glsl, entry_r_min).
 float entry_r_min_of(uint e) {
     return CM_FN(entry_r_min)(scene.cache_radii.x, entries[e].e0.w, scene.cache_params.z);
@@ -57,7 +64,8 @@ float entry_r_max_of(uint e) {
     return CM_FN(entry_r_max)(scene.cache_radii.y, entries[e].e0.w, scene.cache_params.z);
 }
 
-// ---- local frame: n is the normalized gradient of extinction (central differences),
+// ---- local frame: n is the normalized gradient of extinction (central differences of
+// sigma_t_in_box, so that a face of the volume's box is a face of the medium),
 // t and b follow from n by basis() (§4.2).  Rule: where the gradient vanishes (|grad|
 // below 1e-6 of D per voxel, e.g. a homogeneous region or D = 0) n = +z, whose basis is
 // the world axes.
@@ -68,9 +76,9 @@ float entry_r_max_of(uint e) {
 // more as the cache grows.  t and b are recomputed from the stored n bit for bit.
 vec3 entry_normal(vec3 p) {
     vec3 h = scene.box_size.xyz / vec3(scene.dims.xyz);
-    vec3 g = vec3(sigma_t(p + vec3(h.x, 0, 0)) - sigma_t(p - vec3(h.x, 0, 0)),
-                  sigma_t(p + vec3(0, h.y, 0)) - sigma_t(p - vec3(0, h.y, 0)),
-                  sigma_t(p + vec3(0, 0, h.z)) - sigma_t(p - vec3(0, 0, h.z))) / (2.0 * h);
+    vec3 g = vec3(sigma_t_in_box(p + vec3(h.x, 0, 0)) - sigma_t_in_box(p - vec3(h.x, 0, 0)),
+                  sigma_t_in_box(p + vec3(0, h.y, 0)) - sigma_t_in_box(p - vec3(0, h.y, 0)),
+                  sigma_t_in_box(p + vec3(0, 0, h.z)) - sigma_t_in_box(p - vec3(0, 0, h.z))) / (2.0 * h);
     float gl = length(g);
     if (!(gl > 1e-6 * scene.box_min.w / scene.cell_size.w)) return vec3(0, 0, 1);
     return g / gl;
@@ -110,17 +118,28 @@ Prediction predict(uint e, vec3 x) {
     if (!(w > 0.0)) return pr;
     float d1 = CM_FN(length1)(a.x, a.y, a.z);               // the distance of Eq. 7 (see length1)
     float delta_e = entries[e].e0.w;
+    // The medium model (cache_math.glsl, medium_coord) stretches the n coordinate; u = a
+    // when it is off (medium_f = 0) or the axis stays in the medium.
+    vec3 u = a;
+    if (entries[e].medium_f != 0u)
+        u.z = CM_FN(medium_coord)(a.z, entry_medium_fraction(e, l.z < 0.0), delta_e);
+    bool stretched = u.z > a.z;
+    float d1u = CM_FN(length1)(u.x, u.y, u.z);
     float rmin_e = entry_r_min_of(e), rmax_e = entry_r_max_of(e);
     for (uint c = 0u; c < 3u; c++) {
         float sx = entries[e].sigma_v[half_axis.x * 3u + c];
         float sy = entries[e].sigma_v[half_axis.y * 3u + c];
         float sz = entries[e].sigma_v[half_axis.z * 3u + c];
-        float s = CM_FN(sigma_interp)(sx, sy, sz, a.x, a.y, a.z);        // Eq. 8
+        float s = CM_FN(sigma_interp)(sx, sy, sz, u.x, u.y, u.z);        // Eq. 8
         // Fig. 4: discard beyond the validity radius of the interpolated sigma_v.
         if (!(d1 <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, delta_e,
                                                   scene.cache_params.y, rmin_e,
                                                   rmax_e))) return pr;
-        pr.lnE[c] = CM_FN(log_extrapolate)(entries[e].e0[c], s, d1);     // Eq. 7 in log space
+        float lnE = CM_FN(log_extrapolate)(entries[e].e0[c], s, d1u);  // Eq. 7 in log space
+        if (stretched)
+            lnE = CM_FN(medium_bound)(lnE, CM_FN(ln_irradiance)(entries[e].e0[c]), sx, sy, sz,
+                                      delta_e, scene.cache_params.y);
+        pr.lnE[c] = lnE;
     }
     pr.w = w;
     return pr;

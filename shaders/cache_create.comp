@@ -28,6 +28,7 @@ layout(push_constant) uniform Push { uint sched_round; uint seed; uint budget; u
 shared vec4 s_red[128];          // reduction scratch: (lum sum, lum sq sum) or RGB sums
 shared bool s_done;
 shared vec3 s_E[7];
+shared vec2 s_f;                 // medium fraction of +n, -n
 
 // Sums s_red over the workgroup into s_red[0].
 void reduce_red() {
@@ -60,15 +61,30 @@ void main() {
     vec3 axis[3] = vec3[3](t, b, n);
     // The entry's offset (cache_math.glsl, entry_delta): Table 1's Delta, or two mean free
     // paths of the densest of the centre and the six Table 1 offset points if shorter.
-    float sigma_local = sigma_t(x0);
+    float sigma_local = sigma_t_in_box(x0);
     for (uint k = 0u; k < 3u; k++) {
-        sigma_local = max(sigma_local, sigma_t(x0 + scene.cache_params.z * axis[k]));
-        sigma_local = max(sigma_local, sigma_t(x0 - scene.cache_params.z * axis[k]));
+        sigma_local = max(sigma_local, sigma_t_in_box(x0 + scene.cache_params.z * axis[k]));
+        sigma_local = max(sigma_local, sigma_t_in_box(x0 - scene.cache_params.z * axis[k]));
     }
     float delta = CM_FN(entry_delta)(scene.cache_params.z, sigma_local);
     vec3 p[7];
     p[0] = x0;
     for (uint k = 0u; k < 3u; k++) { p[1u + 2u * k] = x0 + delta * axis[k]; p[2u + 2u * k] = x0 - delta * axis[k]; }
+
+    // The medium fraction of the half-axes +n and -n (cache_math.glsl, medium_fraction):
+    // optical depth to the offset point by the midpoint rule with 8 points.  1 (the
+    // paper's secant) when the medium model is off.
+    if (lid < 2u) {
+        float f = 1.0;
+        if (scene.cache_radii.w != 0.0) {
+            vec3 dir = lid == 0u ? n : -n;
+            float tau = 0.0;
+            for (uint k = 0u; k < 8u; k++) tau += sigma_t_in_box(x0 + (float(k) + 0.5) * 0.125 * delta * dir);
+            f = CM_FN(medium_fraction)(tau * delta * 0.125, sigma_t_in_box(x0), delta);
+        }
+        s_f[lid] = f;
+    }
+    barrier();
 
     vec3 sum[7];
     float lsum[7], lsq[7];
@@ -148,7 +164,8 @@ void main() {
                 rmax = max(rmax, r);
             }
             entries[e].e0 = vec4(s_E[0], delta);         // w: the entry's own Delta
-            entries[e].normal = vec4(n, 0.0);
+            entries[e].normal = n;
+            entries[e].medium_f = packUnorm2x16(vec2(1.0) - s_f);
             entries[e].pos_rmax = vec4(x0, rmax);
             s_E[1] = vec3(float(e), rmax, 0.0);          // hand the index to the inserters
             s_done = true;

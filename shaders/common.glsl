@@ -51,7 +51,8 @@ layout(set = 0, binding = 0, std140) uniform Scene {
     vec4 background;   // rgb radiance, w = selection probability
     vec4 value_map;    // x scale, y offset: normalized value = clamp(texel * x + y, 0, 1)
     vec4 cache_params; // x gamma (Eq. 5), y epsilon (Eq. 10), z Delta (world), w unused
-    vec4 cache_radii;  // x minimum, y maximum validity radius (world), z 1: curvature limit on
+    vec4 cache_radii;  // x minimum, y maximum validity radius (world), z 1: curvature limit on,
+                       // w 1: medium model on (cache_math.glsl, medium_fraction)
     uvec4 cache_caps;  // pool capacities: entries, nodes, refs, requests
     uvec4 cache_screen;// x superpixel side, y superpixels per row, z superpixel count,
                        // w locking: 0 object space, 1 screen space
@@ -144,6 +145,16 @@ float data_value(vec3 x) {
 }
 
 float sigma_t(vec3 x) { return scene.box_min.w * transfer(data_value(x)).a; }
+
+// sigma_t with nothing outside the volume's box, as the tracking loops see it (they
+// clip every ray to the box).  sigma_t alone reads the texture clamped to its edge, so
+// a probe beyond a face of a volume whose border voxels are dense would find medium
+// there: the cache's probes around an entry (its normal, Delta and medium fractions)
+// use this one.
+float sigma_t_in_box(vec3 x) {
+    vec3 hi = scene.box_min.xyz + scene.box_size.xyz;
+    return all(greaterThanEqual(x, scene.box_min.xyz)) && all(lessThanEqual(x, hi)) ? sigma_t(x) : 0.0;
+}
 
 vec3 albedo_at(vec3 x) { return transfer(data_value(x)).rgb; }
 

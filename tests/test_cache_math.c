@@ -18,6 +18,11 @@
  *  - the curvature limit of the radius: no limit for any exponential field; for a field
  *    whose logarithm is quadratic, the secant's error at the limited radius is exactly
  *    ln(1 + eps); a lit face and a shadow edge are limited, a flat shadow is not;
+ *  - the medium model of the normal axis: a homogeneous medium keeps the paper's model
+ *    exactly (f = 1, u = x); at a lit and at an unlit face (medium up to s < delta,
+ *    air beyond, a collimated light along the axis) Eq. 7 on the stretched coordinate
+ *    reproduces the field exactly over [0, delta] and stays within eps of it out to the
+ *    radius of Eq. 10; the octant bound keeps any mix of axes within the estimates;
  *  - degenerate inputs (zero, equal, 1e-30 / 1e30 ratios, delta 1e-20, zero and
  *    infinite radii, a fully shadowed entry, NaN and inf everywhere): every output is
  *    finite and equals the rule documented in cache_math.glsl.
@@ -83,7 +88,10 @@
     X(2, entry_delta)                                                                    \
     X(3, entry_r_min)                                                                    \
     X(3, entry_r_max)                                                                    \
-    X(7, curvature_radius)
+    X(7, curvature_radius)                                                               \
+    X(3, medium_fraction)                                                                \
+    X(3, medium_coord)                                                                   \
+    X(7, medium_bound)
 
 #define CMT_MEMBER(n, name) double (*name)(CMT_A##n);
 #define CMT_WRAP(n, name) \
@@ -851,7 +859,106 @@ static void curvature_limit(const cmt_impl *im) {
         }
 }
 
+/* ---- the medium model of the normal axis (medium_fraction, medium_coord, medium_bound) */
+
+static void medium_model(const cmt_impl *im) {
+    const double D = 2.0, eps = 0.1, L = log(1.1);
+    char what[160];
+    /* homogeneous medium: tau = sigma D (also with the quadrature's rounding, 1e-6
+       relative): exactly 1, and u = x at every distance */
+    const double sig[4] = {1e-3, 0.7, 5.0, 1e4};
+    for (int k = 0; k < 4; k++) {
+        snprintf(what, sizeof what, "homogeneous sigma %g", sig[k]);
+        cmt_exact(im, what, im->medium_fraction(sig[k] * D, sig[k], D), 1.0);
+        cmt_exact(im, what, im->medium_fraction(sig[k] * D * (1 - 1e-6), sig[k], D), 1.0);
+        cmt_exact(im, what, im->medium_fraction(sig[k] * D * 3, sig[k], D), 1.0);   /* denser axis */
+    }
+    for (double x = 0; x < 40; x += 0.37)
+        cmt_exact(im, "f = 1: u = x", im->medium_coord(x, 1.0, D), cmt_r(im, x));
+    /* a face at s: medium of extinction sigma on [0, s], air on (s, D]; a collimated light
+       along the axis, from the air (lit face: E grows towards the face) or from the medium
+       (unlit face: E falls towards it); flat in the air.  Closed form:
+       ln E(x) = ln E0 +- sigma min(x, s).  The entry's estimates are exact; tau = sigma s. */
+    const double svals[4] = {0.3, 0.8, 1.0, 1.7};
+    for (int k = 0; k < 4; k++)
+        for (int lit = 0; lit <= 1; lit++) {
+            double s = svals[k], sigma = 1.3, lnE0 = log(0.02), sign = lit ? 1.0 : -1.0;
+            double lnEd = lnE0 + sign * sigma * s;
+            double f = im->medium_fraction(sigma * s, sigma, D);
+            snprintf(what, sizeof what, "face at %g (%s): f", s, lit ? "lit" : "unlit");
+            cmt_close(im, what, f, s / D, im->tol, 0);
+            double sv = im->sigma_v_ln(lnE0, lnEd, D);                    /* Eq. 6 */
+            for (double x = 0; x <= D; x += D / 64) {
+                double want = lnE0 + sign * sigma * fmin(x, s);
+                double got = im->ln_extrapolate(lnE0, sv, im->medium_coord(x, f, D));
+                snprintf(what, sizeof what, "face at %g (%s): ln E at x = %g", s, lit ? "lit" : "unlit", x);
+                cmt_close(im, what, got, want, im == &cmt_impls[0] ? 1e-12 : 2e-6, 1.0);
+            }
+            /* beyond delta, out to Eq. 10's radius, the model stays within eps of E_delta */
+            double R = im->validity_radius_sigma(sv, D, eps, CM_R_MIN_VOXELS, CM_R_MAX_VOXELS);
+            for (double x = D; x <= R; x += (R - D) / 16 + 1e-9) {
+                double got = im->ln_extrapolate(lnE0, sv, im->medium_coord(x, f, D));
+                snprintf(what, sizeof what, "face at %g (%s): beyond delta x = %g", s, lit ? "lit" : "unlit", x);
+                if (!(fabs(got - lnEd) <= (lit ? L : -log(1 - eps)) * (1 + 1e-5)))
+                    fail_msg("[%s] %s: ln E %g, E_delta's %g", im->prec, what, got, lnEd);
+            }
+        }
+    /* continuity and monotonicity of u in x and f; x <= u <= max(x, D) */
+    for (double f = 0.125; f <= 1.0; f += 0.0625) {
+        double prev = -1;
+        for (double x = 0; x < 3 * D; x += D / 50) {
+            double u = im->medium_coord(x, f, D);
+            if (!(u >= x * (1 - 1e-6) && u <= fmax(x, D) * (1 + 1e-6) && u >= prev))
+                fail_msg("[%s] medium_coord(%g, %g) = %g", im->prec, x, f, u);
+            prev = u;
+        }
+    }
+    /* the octant bound: any mix of axes stays within [min, max] of ln E0 and the three
+       offset estimates, widened by L; inside that range it changes nothing */
+    uint64_t rng = 77;
+    for (int i = 0; i < 2000; i++) {
+        double l0 = -20 + 30 * cmt_rand01(&rng), sx = -8 + 16 * cmt_rand01(&rng);
+        double sy = -8 + 16 * cmt_rand01(&rng), sz = -8 + 16 * cmt_rand01(&rng);
+        double l = -80 + 160 * cmt_rand01(&rng);
+        double lo = fmin(fmin(l0, l0 - sx * D), fmin(l0 - sy * D, l0 - sz * D)) - L;
+        double hi = fmax(fmax(l0, l0 - sx * D), fmax(l0 - sy * D, l0 - sz * D)) + L;
+        double want = fmin(fmax(l, fmax(lo, CM_LN_E_MIN)), fmin(hi, CM_LN_E_MAX));
+        cmt_close(im, "medium_bound", im->medium_bound(l, l0, sx, sy, sz, D, eps), want,
+                  im == &cmt_impls[0] ? 1e-12 : 1e-5, 1.0);
+    }
+    /* rules */
+    cmt_exact(im, "sigma_0 = 0", im->medium_fraction(1.0, 0.0, D), 1.0);
+    cmt_exact(im, "sigma_0 NaN", im->medium_fraction(1.0, NAN, D), 1.0);
+    cmt_exact(im, "sigma_0 inf", im->medium_fraction(1.0, INFINITY, D), 1.0);
+    cmt_exact(im, "tau NaN", im->medium_fraction(NAN, 1.0, D), 1.0);
+    cmt_exact(im, "tau inf", im->medium_fraction(INFINITY, 1.0, D), 1.0);
+    cmt_exact(im, "tau 0: leaves at once", im->medium_fraction(0.0, 1.0, D), cmt_r(im, 0.125));
+    cmt_exact(im, "tau tiny: clamped", im->medium_fraction(1e-9, 1.0, D), cmt_r(im, 0.125));
+    cmt_exact(im, "f NaN: u = x", im->medium_coord(0.7, NAN, D), cmt_r(im, 0.7));
+    cmt_close(im, "x NaN: far", im->medium_coord(NAN, 0.5, D), CM_LEN_MAX, 1e-6, 0);
+    const double bad[7] = {NAN, INFINITY, -INFINITY, 0.0, 1e30, -1e30, 1e-30};
+    for (int i = 0; i < 7; i++)
+        for (int j = 0; j < 7; j++) {
+            double v[3] = {im->medium_fraction(bad[i], bad[j], bad[(i + j) % 7]),
+                           im->medium_coord(bad[i], bad[j], bad[(i + 2 * j) % 7]),
+                           im->medium_bound(bad[i], bad[j], bad[(i + j) % 7], 1.0, bad[(i + 3) % 7],
+                                            bad[(j + 1) % 7], bad[(i + j + 2) % 7])};
+            for (int k = 0; k < 3; k++) {
+                snprintf(what, sizeof what, "degenerate %d %d (%d)", i, j, k);
+                CMT_FINITE(im, what, v[k]);
+            }
+            if (!(v[0] >= cmt_r(im, 0.125) && v[0] <= 1.0)) fail_msg("[%s] f = %g", im->prec, v[0]);
+            if (!(v[2] >= cmt_r(im, CM_LN_E_MIN) && v[2] <= cmt_r(im, CM_LN_E_MAX)))
+                fail_msg("[%s] bound = %g", im->prec, v[2]);
+        }
+}
+
 /* ---- the cmocka tests ---------------------------------------------------------------- */
+
+void test_cache_math_medium_model(void **state) {
+    (void)state;
+    for (int k = 0; k < 2; k++) medium_model(&cmt_impls[k]);
+}
 
 void test_cache_math_curvature_radius(void **state) {
     (void)state;

@@ -234,23 +234,24 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
                extrapolated over up to 1.6e6 of them, from the top face into the side
                faces, lit from another direction.  With r_max scaled like the offset
                (entry_r_max): -0.2 % to -2.5 % over three runs, both locking modes
-               (2026-11-28).  Asserted: finite (above), the
+               (2026-11-28).  But these cases use the cache little (47 entries, hit
+               rate 0.2 at tau 10, 0 from tau 100): with a full cache the lit face
+               does darken the image by 12 % under the paper's model, and the medium
+               model (once its probes stopped finding medium beyond the box's faces,
+               sigma_t_in_box) takes that to 5 %: test_cache_full_dense_lit_face.
+               Asserted: finite (above), the
                physical bound of single scattering under one sun, mean <= albedo E/(4 pi),
                and |bias| <= 5 % (was up to 76 %, then 15 %; the bound leaves room for
                the run-to-run spread of the entries' placement, which is
                scheduling-dependent, and for the 2 % of the thick closed form).
                tau 0.5 per voxel (optical depth 4 across the cube): the statistical check
                with 3 % for the cache (check_all) failed once in CI, -6.8 % (screen
-               space).  Measured 2026-11-29 over 26 runs per mode: object space -2.4 %
-               mean, sd 1.2 %; screen space -3.0 %, sd 1.6 % (the statistical error of
-               one run is 0.6 %, so most of the spread is the entries' placement: only
-               47 entries cover this cube, each up to r_max = 16 voxels).  The sign is
-               the model's: ln E here is piecewise linear with convex kinks (where the
-               ray to the sun changes its exit face, and at the lit faces), and a
-               one-sided secant extrapolated across a convex kink undershoots.  Tighter
-               radii confirm it: epsilon 0.03, r_max 3 voxels, the curvature limit or an
-               update threshold of 0.03 each gave -1.0 % to -1.8 % (8 runs each).
-               Bound 10 % at tau 0.5, 4 sd beyond the screen-space mean. */
+               space), with the paper's model; over 26 runs per mode object space gave
+               -2.4 % (sd 1.2 %), screen space -3.0 % (sd 1.6 %): most of the spread is
+               the placement of the 47 entries that cover this cube, each up to r_max =
+               16 voxels, as one run's statistical error is 0.6 %.  With the medium
+               model and the in-box probes (2026-11-29, 12 runs per mode): +1.6 % (sd
+               0.8 %) and +1.0 % (sd 0.35 %).  Bound 5 % as for the thick cases. */
             double m = tu_region_mean(img, W, 1, 0, 0, W, H);
             double e = 0;
             for (size_t p = 0; p < (size_t)W * H; p++) e += expv[4 * p + 1];
@@ -258,9 +259,7 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
             print_message("    %s: mean %.4g, closed form %.4g (bias %+.1f %%), bound %.4g\n", what, m, e,
                           100 * (m / e - 1), Mc);
             if (!(m <= Mc)) fail_msg("%s: mean %g above albedo E / (4 pi) = %g", what, m, Mc);
-            double bound = tau[i] > 1 ? 0.05 : 0.10;
-            if (!(fabs(m / e - 1) <= bound))
-                fail_msg("%s: bias %+.1f %% beyond %.0f %%", what, 100 * (m / e - 1), 100 * bound);
+            if (!(fabs(m / e - 1) <= 0.05)) fail_msg("%s: bias %+.1f %% beyond 5 %%", what, 100 * (m / e - 1));
             /* alpha is the camera ray's opacity, which the cache does not touch: the
                plain tolerances (1e-4, 2 % for the thick closed form) */
             char label[128];
