@@ -372,10 +372,18 @@ picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations);
 
 typedef enum picvr_debug_view {
     PICVR_VIEW_IMAGE = 0,      /* the rendered image */
-    PICVR_VIEW_CACHE = 1       /* where the cache is: per pixel the fraction of scatter
+    PICVR_VIEW_CACHE = 1,      /* where the cache is: per pixel the fraction of scatter
                                   events served by the cache (green) or missed (red),
                                   entry centres white, background black; needs the
                                   cache on (PICVR_ERROR_NOT_READY otherwise) */
+    PICVR_VIEW_CACHE_ERROR = 2 /* how wrong the cache is where it is used: at every
+                                  scatter event the cache serves, R = the luminance it
+                                  shades with, G = the luminance of a plain Monte-Carlo
+                                  estimate at the same point (one more light and phase
+                                  sample), B = 1; elsewhere 0.  Over any region,
+                                  sum R / sum G - 1 is the cache's relative error per hit
+                                  there (G is unbiased) and mean B the fraction served.
+                                  Read it with picvr_read_rgba32f; needs the cache on */
 } picvr_debug_view;
 
 /* Selects what picvr_step renders; resets accumulation. */

@@ -1003,8 +1003,8 @@ static picvr_status clear_accumulation(picvr_context *ctx) {
 
 picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
-    if ((unsigned)view > PICVR_VIEW_CACHE) return PICVR_ERROR_INVALID_ARGUMENT;
-    if (view == PICVR_VIEW_CACHE && !ctx->cache_on) return PICVR_ERROR_NOT_READY;
+    if ((unsigned)view > PICVR_VIEW_CACHE_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (view != PICVR_VIEW_IMAGE && !ctx->cache_on) return PICVR_ERROR_NOT_READY;
     ctx->scene.view[0] = (uint32_t)view;
     return clear_accumulation(ctx);
 }

@@ -146,6 +146,9 @@ static void print_help(FILE *f)
         "                         Eq. 6, 7 literally, darker lit faces)\n"
         "  --debug-view cache     show where the cache is: hits green, misses red, entry\n"
         "                         centres white (needs --cache object|screen)\n"
+        "  --debug-view error     the cache's error where it is used: R the cached, G a\n"
+        "                         plain estimate at the same scatter events (read it with\n"
+        "                         --out-float); prints the error per hit\n"
         "  --device NAME          Vulkan device whose name contains NAME\n"
         "  --validation           enable the Khronos validation layer\n"
         "output\n"
@@ -300,7 +303,7 @@ static int apply_option(options *o, const char *name, const char *value)
         ok = parse_u32(value, 0, UINT32_MAX, &o->seed);
     } else if (!strcmp(name, "debug-view")) {
         o->debug_view = value;
-        ok = !strcmp(value, "cache") || !strcmp(value, "image");
+        ok = !strcmp(value, "cache") || !strcmp(value, "error") || !strcmp(value, "image");
     } else if (!strcmp(name, "cache")) {
         if (!strcmp(value, "none") || !strcmp(value, "off")) o->cache = PICVR_CACHE_NONE;
         else if (!strcmp(value, "object")) o->cache = PICVR_CACHE_OBJECT_SPACE;
@@ -621,6 +624,32 @@ static int write_pfm(picvr_context *ctx, const options *o)
     return ok;
 }
 
+/* --debug-view error: sum R / sum G - 1 over the image (picvr.h, PICVR_VIEW_CACHE_ERROR). */
+static int print_cache_error(picvr_context *ctx, const options *o)
+{
+    size_t n = (size_t)o->width * o->height;
+    float *px = malloc(n * 16);
+    if (!px) {
+        fail("out of memory for the float image");
+        return 0;
+    }
+    int ok = check(picvr_read_rgba32f(ctx, px, n * 16), "picvr_read_rgba32f");
+    double r = 0, g = 0, b = 0;
+    for (size_t i = 0; ok && i < n; i++) {
+        r += px[4 * i];
+        g += px[4 * i + 1];
+        b += px[4 * i + 2];
+    }
+    free(px);
+    /* Rule: no hit yet (g = 0) prints no ratio rather than dividing by 0. */
+    if (ok && g > 0)
+        fprintf(stderr, "picvr-render: cache error per hit %+.2f %% (mean served fraction %.3f)\n",
+                100 * (r / g - 1), b / (double)n);
+    else if (ok)
+        fprintf(stderr, "picvr-render: cache error per hit: no scatter event was served yet\n");
+    return ok;
+}
+
 static void json_string(FILE *f, const char *s)
 {
     fputc('"', f);
@@ -759,6 +788,8 @@ static int set_up_scene(picvr_context *ctx, const options *o)
     if (!check(picvr_set_camera(ctx, &cam), "picvr_set_camera")) return 0;
     if (o->debug_view && !strcmp(o->debug_view, "cache") &&
         !check(picvr_set_view(ctx, PICVR_VIEW_CACHE), "picvr_set_view")) return 0;
+    if (o->debug_view && !strcmp(o->debug_view, "error") &&
+        !check(picvr_set_view(ctx, PICVR_VIEW_CACHE_ERROR), "picvr_set_view")) return 0;
 
     pvp_tf tf;
     if ((ps = pvp_tf_preset(o->tf_name, &tf)) != PVP_OK) {
@@ -832,6 +863,7 @@ static int render(const options *o, const pvio_layout *layout)
     }
     ok = ok && (!o->out_png || write_png(r.ctx, o));
     ok = ok && (!o->out_pfm || write_pfm(r.ctx, o));
+    ok = ok && (!o->debug_view || strcmp(o->debug_view, "error") || print_cache_error(r.ctx, o));
     ok = ok && (!o->json_path || write_json(o, &r.stats));
     if (ok) print_summary(o, &r.stats);
 

@@ -39,6 +39,18 @@ void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
     accum_stat[idx] = vec4(mean, m2, uintBitsToFloat(n), uintBitsToFloat(nbad));
 }
 
+#ifdef PICVR_CACHE
+// PICVR_VIEW_CACHE_ERROR at a hit: (luminance of the cached shading, luminance of a plain
+// estimate at the same point, 1).  The plain sample uses the numbers after the hit's, so
+// it is independent of the choice of x and unbiased.
+vec3 cache_error_sample(vec3 x, vec3 cached, inout Rng rng, inout bool truncated) {
+    vec3 Lp = sample_one_light(x, rng, truncated);
+    if (USE_PHASE_MIS) Lp += sample_phase(x, rng, truncated);
+    const vec3 Y = vec3(0.2126, 0.7152, 0.0722);
+    return vec3(dot(cached, Y), dot(albedo_at(x) * Lp, Y), 1.0);
+}
+#endif
+
 void main() {
     // One workgroup per queued block (block_select.comp), one thread per pixel.
     uvec2 px = block_origin(render_queue.blocks[gl_WorkGroupID.x].x, scene.image.xy) + gl_LocalInvocationID.xy;
@@ -89,9 +101,10 @@ void main() {
 #ifdef PICVR_CACHE
         if (scene.view.x == 1u)
             radiance = near_centre ? vec3(1.0) : hit ? vec3(0.1, 0.8, 0.2) : vec3(0.8, 0.1, 0.1);
+        if (scene.view.x == 2u) radiance = hit ? cache_error_sample(x, radiance, rng, truncated) : vec3(0.0);
 #endif
 #ifdef PICVR_CACHE
-    } else if (scene.view.x == 1u) {
+    } else if (scene.view.x != 0u) {
         radiance = vec3(0.0);
 #endif
     } else if (light_hit >= 0) {

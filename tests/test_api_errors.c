@@ -474,10 +474,12 @@ void test_bad_inputs_rest_of_api_and_device_limits(void **state) {
 
     /* set_view */
     ROW(t, "set_view(NULL ctx)", PICVR_ERROR_NULL_POINTER, picvr_set_view(NULL, PICVR_VIEW_IMAGE));
-    ROW(t, "set_view(2)", PICVR_ERROR_INVALID_ARGUMENT, picvr_set_view(ctx, (picvr_debug_view)2));
+    ROW(t, "set_view(3)", PICVR_ERROR_INVALID_ARGUMENT, picvr_set_view(ctx, (picvr_debug_view)3));
     ROW(t, "set_view(-1)", PICVR_ERROR_INVALID_ARGUMENT, picvr_set_view(ctx, (picvr_debug_view)-1));
     ROW(t, "set_view(CACHE) with the cache off", PICVR_ERROR_NOT_READY,
         picvr_set_view(ctx, PICVR_VIEW_CACHE));
+    ROW(t, "set_view(CACHE_ERROR) with the cache off", PICVR_ERROR_NOT_READY,
+        picvr_set_view(ctx, PICVR_VIEW_CACHE_ERROR));
 
     /* step time: NaN/Inf are non-finite input, negative is out of range */
     ROW(t, "step(NaN ms)", PICVR_ERROR_NON_FINITE, picvr_step(ctx, NAN));
