@@ -106,7 +106,7 @@ void main() {
             vec3 e = irradiance_sample(p[k], light_rng, phase_rng, truncated);
             // Rule: a non-finite sample (only from extreme input) counts as 0.
             if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
-            float l = dot(e, vec3(0.2126, 0.7152, 0.0722));
+            float l = luminance(e);
             sum[k] += e; lsum[k] += l; lsq[k] += l * l;
         }
         // Eq. 5 at every point: 1.96 sqrt(S^2(N)/N) < gamma/(gamma+1) E(N).  Rule: a

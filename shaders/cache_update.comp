@@ -53,7 +53,7 @@ void main() {
             if (p.w > 0.0) {
                 cand[count] = e;
                 weight[count] = p.w;
-                lnE[count] = dot(p.lnE, vec3(0.2126, 0.7152, 0.0722));   // ln of luminance-weighted
+                lnE[count] = luminance(p.lnE);   // the luminance weights applied to ln E
                 local[count] = p.local;
                 count++;
             }

@@ -134,6 +134,10 @@ bool box_interval(vec3 ro, vec3 rd, out float t0, out float t1) {
     return t1 > t0;
 }
 
+// Rec. 709 luminance: the scalar of Eq. 5, Eq. 12, the update's conflicts and the
+// error view.
+float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
 // ---- medium: sigma_t(x) = D * opacity(v(x)) per world unit ----
 vec4 transfer(float v) {
     return texture(tf_tex, (clamp(v, 0.0, 1.0) * (TF_SIZE - 1.0) + 0.5) / TF_SIZE);

@@ -31,7 +31,7 @@ void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
     accum_mean[idx] = t;
     accum_comp[idx] = c;
     // Welford update of the luminance mean and M2 (Eq. 5 and Eq. 12 need S^2).
-    float lum = dot(radiance, vec3(0.2126, 0.7152, 0.0722));
+    float lum = luminance(radiance);
     precise float delta = lum - s.x;
     precise float mean = s.x + delta / float(n);
     precise float m2 = s.y + delta * (lum - mean);
@@ -46,8 +46,7 @@ void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
 vec3 cache_error_sample(vec3 x, vec3 cached, inout Rng rng, inout bool truncated) {
     vec3 Lp = sample_one_light(x, rng, truncated);
     if (USE_PHASE_MIS) Lp += sample_phase(x, rng, truncated);
-    const vec3 Y = vec3(0.2126, 0.7152, 0.0722);
-    return vec3(dot(cached, Y), dot(albedo_at(x) * Lp, Y), 1.0);
+    return vec3(luminance(cached), luminance(albedo_at(x) * Lp), 1.0);
 }
 #endif
 
