@@ -39,14 +39,19 @@ void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
     accum_stat[idx] = vec4(mean, m2, uintBitsToFloat(n), uintBitsToFloat(nbad));
 }
 
+// In-scattered radiance at x by plain Monte Carlo: one light and one phase sample (MIS).
+vec3 direct_light(vec3 x, inout Rng rng, inout bool truncated) {
+    vec3 L = sample_one_light(x, rng, truncated);
+    if (USE_PHASE_MIS) L += sample_phase(x, rng, truncated);
+    return L;
+}
+
 #ifdef PICVR_CACHE
 // PICVR_VIEW_CACHE_ERROR at a hit: (luminance of the cached shading, luminance of a plain
 // estimate at the same point, 1).  The plain sample uses the numbers after the hit's, so
 // it is independent of the choice of x and unbiased.
 vec3 cache_error_sample(vec3 x, vec3 cached, inout Rng rng, inout bool truncated) {
-    vec3 Lp = sample_one_light(x, rng, truncated);
-    if (USE_PHASE_MIS) Lp += sample_phase(x, rng, truncated);
-    return vec3(luminance(cached), luminance(albedo_at(x) * Lp), 1.0);
+    return vec3(luminance(cached), luminance(albedo_at(x) * direct_light(x, rng, truncated)), 1.0);
 }
 #endif
 
@@ -87,13 +92,11 @@ void main() {
             atomicAdd(cache_counters.hits, 1u);
         } else {
             cache_request(x, node, px, pc.round, rnd(rng), pc.request_cap);
-            Ls = sample_one_light(x, rng, truncated);
-            if (USE_PHASE_MIS) Ls += sample_phase(x, rng, truncated);
+            Ls = direct_light(x, rng, truncated);
             atomicAdd(cache_counters.misses, 1u);
         }
 #else
-        Ls = sample_one_light(x, rng, truncated);
-        if (USE_PHASE_MIS) Ls += sample_phase(x, rng, truncated);
+        Ls = direct_light(x, rng, truncated);
 #endif
         radiance = albedo_at(x) * Ls;
         coverage = 1.0;
