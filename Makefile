@@ -73,7 +73,8 @@ $(B)/picvr-tests: $(TEST_SRC) tests/test_util.h $(B)/cpu_reference.o $(B)/libpic
 $(B)/picvr-bench-speed: bench/bench_speed.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
 
-test: deps check-shaders $(B)/picvr-tests $(B)/picvr-render
+test: deps check-shaders $(B)/picvr-tests $(B)/picvr-render $(B)/picvr-bench-error
+	$(B)/picvr-bench-error --self-test
 	cd $(B) && PICVR_VALIDATION=1 PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
 
 demo: deps $(B)/picvr-render
@@ -114,8 +115,11 @@ BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotat
               --fig10 bonsai,engine,aneurism,cloud --bias bonsai,engine,aneurism,cloud \
               --bias-time 300000
 
+# The library's sources as one checksum: the bench's run files carry it, so that a run
+# made with other library code is never reused (bench/bench_error.c, run_signature).
+BENCH_BUILD = $(shell cat picvr.h picvr_vk.c shaders/*.glsl shaders/*.comp | cksum | cut -d' ' -f1)
 $(B)/picvr-bench-error: bench/bench_error.c picvr_shaders.h examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -o $@ bench/bench_error.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
+	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ bench/bench_error.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 $(B)/picvr-bench-fig9: bench/bench_fig9.c shaders/cache_math.glsl tests/cache_math_host.h | $(B)/.deps
 	$(CC) $(CFLAGS) -o $@ bench/bench_fig9.c -lm

@@ -74,6 +74,12 @@
 #define GRID_POINTS 200        /* equal-time grid of the ratio average */
 #define REF_ROUNDS 3           /* grow-the-reference attempts per scene */
 #define WARM_CREATE_SHARE 0.85f /* --bias-warm: creation's share while the cache fills */
+/* The library's sources this binary was built from (the Makefile passes a checksum of
+   picvr.h, picvr_vk.c and shaders/): part of every run file's signature, so that a
+   finished run is never reused by a build whose cache or scheduler behaves otherwise. */
+#ifndef PICVR_BENCH_BUILD
+#define PICVR_BENCH_BUILD "unknown"
+#endif
 
 /* ---- small utilities ---------------------------------------------------------------- */
 
@@ -207,10 +213,16 @@ static void print_help(FILE *f)
 
 static int parse_args(int argc, char **argv, options *o)
 {
-    *o = (options){"bench/scenes.txt", "../shared/data", "bench/results", "bench/refs",
-                   NULL, NULL, "plain,object,object-noprio,screen,screen-noprio",
-                   "bonsai", "bonsai", 128, 128, 10000, 200, 4000, 6000, 60000, 0, 0,
-                   PICVR_SWITCH_DEFAULT, 2, 200};
+    /* Designated, not positional: a field added to `options` once shifted the defaults
+       by one (repeats' 2 became medium = PICVR_SWITCH_OFF, so the "library default"
+       runs of make bench-bias measured the paper's model; caught 2026-11-29). */
+    *o = (options){.scenes_path = "bench/scenes.txt", .data_dir = "../shared/data",
+                   .out_dir = "bench/results", .refs_dir = "bench/refs",
+                   .conditions = "plain,object,object-noprio,screen,screen-noprio",
+                   .bias = "bonsai", .fig10 = "bonsai", .width = 128, .height = 128,
+                   .run_ms = 10000, .slice_ms = 200, .rotate_ms = 4000, .after_ms = 6000,
+                   .ref_chunk_ms = 60000, .curvature = PICVR_SWITCH_DEFAULT,
+                   .medium = PICVR_SWITCH_DEFAULT, .repeats = 2, .ref_max_chunks = 200};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--help")) { print_help(stdout); exit(0); }
@@ -742,21 +754,30 @@ static int parse_row(const char *line, row *x)
                   &x->entries, &x->refs, &x->moving) == 11;
 }
 
-/* The reference a run file was measured against. */
-static void ref_signature(const reference *r, char *out, size_t size)
+static const char *switch_name(picvr_switch s)
 {
-    snprintf(out, size, "# reference %u chunks %llu iterations", r->chunks,
-             (unsigned long long)r->iterations);
+    return s == PICVR_SWITCH_ON ? "on" : s == PICVR_SWITCH_OFF ? "off" : "default";
 }
 
-/* Loads a finished run file measured against this reference; 0 if there is none. */
-static int run_load(const char *path, const reference *ref, run *out)
+/* What a run file was measured with: the reference, the library build and the cache
+   options (--medium, --curvature).  A file whose first line differs is run again. */
+static void run_signature(const options *o, const reference *r, char *out, size_t size)
+{
+    snprintf(out, size, "# reference %u chunks %llu iterations; library %s; medium %s; "
+             "curvature %s", r->chunks, (unsigned long long)r->iterations, PICVR_BENCH_BUILD,
+             switch_name(o->medium), switch_name(o->curvature));
+}
+
+/* Loads a finished run file measured with this signature; 0 if there is none. */
+static int run_load(const options *o, const char *path, const reference *ref, run *out)
 {
     FILE *f = fopen(path, "r");
     if (!f) return 0;
-    char line[1024], sig[256];
-    ref_signature(ref, sig, sizeof sig);
-    int ok = fgets(line, sizeof line, f) && !strncmp(line, sig, strlen(sig)), done = 0;
+    char line[1024], sig[512];
+    run_signature(o, ref, sig, sizeof sig);
+    size_t n = strlen(sig);
+    int ok = fgets(line, sizeof line, f) && !strncmp(line, sig, n) &&
+             (line[n] == '\n' || line[n] == 0), done = 0;
     while (ok && fgets(line, sizeof line, f)) {
         row x;
         if (!strncmp(line, "# done", 6)) done = 1;
@@ -917,7 +938,7 @@ static int warm_up(const run_spec *rs, session *ss)
 static int do_run(const options *o, const run_spec *rs, run *out)
 {
     memset(out, 0, sizeof *out);
-    if (run_load(rs->path, rs->ref, out) && (!rs->lum_path || file_exists(rs->lum_path))) {
+    if (run_load(o, rs->path, rs->ref, out) && (!rs->lum_path || file_exists(rs->lum_path))) {
         fprintf(stderr, "%s reused %s\n", rs->label, rs->path);
         note_run_time(rs->path);
         return 1;
@@ -928,10 +949,10 @@ static int do_run(const options *o, const run_spec *rs, run *out)
                       rs->warm_ms > 0 ? WARM_CREATE_SHARE : 0.0f, o->curvature, o->medium, &ss))
         return 0;
     if (rs->warm_ms > 0 && !warm_up(rs, &ss)) { session_close(&ss); return 0; }
-    char tmp[PATH_LEN], sig[256];
+    char tmp[PATH_LEN], sig[512];
     snprintf(tmp, sizeof tmp, "%s.tmp", rs->path);
     FILE *f = fopen(tmp, "w");
-    ref_signature(rs->ref, sig, sizeof sig);
+    run_signature(o, rs->ref, sig, sizeof sig);
     int ok = f != NULL;
     if (ok) fprintf(f, "%s\n%s\n", sig, ROW_HEADER);
     ok = ok && run_slices(o, rs, &ss, f, out);
@@ -1403,7 +1424,7 @@ static double bias_hit_rate(const options *o, const scene *s, const reference *r
         char path[PATH_LEN];
         run r = {0};
         run_path(o, s, cond, k, csv_suffix, path);
-        if (!run_load(path, ref, &r)) return NAN;
+        if (!run_load(o, path, ref, &r)) return NAN;
         double h = 0;
         for (size_t i = 0; i < r.n; i++) h += r.rows[i].hit_rate / r.n;
         sum += h / o->repeats;
@@ -1517,8 +1538,11 @@ static void close_writers(writers *w, const char *device)
     FILE *md[3] = {w->t2md, w->t3md, w->bmd};
     for (int i = 0; i < 3; i++)
         if (md[i])
-            fprintf(md[i], "\nRuns measured %s to %s on %ld CPU(s); device: %s.\n", from, to,
-                    sysconf(_SC_NPROCESSORS_ONLN), device);
+            fprintf(md[i], "\nRuns measured %s to %s on %ld CPU(s); device: %s; library "
+                    "build %s (checksum of picvr.h, picvr_vk.c, shaders/); cache options: "
+                    "medium model %s, curvature limit %s.\n", from, to,
+                    sysconf(_SC_NPROCESSORS_ONLN), device, PICVR_BENCH_BUILD,
+                    switch_name(w->o->medium), switch_name(w->o->curvature));
     FILE *all[6] = {w->t2csv, w->t2md, w->t3csv, w->t3md, w->bcsv, w->bmd};
     for (int i = 0; i < 6; i++)
         if (all[i]) fclose(all[i]);
@@ -1586,9 +1610,59 @@ static int self_test_compare(void)
            expect(fabs(e.rel_rmse - 0.5 / 1.01) < 1e-12, "relative RMSE");
 }
 
+/* A run file is reused only by a build and cache options that match its signature. */
+static int self_test_signature(void)
+{
+    char path[PATH_LEN], sig[512];
+    snprintf(path, sizeof path, "/tmp/picvr-bench-self-test-%ld.csv", (long)getpid());
+    options on = {0}, off = {0};
+    on.medium = PICVR_SWITCH_ON;
+    off.medium = PICVR_SWITCH_OFF;
+    reference r = {0};
+    r.chunks = 3;
+    r.iterations = 300;
+    int ok = 1, same = 0, other = 1, shorter = 1;
+    for (int k = 0; k < 2 && ok; k++) {
+        FILE *f = fopen(path, "w");
+        if (!f) return expect(0, "cannot write the self-test's run file");
+        if (k == 0) run_signature(&on, &r, sig, sizeof sig);
+        else snprintf(sig, sizeof sig, "# reference 3 chunks 300 iterations");  /* older file */
+        fprintf(f, "%s\n%s\n200,1,0.1,0.2,0.1,0.2,0.5,0.04,10,100,0\n# done\n", sig, ROW_HEADER);
+        ok = fclose(f) == 0;
+        run x = {0};
+        if (k == 0) {
+            same = run_load(&on, path, &r, &x);
+            run_free(&x);
+            other = run_load(&off, path, &r, &x);
+        } else {
+            shorter = run_load(&on, path, &r, &x);
+        }
+        run_free(&x);
+    }
+    remove(path);
+    return expect(ok && same, "a run file with the same signature is not reused") &&
+           expect(!other, "a run file of other cache options is reused") &&
+           expect(!shorter, "a run file without the library's build is reused");
+}
+
+/* Without options every setting is its documented default (--help). */
+static int self_test_defaults(void)
+{
+    char *argv[] = {PROGRAM, NULL};
+    options o;
+    return expect(parse_args(1, argv, &o), "no options are refused") &&
+           expect(o.medium == PICVR_SWITCH_DEFAULT && o.curvature == PICVR_SWITCH_DEFAULT,
+                  "the cache options are not the library's defaults") &&
+           expect(o.repeats == 2 && o.ref_max_chunks == 200 && o.run_ms == 10000 &&
+                  o.slice_ms == 200 && o.ref_chunk_ms == 60000 && o.warm_ms == 0 &&
+                  o.bias_ms == 0 && o.width == 128 && o.height == 128,
+                  "the defaults differ from --help");
+}
+
 static int self_test(void)
 {
-    int ok = self_test_ratio() & self_test_reference() & self_test_compare();
+    int ok = self_test_ratio() & self_test_reference() & self_test_compare() &
+             self_test_signature() & self_test_defaults();
     fprintf(stderr, PROGRAM ": self-test %s\n", ok ? "passed" : "FAILED");
     return ok;
 }

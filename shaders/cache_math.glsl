@@ -492,11 +492,13 @@ CM_API real CM_FN(entry_r_max)(real r_max, real delta_e, real delta) {
 // half-axes of that axis get the radius at which the secant's error reaches L:
 //   kappa r (delta - r) / 2 = L   =>   r = delta (1 - sqrt(1 - 8 L / m)) / 2 < delta / 2,
 // computed as 4 delta L / (m (1 + sqrt(1 - 8 L / m))) (no cancellation for large m);
-// elsewhere no limit (r_max).  Why: with Eq. 9, 10 alone the cache darkened bonsai under
-// one area light by 11 % at a hit rate of 0.93 (the lit faces and shadow edges of every
-// leaf); with this limit by 1.1 % at 0.46 - but the entries shrink so much (a zero next
-// to a lit estimate gives r_min) that the hit rate stayed below 0.6 with 50,000 entries,
-// so it is off by default (cfg.cache.curvature_limit; README, "The irradiance cache").
+// elsewhere no limit (r_max).  Why: with the paper's Eq. 6, 7 and Eq. 9, 10 alone the
+// cache darkened bonsai under one area light by 10-11 % at a hit rate of 0.89-0.93 (the
+// lit faces and shadow edges of every leaf); with this limit by 1.1 % at 0.46 - but the
+// entries shrink so much (a zero next to a lit estimate gives r_min) that the hit rate
+// stayed below 0.6 with 50,000 entries.  The medium model (medium_fraction) now removes
+// that bias without shrinking anything, so the limit is off by default
+// (cfg.cache.curvature_limit; README, "The irradiance cache").
 // Rules: logs by san_ln (E = 0 is ln 1e-30, so a zero next to a positive estimate gives
 // m >= 69 - |ln E|, hence r below 3e-3 delta: r_min in practice; all three zero: m = 0,
 // no limit); eps: NaN -> 0, clamped to [0, CM_EPS_MAX] (eps = 0: any curvature gives
@@ -527,8 +529,8 @@ CM_API real CM_FN(curvature_radius)(real lnEm, real lnE0, real lnEp, real delta,
 // Why: with the paper's secant the lit faces of a dense object are extrapolated too
 // dark (the outward offset point in air makes the secant half as steep as the field
 // inside): a full cache darkened a dense cube under a sun by 12 %, 5 % with this model
-// (tests/test_cache.c, test_cache_full_dense_lit_face; on bonsai it gains less, README
-// "The irradiance cache").  Rules: sigma_0 NaN, inf or <= 0 -> 1 (no reference length: the
+// (tests/test_cache.c, test_cache_full_dense_lit_face), and bonsai by 9.75 %, 0.03 % with
+// it (README, "The irradiance cache").  Rules: sigma_0 NaN, inf or <= 0 -> 1 (no reference length: the
 // paper's secant); tau NaN or +inf -> 1; tau <= 0 (the axis leaves the medium at once)
 // -> CM_F_MIN; f is clamped to [CM_F_MIN, 1] (an axis into denser medium is not
 // stretched) and is exactly 1 above 1 - CM_F_ONE, so that a homogeneous medium keeps

@@ -261,20 +261,9 @@ static double dense_cube_bias(picvr_switch medium, double *hit_rate, double *per
     cfg.cache.medium_model = medium;
     cfg.cache.max_requests = 32;
     picvr_context *ctx = tu_create_config(&cfg);
-    tu_vol vol = tu_vol_new(8, 8, 8, 1.0f, 255);
-    tu_upload(ctx, &vol);
     tu_sun_scene s;
-    memset(&s, 0, sizeof s);
-    tu_vol_box(&vol, s.bmin, s.bmax);
-    s.sigma = 10.0;
-    double l[3] = {0.3, 0.5, 1.0}, ll = sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
-    for (int i = 0; i < 3; i++) {
-        s.l[i] = l[i] / ll;
-        s.albedo[i] = 0.9;
-        s.E[i] = 4.0;
-    }
-    tu_tf_const(ctx, 0.9f, 0.9f, 0.9f, 1.0f, 10.0f);
-    tu_sun(ctx, l[0], l[1], l[2], 1.0f, 1.0f, 1.0f, 4.0f, 0.0f);
+    const double l[3] = {0.3, 0.5, 1.0};
+    tu_sun_cube(ctx, 8, 10.0f, 0.9f, l, 4.0f, 0.0f, &s);
     const uint32_t W = 24, H = 24;
     tu_cam cam = tu_set_camera(ctx, 0.4, -0.2, 14, 0, 0, 0, 30, W, H);
     double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
@@ -294,7 +283,6 @@ static double dense_cube_bias(picvr_switch medium, double *hit_rate, double *per
     *hit_rate = st.cache_hit_rate;
     free(img);
     free(expv);
-    tu_vol_free(&vol);
     tu_finish(ctx);
     return bias;
 }

@@ -105,36 +105,6 @@ static void thick_ray(const double o[3], const double d[3], void *user, double o
     out[3] = 1;
 }
 
-static void unit(double v[3]) {
-    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    v[0] /= l; v[1] /= l; v[2] /= l;
-}
-
-/* A homogeneous n^3 cube of sigma_t = D (opacity 1 everywhere), albedo a, a delta sun
-   toward l with irradiance E, black background.  Fills the closed-form scene. */
-static void sun_cube(picvr_context *ctx, uint32_t n, float D, float a, const double l_in[3],
-                     float E, float angular, tu_sun_scene *s) {
-    tu_vol vol = tu_vol_new(n, n, n, 1.0f, 255);
-    tu_upload(ctx, &vol);
-    memset(s, 0, sizeof *s);
-    tu_vol_box(&vol, s->bmin, s->bmax);
-    tu_vol_free(&vol);
-    s->sigma = D;
-    tu_tf_const(ctx, a, a, a, 1.0f, D);
-    double l[3] = {l_in[0], l_in[1], l_in[2]};
-    unit(l);
-    memcpy(s->l, l, sizeof l);
-    for (int c = 0; c < 3; c++) { s->albedo[c] = a; s->E[c] = E; }
-    picvr_light sun;
-    memset(&sun, 0, sizeof sun);
-    sun.type = PICVR_LIGHT_DIRECTIONAL;
-    for (int i = 0; i < 3; i++) sun.direction[i] = (float)l_in[i];
-    sun.angular_diameter = angular;
-    sun.color[0] = sun.color[1] = sun.color[2] = 1;
-    sun.intensity = E;
-    TU_OK(picvr_set_lights(ctx, &sun, 1, NULL));
-}
-
 /* ---- optical thickness ------------------------------------------------------------------- */
 
 /* Beer-Lambert through an 8^3 cube with optical thickness tau per voxel from 1e-6 to 1e5
@@ -192,7 +162,7 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
     int ok = 1;
     for (size_t i = 0; i < ntau; i++) {
         tu_sun_scene s;
-        sun_cube(ctx, 8, tau[i], albedo, l, E, 0.0f, &s);
+        tu_sun_cube(ctx, 8, tau[i], albedo, l, E, 0.0f, &s);
         tu_cam cam = tu_set_camera(ctx, 0.4, -0.2, 14, 0, 0, 0, 30, W, H);
         char what[96];
         snprintf(what, sizeof what, "sun, tau/voxel %g, %s", (double)tau[i], mode_name(mode));
@@ -436,7 +406,7 @@ void test_sweep_light_intensity(void **state) {
             if (pass && i != 0 && i != 4) continue;
             tu_sun_scene s;
             const double l[3] = {0.6, 0.45, 0.66};
-            sun_cube(ctx, 8, 0.15f, 0.8f, l, I[i], 0.0f, &s);
+            tu_sun_cube(ctx, 8, 0.15f, 0.8f, l, I[i], 0.0f, &s);
             const uint32_t W = 16, H = 16, N = 64;
             tu_cam cam = tu_set_camera(ctx, 0, 0, 14, 0, 0, 0, 30, W, H);
             char what[96];
@@ -558,7 +528,7 @@ void test_sweep_lights_inside_grazing_tiny_sun_none(void **state) {
     const double graze[2][3] = {{1, 0, 0}, {1, 0, 1e-3}};
     for (int g = 0; g < 2; g++) {
         tu_sun_scene s;
-        sun_cube(ctx, 8, D, albedo, graze[g], 3.0f, 0.0f, &s);
+        tu_sun_cube(ctx, 8, D, albedo, graze[g], 3.0f, 0.0f, &s);
         tu_cam c2 = tu_set_camera(ctx, 0.3, 0.2, 14, 0, 0, 0, 30, 24, 24);
         char what[96];
         snprintf(what, sizeof what, "grazing sun (%g, 0, %g)", graze[g][0], graze[g][2]);
@@ -577,7 +547,7 @@ void test_sweep_lights_inside_grazing_tiny_sun_none(void **state) {
     for (int k = 0; k < 2; k++) {
         tu_sun_scene s;
         const double l[3] = {0.2, 0.7, 0.5};
-        sun_cube(ctx, 8, D, albedo, l, 3.0f, ang[k], &s);
+        tu_sun_cube(ctx, 8, D, albedo, l, 3.0f, ang[k], &s);
         tu_cam c2 = tu_set_camera(ctx, 0, 0, 14, 0, 0, 0, 30, 24, 24);
         char what[96];
         snprintf(what, sizeof what, "sun angular diameter %g rad", (double)ang[k]);

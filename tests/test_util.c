@@ -258,6 +258,27 @@ void tu_sun(picvr_context *ctx, double dx, double dy, double dz, float r, float 
     TU_OK(picvr_set_lights(ctx, &sun, 1, &bg));
 }
 
+void tu_sun_cube(picvr_context *ctx, uint32_t n, float D, float a, const double l_in[3],
+                 float E, float angular, tu_sun_scene *s) {
+    tu_vol vol = tu_vol_new(n, n, n, 1.0f, 255);
+    tu_upload(ctx, &vol);
+    memset(s, 0, sizeof *s);
+    tu_vol_box(&vol, s->bmin, s->bmax);
+    tu_vol_free(&vol);
+    s->sigma = D;
+    tu_tf_const(ctx, a, a, a, 1.0f, D);
+    double l = sqrt(l_in[0] * l_in[0] + l_in[1] * l_in[1] + l_in[2] * l_in[2]);
+    for (int c = 0; c < 3; c++) { s->l[c] = l_in[c] / l; s->albedo[c] = a; s->E[c] = E; }
+    picvr_light sun;
+    memset(&sun, 0, sizeof sun);
+    sun.type = PICVR_LIGHT_DIRECTIONAL;
+    for (int i = 0; i < 3; i++) sun.direction[i] = (float)l_in[i];
+    sun.angular_diameter = angular;
+    sun.color[0] = sun.color[1] = sun.color[2] = 1;
+    sun.intensity = E;
+    TU_OK(picvr_set_lights(ctx, &sun, 1, NULL));
+}
+
 /* ---- camera -------------------------------------------------------------------------- */
 
 static void tu_normalize(double v[3]) {

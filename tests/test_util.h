@@ -229,6 +229,12 @@ typedef struct tu_sun_scene {
     double o[3], d[3], t0;
 } tu_sun_scene;
 void tu_sun_ray(const double o[3], const double d[3], void *user, double out[4]);
+/* A homogeneous n^3 cube of sigma_t = D (value 1, opacity 1 everywhere), albedo a, a sun
+   toward l_in (any length) of irradiance E and angular diameter `angular` (radians; 0: a
+   delta sun), black background.  Fills *s for tu_sun_ray (a delta sun's closed form; a
+   caller with angular > 0 sets half_angle, e1 and e2 itself). */
+void tu_sun_cube(picvr_context *ctx, uint32_t n, float D, float a, const double l_in[3],
+                 float E, float angular, tu_sun_scene *s);
 
 /* Pure absorption of a volume (albedo 0, background 1): T = exp(-D int value dt),
    alpha 1 - T (tu_ray_fn). */
