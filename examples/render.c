@@ -610,16 +610,26 @@ static int write_pfm_file(const char *path, const float *rgba, uint32_t w, uint3
     return ok;
 }
 
-static int write_pfm(picvr_context *ctx, const options *o)
+/* The linear RGBA float image (malloc'd; NULL after a reported failure). */
+static float *read_float_image(picvr_context *ctx, const options *o)
 {
     size_t size = (size_t)o->width * o->height * 16;
     float *px = malloc(size);
     if (!px) {
         fail("out of memory for the float image");
-        return 0;
+        return NULL;
     }
-    int ok = check(picvr_read_rgba32f(ctx, px, size), "picvr_read_rgba32f") &&
-             write_pfm_file(o->out_pfm, px, o->width, o->height);
+    if (!check(picvr_read_rgba32f(ctx, px, size), "picvr_read_rgba32f")) {
+        free(px);
+        return NULL;
+    }
+    return px;
+}
+
+static int write_pfm(picvr_context *ctx, const options *o)
+{
+    float *px = read_float_image(ctx, o);
+    int ok = px && write_pfm_file(o->out_pfm, px, o->width, o->height);
     free(px);
     return ok;
 }
@@ -628,12 +638,8 @@ static int write_pfm(picvr_context *ctx, const options *o)
 static int print_cache_error(picvr_context *ctx, const options *o)
 {
     size_t n = (size_t)o->width * o->height;
-    float *px = malloc(n * 16);
-    if (!px) {
-        fail("out of memory for the float image");
-        return 0;
-    }
-    int ok = check(picvr_read_rgba32f(ctx, px, n * 16), "picvr_read_rgba32f");
+    float *px = read_float_image(ctx, o);
+    int ok = px != NULL;
     double r = 0, g = 0, b = 0;
     for (size_t i = 0; ok && i < n; i++) {
         r += px[4 * i];

@@ -174,7 +174,7 @@ bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
         uint r = nodes[node].refs;
         for (uint k = 0u; k < CACHE_MAX_REFS_PER_NODE && r != CACHE_NIL; k++) {
             eval_entry(refs[r].entry, x, sum_w, sum_wlog);
-            if (scene.view.x == 1u) {   // debug view: is x within a voxel of a centre?
+            if (scene.view.x == VIEW_CACHE) {   // is x within a voxel of a centre?
                 vec3 d = x - entries[refs[r].entry].pos_rmax.xyz;
                 near_centre = near_centre || dot(d, d) < scene.cell_size.w * scene.cell_size.w;
             }

@@ -530,8 +530,8 @@ CM_API real CM_FN(curvature_radius)(real lnEm, real lnE0, real lnEp, real delta,
 // dark (the outward offset point in air makes the secant half as steep as the field
 // inside): a full cache darkened a dense cube under a sun by 12 %, 5 % with this model
 // (tests/test_cache.c, test_cache_full_dense_lit_face), and bonsai by 9.75 %, 0.03 % with
-// it (README, "The irradiance cache").  Rules: sigma_0 NaN, inf or <= 0 -> 1 (no reference length: the
-// paper's secant); tau NaN or +inf -> 1; tau <= 0 (the axis leaves the medium at once)
+// it (README, "The irradiance cache").  Rules: sigma_0 NaN, inf or <= 0 -> 1 (no
+// reference length: the paper's secant); tau NaN or +inf -> 1; tau <= 0 (the axis leaves the medium at once)
 // -> CM_F_MIN; f is clamped to [CM_F_MIN, 1] (an axis into denser medium is not
 // stretched) and is exactly 1 above 1 - CM_F_ONE, so that a homogeneous medium keeps
 // Eq. 7 exact despite the rounding of the quadrature; no overflow (sigma_0 delta may be

@@ -134,6 +134,11 @@ bool box_interval(vec3 ro, vec3 rd, out float t0, out float t1) {
     return t1 > t0;
 }
 
+// picvr_debug_view (picvr.h): what the rendering procedure writes.
+#define VIEW_IMAGE 0u
+#define VIEW_CACHE 1u
+#define VIEW_CACHE_ERROR 2u
+
 // Rec. 709 luminance: the scalar of Eq. 5, Eq. 12, the update's conflicts and the
 // error view.
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
