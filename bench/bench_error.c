@@ -12,8 +12,9 @@
  *  1. a reference: plain Monte Carlo (cache off, priorities off), rendered as
  *     independent chunks with seeds 1001, 1002, ... and stored as PFM files in
  *     REFS/<hash>/ where the hash is FNV-1a of the scene description (data file, TF,
- *     spacing, lights, size, camera, the plain render kernel's SPIR-V; not the seed).  The reference is the
- *     iteration-weighted mean of the chunks; its own per-pixel error is estimated
+ *     spacing, lights, size, camera; not the seed) and of the plain renderer's
+ *     fingerprint (plain_fingerprint: a short deterministic render of the scene,
+ *     hashed bit for bit).  The reference is the iteration-weighted mean of the chunks; its own per-pixel error is estimated
  *     from the spread between chunks (at least 4).  A reference whose RMSE (and
  *     relative RMSE) is not at least 10x below the smallest error measured against it
  *     is grown (more chunks, then the runs are repeated against it) or, beyond
@@ -51,10 +52,6 @@
 #include <unistd.h>
 
 #include "picvr.h"
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-const-variable"
-#include "picvr_shaders.h"     /* the plain render kernel's SPIR-V keys the references */
-#pragma GCC diagnostic pop
 #include "presets.h"
 #include "volume_io.h"
 
@@ -69,6 +66,8 @@
 #define REF_FACTOR 10.0        /* reference error at least this far below */
 #define REF_MIN_CHUNKS 4
 #define REF_SEED0 1001u
+#define FINGERPRINT_SEED 7u          /* plain_fingerprint: a seed no chunk or run uses */
+#define FINGERPRINT_ITERATIONS 4u
 #define RUN_SEED0 101u
 #define FLOOR_FRACTION 1e-2    /* relative error floor, fraction of the mean */
 #define GRID_POINTS 200        /* equal-time grid of the ratio average */
@@ -381,23 +380,29 @@ typedef struct scene {
     char id[128];              /* dataset_lights_WxH, for file names */
 } scene;
 
+/* The scene without its reference key (scene_key, once the volume is loaded). */
 static void scene_init(scene *s, const dataset_spec *ds, const char *lights,
                        const options *o, const float camera[4])
 {
+    memset(s, 0, sizeof *s);
     s->ds = ds;
     s->lights = lights;
     s->width = o->width;
     s->height = o->height;
     memcpy(s->camera, camera, sizeof s->camera);
-    /* A change of the plain kernel's SPIR-V makes new references (changes of the host
-       side are caught by the plain control of bias.md). */
-    unsigned long long kernel = fnv1a_bytes(picvr_spv_render, sizeof picvr_spv_render);
-    snprintf(s->key, sizeof s->key,
-             "picvr-bench-ref v2|render=%016llx|%s|tf=%s|spacing=%g|lights=%s|%ux%u|"
-             "camera=%g,%g,%g,%g", kernel, ds->file, ds->tf, ds->spacing, lights, s->width,
-             s->height, camera[0], camera[1], camera[2], camera[3]);
-    snprintf(s->hash, sizeof s->hash, "%016llx", (unsigned long long)fnv1a(s->key));
     snprintf(s->id, sizeof s->id, "%s_%s_%ux%u", ds->name, lights, s->width, s->height);
+}
+
+/* The key of the scene's reference folder: the scene description and the plain
+   renderer's fingerprint. */
+static void scene_key(scene *s, uint64_t fingerprint)
+{
+    snprintf(s->key, sizeof s->key,
+             "picvr-bench-ref v3|plain=%016llx|%s|tf=%s|spacing=%g|lights=%s|%ux%u|"
+             "camera=%g,%g,%g,%g", (unsigned long long)fingerprint, s->ds->file, s->ds->tf,
+             s->ds->spacing, s->lights, s->width, s->height, s->camera[0], s->camera[1],
+             s->camera[2], s->camera[3]);
+    snprintf(s->hash, sizeof s->hash, "%016llx", (unsigned long long)fnv1a(s->key));
 }
 
 static int lights_have_background(const char *lights)
@@ -493,6 +498,30 @@ static int read_luminance(picvr_context *ctx, uint32_t w, uint32_t h, float *rgb
     if (!check(picvr_read_rgba32f(ctx, rgba, n * 16), "picvr_read_rgba32f")) return 0;
     for (size_t i = 0; i < n; i++) lum[i] = (float)luminance(rgba + 4 * i);
     return 1;
+}
+
+/* The plain renderer's fingerprint for scene s: FNV-1a of the linear image of a short
+   deterministic render (FINGERPRINT_ITERATIONS whole passes with picvr_step_iterations,
+   seed FINGERPRINT_SEED; no time budget, so bit for bit the same on one machine and
+   driver).  It keys the references, so that a change of the library that leaves the
+   plain image bit-identical (a refactor) keeps them, while any change of that image, by
+   the kernel or by the host side, makes new ones; another device or driver gets its own
+   references.  Costs a few iterations per scene. */
+static int plain_fingerprint(const scene *s, const pvio_volume *vol, uint64_t *out)
+{
+    session ss;
+    if (!session_open(s, vol, find_condition("plain"), FINGERPRINT_SEED, 0.0f,
+                      PICVR_SWITCH_DEFAULT, PICVR_SWITCH_DEFAULT, &ss)) return 0;
+    size_t n = (size_t)s->width * s->height;
+    float *rgba = malloc(n * 16);
+    int ok = rgba != NULL &&
+             check(picvr_step_iterations(ss.ctx, FINGERPRINT_ITERATIONS), "picvr_step_iterations") &&
+             check(picvr_read_rgba32f(ss.ctx, rgba, n * 16), "picvr_read_rgba32f");
+    if (!rgba) fail("out of memory");
+    if (ok) *out = fnv1a_bytes(rgba, n * 16);
+    free(rgba);
+    session_close(&ss);
+    return ok;
 }
 
 /* ---- PFM chunks --------------------------------------------------------------------------- */
@@ -1653,6 +1682,34 @@ static int self_test_signature(void)
            expect(!older, "a run file without the library's build is reused");
 }
 
+/* The fingerprint that keys the references is the same on every call and tells scenes
+   apart (a 16^3 sphere of density, 16x16 pixels, so it runs in the test suite). */
+static int self_test_fingerprint(void)
+{
+    enum { N = 16 };
+    static uint8_t voxels[N * N * N];
+    for (int z = 0; z < N; z++)
+        for (int y = 0; y < N; y++)
+            for (int x = 0; x < N; x++) {
+                double r = sqrt((x - 7.5) * (x - 7.5) + (y - 7.5) * (y - 7.5) + (z - 7.5) * (z - 7.5));
+                voxels[(z * N + y) * N + x] = (uint8_t)(r < 6.0 ? 200 - 20 * r : 0);
+            }
+    pvio_volume vol = {{N, N, N}, PICVR_VOXEL_UINT8, {1, 1, 1}, voxels, sizeof voxels};
+    dataset_spec ds = {"sphere", "sphere_16x16x16_uint8.raw", "ct-bonsai", 1.0f};
+    options o = {0};
+    o.width = o.height = 16;
+    const float camera[4] = {35, 20, 1, 40};
+    scene a, b;
+    scene_init(&a, &ds, "paper1", &o, camera);
+    scene_init(&b, &ds, "paper3", &o, camera);
+    uint64_t fa = 0, fa2 = 1, fb = 0;
+    int rendered = plain_fingerprint(&a, &vol, &fa) && plain_fingerprint(&a, &vol, &fa2) &&
+                   plain_fingerprint(&b, &vol, &fb);
+    return expect(rendered, "the fingerprint render failed") &&
+           expect(fa == fa2, "the plain fingerprint differs between two renders") &&
+           expect(fa != fb, "two light set-ups have the same plain fingerprint");
+}
+
 /* Without options every setting is its documented default (--help). */
 static int self_test_defaults(void)
 {
@@ -1670,7 +1727,7 @@ static int self_test_defaults(void)
 static int self_test(void)
 {
     int ok = self_test_ratio() & self_test_reference() & self_test_compare() &
-             self_test_signature() & self_test_defaults();
+             self_test_signature() & self_test_defaults() & self_test_fingerprint();
     fprintf(stderr, PROGRAM ": self-test %s\n", ok ? "passed" : "FAILED");
     return ok;
 }
@@ -1696,6 +1753,39 @@ static void device_name(char *out, size_t size)
     picvr_destroy(ctx);
 }
 
+static int load_dataset(const options *o, const dataset_spec *d, pvio_volume *vol);
+
+/* Sets up scene s of dataset d and light set-up `lights`, with its reference key. */
+static int scene_open(const options *o, const scene_file *sf, const dataset_spec *d,
+                      const char *lights, const pvio_volume *vol, scene *s)
+{
+    uint64_t fingerprint;
+    scene_init(s, d, lights, o, sf->camera);
+    if (!plain_fingerprint(s, vol, &fingerprint)) return 0;
+    scene_key(s, fingerprint);
+    return 1;
+}
+
+/* --list: the selected scenes and their reference folders (renders each fingerprint). */
+static int list_scenes(const options *o, const scene_file *sf)
+{
+    for (int d = 0; d < sf->n_datasets; d++) {
+        if (!in_list(o->datasets, sf->datasets[d].name)) continue;
+        pvio_volume vol;
+        if (!load_dataset(o, &sf->datasets[d], &vol)) return 0;
+        int ok = 1;
+        for (int l = 0; ok && l < sf->n_lights; l++) {
+            if (!in_list(o->lights, sf->lights[l])) continue;
+            scene s;
+            ok = scene_open(o, sf, &sf->datasets[d], sf->lights[l], &vol, &s);
+            if (ok) printf("%s %s/%s\n", s.id, o->refs_dir, s.hash);
+        }
+        pvio_free(&vol);
+        if (!ok) return 0;
+    }
+    return 1;
+}
+
 static int load_dataset(const options *o, const dataset_spec *d, pvio_volume *vol)
 {
     char path[PATH_LEN], err[256];
@@ -1714,6 +1804,7 @@ int main(int argc, char **argv)
     scene_file sf;
     if (!parse_args(argc, argv, &o)) return EXIT_USAGE;
     if (!read_scene_file(o.scenes_path, &sf)) return EXIT_USAGE;
+    if (o.list) return list_scenes(&o, &sf) ? 0 : 1;
     char runs_dir[PATH_LEN];
     snprintf(runs_dir, sizeof runs_dir, "%s/runs", o.out_dir);
     if (!make_dirs(runs_dir) || !make_dirs(o.refs_dir)) {
@@ -1728,15 +1819,11 @@ int main(int argc, char **argv)
         for (int l = 0; l < sf.n_lights; l++) {
             if (!in_list(o.datasets, sf.datasets[d].name) || !in_list(o.lights, sf.lights[l]))
                 continue;
-            scene s;
-            scene_init(&s, &sf.datasets[d], sf.lights[l], &o, sf.camera);
-            if (o.list) printf("%s %s/%s\n", s.id, o.refs_dir, s.hash);
             n_scenes++;
             n_fig10 += first && o.rotate_ms > 0 && in_list(o.fig10, sf.datasets[d].name);
             first = 0;
         }
     }
-    if (o.list) return 0;
     count_total = (n_scenes * res.n_conds + 2 * n_fig10) * o.repeats;
     int per_bias_scene = (o.bias_ms > 0 ? N_BIAS_CONDITIONS : 0) +
                          (o.warm_ms > 0 ? N_WARM_CONDITIONS : 0);
@@ -1763,7 +1850,7 @@ int main(int argc, char **argv)
         for (int l = 0; ok && l < sf.n_lights; l++) {
             if (!in_list(o.lights, sf.lights[l])) continue;
             scene s;
-            scene_init(&s, &sf.datasets[d], sf.lights[l], &o, sf.camera);
+            if (!(ok = scene_open(&o, &sf, &sf.datasets[d], sf.lights[l], &vol, &s))) break;
             fprintf(stderr, "scene %s (reference %s/%s)\n", s.id, o.refs_dir, s.hash);
             char fig10_list[NAME_LEN * 2];
             snprintf(fig10_list, sizeof fig10_list, "%s", first && o.fig10 ? o.fig10 : "");

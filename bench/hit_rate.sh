@@ -9,8 +9,8 @@
 #   fill:    creation at a fixed 0.85 share of the device time (--shares 0.85,0.85,...;
 #            update 0.03), so that the cache grows about 6x faster than under Table 1's
 #            5-15 %: the hit rate against the entry count, up to SECS seconds; once with
-#            the curvature limit of the radii (the default) and once with the paper's
-#            Eq. 9, 10 radii alone (--curvature off);
+#            the curvature limit of the radii (--curvature on) and once with the
+#            paper's Eq. 9, 10 radii alone (--curvature off, the default);
 #   default: Table 1's shares for DEFAULT_SECS: the entries per second this device
 #            creates in normal operation.
 # Prints the entry counts at which the hit rate (mean over 5 rounds of 1 s, since a
