@@ -207,6 +207,7 @@ static void print_help(FILE *f)
         "  --out DIR            results (default bench/results)\n"
         "  --refs DIR           reference cache (default bench/refs)\n"
         "  --list               print the selected scenes and reference folders, exit\n"
+        "                       (loads each dataset to render its fingerprint)\n"
         "  --self-test          check the harness's arithmetic (ratios, reference), exit\n");
 }
 
