@@ -118,7 +118,7 @@ BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotat
 # The library's sources as one checksum: the bench's run files carry it, so that a run
 # made with other library code is never reused (bench/bench_error.c, run_signature).
 BENCH_BUILD = $(shell cat picvr.h picvr_vk.c shaders/*.glsl shaders/*.comp | cksum | cut -d' ' -f1)
-$(B)/picvr-bench-error: bench/bench_error.c picvr_shaders.h examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
+$(B)/picvr-bench-error: bench/bench_error.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ bench/bench_error.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 $(B)/picvr-bench-fig9: bench/bench_fig9.c shaders/cache_math.glsl tests/cache_math_host.h | $(B)/.deps

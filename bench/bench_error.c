@@ -14,8 +14,9 @@
  *     REFS/<hash>/ where the hash is FNV-1a of the scene description (data file, TF,
  *     spacing, lights, size, camera; not the seed) and of the plain renderer's
  *     fingerprint (plain_fingerprint: a short deterministic render of the scene,
- *     hashed bit for bit).  The reference is the iteration-weighted mean of the chunks; its own per-pixel error is estimated
- *     from the spread between chunks (at least 4).  A reference whose RMSE (and
+ *     hashed bit for bit).  The reference is the iteration-weighted mean of the
+ *     chunks; its own per-pixel error is estimated from the spread between chunks
+ *     (at least 4).  A reference whose RMSE (and
  *     relative RMSE) is not at least 10x below the smallest error measured against it
  *     is grown (more chunks, then the runs are repeated against it) or, beyond
  *     --ref-max-chunks, refused: the scene is left out of the tables (exit status 3).
@@ -208,7 +209,8 @@ static void print_help(FILE *f)
         "  --refs DIR           reference cache (default bench/refs)\n"
         "  --list               print the selected scenes and reference folders, exit\n"
         "                       (loads each dataset to render its fingerprint)\n"
-        "  --self-test          check the harness's arithmetic (ratios, reference), exit\n");
+        "  --self-test          check the harness (ratios, reference, run signatures,\n"
+        "                       defaults, fingerprint), exit\n");
 }
 
 static int parse_args(int argc, char **argv, options *o)
@@ -1754,7 +1756,17 @@ static void device_name(char *out, size_t size)
     picvr_destroy(ctx);
 }
 
-static int load_dataset(const options *o, const dataset_spec *d, pvio_volume *vol);
+static int load_dataset(const options *o, const dataset_spec *d, pvio_volume *vol)
+{
+    char path[PATH_LEN], err[256];
+    snprintf(path, sizeof path, "%s/%s", o->data_dir, d->file);
+    if (pvio_load(path, NULL, vol, err, sizeof err) != PVIO_OK) {
+        fail("%s: %s", path, err);
+        return 0;
+    }
+    vol->spacing[0] = vol->spacing[1] = vol->spacing[2] = d->spacing;
+    return 1;
+}
 
 /* Sets up scene s of dataset d and light set-up `lights`, with its reference key. */
 static int scene_open(const options *o, const scene_file *sf, const dataset_spec *d,
@@ -1784,18 +1796,6 @@ static int list_scenes(const options *o, const scene_file *sf)
         pvio_free(&vol);
         if (!ok) return 0;
     }
-    return 1;
-}
-
-static int load_dataset(const options *o, const dataset_spec *d, pvio_volume *vol)
-{
-    char path[PATH_LEN], err[256];
-    snprintf(path, sizeof path, "%s/%s", o->data_dir, d->file);
-    if (pvio_load(path, NULL, vol, err, sizeof err) != PVIO_OK) {
-        fail("%s: %s", path, err);
-        return 0;
-    }
-    vol->spacing[0] = vol->spacing[1] = vol->spacing[2] = d->spacing;
     return 1;
 }
 
