@@ -245,17 +245,25 @@ void tu_background_only(picvr_context *ctx, float r, float g, float b, float int
     TU_OK(picvr_set_lights(ctx, NULL, 0, &bg));
 }
 
-void tu_sun(picvr_context *ctx, double dx, double dy, double dz, float r, float g, float b,
-            float intensity, float bg_intensity) {
+/* One directional light toward d of colour (r, g, b), `intensity` and angular diameter
+   `angular`, and the background bg (NULL: none). */
+static void tu_set_sun(picvr_context *ctx, const double d[3], float r, float g, float b,
+                       float intensity, float angular, const picvr_background *bg) {
     picvr_light sun;
     memset(&sun, 0, sizeof sun);
     sun.type = PICVR_LIGHT_DIRECTIONAL;
-    sun.direction[0] = (float)dx; sun.direction[1] = (float)dy; sun.direction[2] = (float)dz;
-    sun.angular_diameter = 0.0f;
+    for (int i = 0; i < 3; i++) sun.direction[i] = (float)d[i];
+    sun.angular_diameter = angular;
     sun.color[0] = r; sun.color[1] = g; sun.color[2] = b;
     sun.intensity = intensity;
+    TU_OK(picvr_set_lights(ctx, &sun, 1, bg));
+}
+
+void tu_sun(picvr_context *ctx, double dx, double dy, double dz, float r, float g, float b,
+            float intensity, float bg_intensity) {
+    const double d[3] = {dx, dy, dz};
     picvr_background bg = {{1, 1, 1}, bg_intensity};
-    TU_OK(picvr_set_lights(ctx, &sun, 1, &bg));
+    tu_set_sun(ctx, d, r, g, b, intensity, 0.0f, &bg);
 }
 
 void tu_sun_cube(picvr_context *ctx, uint32_t n, float D, float a, const double l_in[3],
@@ -269,14 +277,7 @@ void tu_sun_cube(picvr_context *ctx, uint32_t n, float D, float a, const double 
     tu_tf_const(ctx, a, a, a, 1.0f, D);
     double l = sqrt(l_in[0] * l_in[0] + l_in[1] * l_in[1] + l_in[2] * l_in[2]);
     for (int c = 0; c < 3; c++) { s->l[c] = l_in[c] / l; s->albedo[c] = a; s->E[c] = E; }
-    picvr_light sun;
-    memset(&sun, 0, sizeof sun);
-    sun.type = PICVR_LIGHT_DIRECTIONAL;
-    for (int i = 0; i < 3; i++) sun.direction[i] = (float)l_in[i];
-    sun.angular_diameter = angular;
-    sun.color[0] = sun.color[1] = sun.color[2] = 1;
-    sun.intensity = E;
-    TU_OK(picvr_set_lights(ctx, &sun, 1, NULL));
+    tu_set_sun(ctx, l_in, 1.0f, 1.0f, 1.0f, E, angular, NULL);
 }
 
 /* ---- camera -------------------------------------------------------------------------- */
