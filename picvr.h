@@ -430,6 +430,10 @@ typedef struct picvr_stats {
     uint32_t cache_refs;         /* entry references in the octree */
     uint32_t cache_full;         /* 1 when a pool is full: the cache stops growing */
     double cache_refs_per_entry; /* references / entries (the paper measured 6 to 7) */
+    uint32_t cache_entries_capped; /* entries stored although Eq. 5 still failed at the
+                                    sample cap (768 MIS samples per point: a loop bound of
+                                    lavapipe): their relative error may exceed gamma's 9 %
+                                    (README "The irradiance cache") */
     uint32_t cache_requests;     /* creation requests issued in the last step */
     uint32_t cache_pending;      /* requests and locks outstanding when the step ended
                                     (0 today: each iteration completes its requests) */

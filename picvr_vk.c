@@ -2264,6 +2264,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_refs = c[6] < ctx->cache.max_refs ? c[6] : ctx->cache.max_refs;
             st.cache_full = c[7];
             st.cache_refs_per_entry = st.cache_entries ? (double)st.cache_refs / st.cache_entries : 0.0;
+            st.cache_entries_capped = c[11] < st.cache_entries ? c[11] : st.cache_entries;
             st.cache_hit_rate = ctx->hit_rate;
         }
         sched_shares(ctx, &st);

@@ -709,9 +709,11 @@ static int write_json(const options *o, const picvr_stats *s)
     json_string(f, o->lights_name);
     fprintf(f, ", \"cache_entries\": %u, \"cache_nodes\": %u, \"cache_refs\": %u, "
             "\"cache_references\": %u, \"cache_full\": %u, \"cache_requests\": %u, "
-            "\"pending_requests\": %u, \"cache_bytes\": %llu, \"cache_refs_per_entry\": ",
+            "\"pending_requests\": %u, \"cache_bytes\": %llu, \"cache_entries_capped\": %u, "
+            "\"cache_refs_per_entry\": ",
             s->cache_entries, s->cache_nodes, s->cache_refs, s->cache_refs, s->cache_full,
-            s->cache_requests, s->cache_pending, (unsigned long long)s->cache_bytes);
+            s->cache_requests, s->cache_pending, (unsigned long long)s->cache_bytes,
+            s->cache_entries_capped);
     json_number(f, s->cache_refs_per_entry);
     fputs(", \"cache_hit_rate\": ", f);
     json_number(f, s->cache_hit_rate);
@@ -745,8 +747,9 @@ static void print_summary(const options *o, const picvr_stats *s)
                                    (unsigned long long)s->truncated_paths);
     if (s->validation_messages) printf(", %u validation messages", s->validation_messages);
     if (s->cache_entries)
-        printf(", cache %u entries, %.2f refs/entry, hit rate %.3f%s, device time render/create/update "
-               "%.3f/%.3f/%.3f (targets create %.3f, update %.3f)", s->cache_entries,
+        printf(", cache %u entries (%u capped before Eq. 5), %.2f refs/entry, hit rate %.3f%s, "
+               "device time render/create/update %.3f/%.3f/%.3f (targets create %.3f, update %.3f)",
+               s->cache_entries, s->cache_entries_capped,
                s->cache_refs_per_entry, s->cache_hit_rate, s->cache_full ? " (full)" : "",
                s->fraction_render, s->fraction_create, s->fraction_update, s->target_create, s->target_update);
     if (interrupted) printf(", interrupted");

@@ -40,7 +40,8 @@ layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
     uint dispatch_x, dispatch_y, dispatch_z;   // indirect dispatch of the creation procedure
     uint request_count;
     uint entry_count, node_count, ref_count, full;
-    uint hits, misses, requests, pad1;
+    uint hits, misses, requests;
+    uint capped;          // entries stored without Eq. 5 met at the sample cap (cache_create)
 } cache_counters;
 layout(set = 0, binding = 13, std430) buffer CacheRequests { Request requests[]; };
 // Screen-space locking (§5.2): per superpixel a lock, then two sets of (rays, misses)

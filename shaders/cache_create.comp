@@ -90,6 +90,7 @@ void main() {
     float lsum[7], lsq[7];
     for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lsum[k] = 0.0; lsq[k] = 0.0; }
     bool truncated = false;
+    bool converged = false;
     float gamma = scene.cache_params.x;
     uint rounds = 0u;
     for (uint round = 0u; round < CREATE_MAX_ROUNDS; round++) {
@@ -125,6 +126,7 @@ void main() {
         barrier();
         bool done = s_done;
         barrier();                                   // everyone has read s_done
+        converged = done;
         if (done) break;
     }
     // Mean RGB irradiance at the seven points.
@@ -142,6 +144,9 @@ void main() {
             atomicExchange(cache_counters.full, 1u);
             s_done = false;                              // no insertion
         } else {
+            // Stored although Eq. 5 still failed at the cap: counted, so that a user can
+            // see how many entries carry more than gamma's error (stats.cache_entries_capped).
+            if (!converged) atomicAdd(cache_counters.capped, 1u);
             float eps = scene.cache_params.y;
             float rmin = CM_FN(entry_r_min)(scene.cache_radii.x, delta, scene.cache_params.z);
             float rmax_cap = CM_FN(entry_r_max)(scene.cache_radii.y, delta, scene.cache_params.z);

@@ -169,6 +169,38 @@ void test_cache_pool_full_is_reported_and_safe(void **state) {
     tu_finish(ctx);
 }
 
+/* stats.cache_entries_capped counts the entries stored although Eq. 5 still failed at
+   the sample cap.  On a thin cube (sigma_t = 0.02 per voxel, optical depth below 0.6
+   everywhere, so the transmittance estimates' coefficient of variation is below 1):
+   with gamma = 1, Eq. 5 (1.96 cv / sqrt(N) < gamma / (1 + gamma) = 0.5) holds after the
+   first round of 128 samples at every point, so no entry may be capped; with gamma =
+   1e-4 it would need N > 1.5e9 cv^2 samples, so every entry whose seven points have any
+   variance is capped - under a delta sun through a medium, all of them. */
+static picvr_stats capped_run(float gamma) {
+    picvr_context *ctx = create_cached(11, 0, gamma, 0.0f);
+    tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
+    tu_upload(ctx, &vol);
+    tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, 0.02f);
+    tu_sun(ctx, 0.6, 0.45, 0.66, 1.0f, 1.0f, 1.0f, 2.0f, 0.0f);
+    tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, 24, 24);
+    TU_OK(picvr_step_iterations(ctx, 16));
+    picvr_stats st = tu_stats_finite(ctx);
+    print_message("    gamma %g: %u entries, %u capped\n", gamma, st.cache_entries, st.cache_entries_capped);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+    return st;
+}
+
+void test_cache_capped_entries_counted(void **state) {
+    (void)state;
+    picvr_stats loose = capped_run(1.0f);
+    assert_true(loose.cache_entries > 0);
+    assert_int_equal(loose.cache_entries_capped, 0);
+    picvr_stats tight = capped_run(1e-4f);
+    assert_true(tight.cache_entries > 0);
+    assert_int_equal(tight.cache_entries_capped, tight.cache_entries);
+}
+
 /* PICVR_VIEW_CACHE_ERROR over the whole image after `iterations` more passes:
    sum R / sum G - 1 (the cache's relative error per hit) and the mean served fraction;
    checks that every value is finite, R and G >= 0 and B in [0, 1]. */
