@@ -487,10 +487,11 @@ static void show_progress(progress *p, double fraction, const picvr_stats *s)
 static int write_log_row(FILE *log, unsigned round, const picvr_stats *s)
 {
     if (!log) return 1;
-    fprintf(log, "%u,%.3f,%u,%.9g,%.9g,%.9g,%.9g,%u,%u,%.4f,%.4f,%.4f,%.4f,%.4f\n", round,
+    fprintf(log, "%u,%.3f,%u,%.9g,%.9g,%.9g,%.9g,%u,%u,%.4f,%.4f,%.4f,%.4f,%.4f,%u\n", round,
             s->elapsed_ms, s->iterations, s->est_error, s->est_rel_error, s->samples_per_second,
             s->cache_hit_rate, s->cache_entries, s->cache_refs, s->fraction_render,
-            s->fraction_create, s->fraction_update, s->target_create, s->target_update);
+            s->fraction_create, s->fraction_update, s->target_create, s->target_update,
+            s->cache_entries_capped);
     /* Flushed per row so `tail -f` works and a crash keeps what was measured. */
     return fflush(log) == 0;
 }
@@ -852,7 +853,8 @@ static int render(const options *o, const pvio_layout *layout)
         r.log = fopen(o->log_path, "w");
         ok = r.log && fputs("round,elapsed_ms,iterations,est_error,est_rel_error,"
                             "samples_per_second,hit_rate,cache_entries,cache_refs,fraction_render,"
-                            "fraction_create,fraction_update,target_create,target_update\n", r.log) >= 0;
+                            "fraction_create,fraction_update,target_create,target_update,"
+                            "cache_entries_capped\n", r.log) >= 0;
         if (!ok) fail("cannot write %s: %s", o->log_path, strerror(errno));
     }
     /* The file first: a bad file should not cost a Vulkan start-up.  The host copy

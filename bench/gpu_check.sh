@@ -1,0 +1,75 @@
+#!/bin/sh
+# bench/gpu_check.sh - the measurements issue 3 still needs from a real GPU, in one short
+# run (about 3 minutes with the default 20 s per run), for a session that is lent a
+# device machine (README "Measuring on a GPU" gives the whole recipe).
+#
+# Issue 3's open "Done means": on bonsai with one area light the hit rate is >= 0.8
+# "after a few seconds" under the scheduler's own (Table 1) shares.  On the 2-vCPU VM
+# that takes over 10 minutes (README "The irradiance cache").  So, per size (128x128, as
+# on the VM, and 512x512): object- and screen-space locking and plain Monte Carlo, SECS
+# seconds each from an empty cache, with 1 s rounds of statistics; printed: the hit rate,
+# the entries (and those capped before Eq. 5), references per entry at 1, 2, 3, 5, 10
+# and SECS seconds, and the Eq. 5 error estimate of each cached run over plain's at the
+# same times (the paper's Table 2 ratio; above 1 means the cache is ahead).
+# Writes OUT/gpu_check.csv, the per-round logs OUT/gpu_*.csv and OUT/gpu_check.txt.
+#
+# usage: bench/gpu_check.sh [SECS, default 20] [OUT, default bench/results]
+# env:   DATA (default ../shared/data), B (build directory, default build)
+set -eu
+SECS=${1:-20}
+OUT=${2:-bench/results}
+B=${B:-build}
+DATA=${DATA:-../shared/data}
+VOL="$DATA/bonsai_256x256x256_uint8.raw.gz"
+mkdir -p "$OUT"
+[ -f "$VOL" ] || { echo "gpu_check: no $VOL (set DATA)" >&2; exit 1; }
+[ -x "$B/picvr-render" ] || { echo "gpu_check: no $B/picvr-render (make, or carry build/)" >&2; exit 1; }
+
+# The device picvr picks (a GPU before lavapipe, README "Using the library").
+"$B/picvr-render" --volume "$VOL" --tf ct-bonsai --lights paper1 --size 16x16 --iterations 1 \
+    --quiet --json "$OUT/gpu_device.json" > /dev/null
+device=$(sed -n 's/.*"device_name": "\([^"]*\)".*/\1/p' "$OUT/gpu_device.json")
+echo "device: $device"
+case "$device" in *llvmpipe*) echo "gpu_check: WARNING: lavapipe, not a GPU" >&2 ;; esac
+
+# The log's columns by name (picvr-render --log).
+col() { head -1 "$1" | tr ',' '\n' | grep -n -x "$2" | cut -d: -f1; }
+# The first logged round at or after t seconds, or the last round.
+row_at() {
+    awk -F, -v t="$2" 'NR > 1 { last = $0 } NR > 1 && $2 >= t * 1000 { print; found = 1; exit }
+                      END { if (!found) print last }' "$1"
+}
+
+# 1, 2, 3, 5, 10 s and the run's end, each once.
+TIMES=$(printf '%s\n' 1 2 3 5 10 "$SECS" | awk -v s="$SECS" '$1 <= s' | sort -n -u)
+SUMMARY="$OUT/gpu_check.csv"
+echo "size,cache,t_s,hit_rate,entries,capped,refs_per_entry,est_error,ratio_to_plain" > "$SUMMARY"
+for size in 128x128 512x512; do
+    for cache in off object screen; do
+        log="$OUT/gpu_${size}_${cache}.csv"
+        "$B/picvr-render" --volume "$VOL" --tf ct-bonsai --lights paper1 --size "$size" \
+            --time "$((SECS * 1000))" --round 1000 --cache "$cache" --quiet --log "$log" \
+            --json "$OUT/gpu_${size}_${cache}.json" > /dev/null
+    done
+    plain="$OUT/gpu_${size}_off.csv"
+    ce=$(col "$plain" est_error)
+    for cache in object screen; do
+        log="$OUT/gpu_${size}_${cache}.csv"
+        ch=$(col "$log" hit_rate) cn=$(col "$log" cache_entries) cr=$(col "$log" cache_refs)
+        cc=$(col "$log" cache_entries_capped)
+        for t in $TIMES; do
+            r=$(row_at "$log" "$t") p=$(row_at "$plain" "$t")
+            echo "$r" | awk -F, -v p="$p" -v size="$size" -v cache="$cache" -v t="$t" \
+                -v ch="$ch" -v cn="$cn" -v cr="$cr" -v cc="$cc" -v ce="$ce" '{
+                split(p, q, ",")
+                rpe = $cn > 0 ? $cr / $cn : 0
+                ratio = $ce > 0 ? q[ce] / $ce : 0
+                printf "%s,%s,%s,%.3f,%d,%d,%.2f,%.5g,%.3f\n", size, cache, t, $ch, $cn, $cc, rpe, $ce, ratio
+            }' >> "$SUMMARY"
+        done
+    done
+done
+{
+    echo "device: $device; bonsai, paper1, ${SECS} s per run, Table 1 shares"
+    column -s, -t < "$SUMMARY" 2>/dev/null || cat "$SUMMARY"
+} | tee "$OUT/gpu_check.txt"
