@@ -177,6 +177,14 @@ typedef struct picvr_cache_config {
                                   extinction per voxel, an entry's offset is two mean free
                                   paths and both radius bounds shrink in proportion
                                   (README, "Robustness") */
+    uint32_t max_samples;      /* Eq. 5's cap: MIS samples per point at most (rounded up to
+                                  a multiple of 128, one round of the creation workgroup);
+                                  0: 768.  At most 8192, and 768 on a CPU device (lavapipe:
+                                  its loop bound), PICVR_ERROR_INVALID_ARGUMENT beyond.
+                                  Entries stored at the cap are counted in
+                                  stats.cache_entries_capped.  Lower caps create entries
+                                  faster but noisier (bonsai, 128: 4.3x as many in 20 s;
+                                  README "The irradiance cache") */
     float update_threshold;    /* §4.3: predictions conflict when they differ by more than
                                   this relative amount; 0: 0.1 */
     float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */
@@ -431,8 +439,8 @@ typedef struct picvr_stats {
     uint32_t cache_full;         /* 1 when a pool is full: the cache stops growing */
     double cache_refs_per_entry; /* references / entries (the paper measured 6 to 7) */
     uint32_t cache_entries_capped; /* entries stored although Eq. 5 still failed at the
-                                    sample cap (768 MIS samples per point: a loop bound of
-                                    lavapipe): their relative error may exceed gamma's 9 %
+                                    sample cap (cache.max_samples per point, 768 by
+                                    default): their relative error may exceed gamma's 9 %
                                     (README "The irradiance cache") */
     uint32_t cache_requests;     /* creation requests issued in the last step */
     uint32_t cache_pending;      /* requests and locks outstanding when the step ended

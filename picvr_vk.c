@@ -28,6 +28,14 @@
 #define SHARE_WINDOW_MS 1000.0     /* stats.fraction_*: measured over the last second */
 #define MAX_QUEUE 65535u           /* blocks per dispatch (shaders/block_select.comp) */
 #define CACHE_COUNTER_WORDS 12u    /* the CacheCounters block of shaders/cache.glsl */
+/* Eq. 5's sample cap (cache.max_samples): rounds of the 128-thread creation workgroup
+   (shaders/cache_create.comp, CREATE_MAX_ROUNDS).  On a CPU device at most 6 rounds:
+   llvmpipe silently truncates an invocation's loops past 65535 iterations, and 6 rounds
+   x 7 points x 2 tracking loops x 512 steps = 43008. */
+#define CACHE_CREATE_GROUP 128u
+#define CACHE_DEFAULT_SAMPLES 768u
+#define CACHE_CPU_MAX_SAMPLES 768u
+#define CACHE_MAX_SAMPLES 8192u
 #define ROUND_READBACK_BYTES (CACHE_COUNTER_WORDS * 4 + 16)
 enum { PROC_CREATE, PROC_UPDATE, PROC_RENDER };
 #define PICVR_PI 3.14159265358979323846
@@ -639,6 +647,12 @@ static picvr_status create_pipelines(picvr_context *ctx) {
         s = create_shader(ctx, picvr_spv_block_priority, sizeof picvr_spv_block_priority, &ctx->priority_module);
         if (!s) s = create_pipeline(ctx, ctx->priority_module, ctx->render_layout, NULL, &ctx->priority_pipe);
     }
+    if (!s && ctx->cache_on && ctx->props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU &&
+        ctx->cache.max_samples > CACHE_CPU_MAX_SAMPLES) {
+        logf_(ctx, PICVR_LOG_ERROR, "cache.max_samples %u: at most %u on a CPU device (loop bound)",
+              ctx->cache.max_samples, CACHE_CPU_MAX_SAMPLES);
+        s = PICVR_ERROR_INVALID_ARGUMENT;
+    }
     if (!s && ctx->cache_on) {
         s = create_shader(ctx, picvr_spv_render_cache, sizeof picvr_spv_render_cache, &ctx->render_cache_module);
         if (!s) s = create_shader(ctx, picvr_spv_cache_create, sizeof picvr_spv_cache_create, &ctx->create_module);
@@ -657,8 +671,13 @@ static picvr_status create_pipelines(picvr_context *ctx) {
         s = create_pipeline(ctx, ctx->render_module, ctx->render_layout, &spec, &ctx->render_pipe[v]);
         if (!s && ctx->cache_on)
             s = create_pipeline(ctx, ctx->render_cache_module, ctx->render_layout, &spec, &ctx->render_cache_pipe[v]);
-        if (!s && ctx->cache_on)
-            s = create_pipeline(ctx, ctx->create_module, ctx->render_layout, &spec, &ctx->create_pipe[v]);
+        if (!s && ctx->cache_on) {
+            /* creation also takes its round count (constant 2) */
+            uint32_t cvalue[3] = {v & 1, v >> 1, ctx->cache.max_samples / CACHE_CREATE_GROUP};
+            VkSpecializationMapEntry centry[3] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}};
+            VkSpecializationInfo cspec = {3, centry, sizeof cvalue, cvalue};
+            s = create_pipeline(ctx, ctx->create_module, ctx->render_layout, &cspec, &ctx->create_pipe[v]);
+        }
         if (!s && ctx->cache_on)
             s = create_pipeline(ctx, ctx->update_module, ctx->render_layout, &spec, &ctx->update_pipe[v]);
         if (s) return s;
@@ -884,6 +903,9 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
     if (!c->max_nodes) c->max_nodes = 8 * c->max_entries > 8192 ? 8 * c->max_entries : 8192;
     if (!c->max_refs) c->max_refs = 16 * c->max_entries;
     if (!c->max_requests) c->max_requests = 1000;
+    if (!c->max_samples) c->max_samples = CACHE_DEFAULT_SAMPLES;
+    if (c->max_samples > CACHE_MAX_SAMPLES) return PICVR_ERROR_INVALID_ARGUMENT;
+    c->max_samples = (c->max_samples + CACHE_CREATE_GROUP - 1) / CACHE_CREATE_GROUP * CACHE_CREATE_GROUP;
     if (c->max_nodes < 4681 || c->max_refs < 2 || c->max_nodes > (1u << 28) || c->max_refs > (1u << 28))
         return PICVR_ERROR_INVALID_ARGUMENT;
     return PICVR_OK;

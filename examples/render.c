@@ -51,6 +51,7 @@ typedef struct options {
     picvr_switch priorities;
     picvr_switch curvature;
     picvr_switch medium;
+    uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */
     float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
     const char *debug_view;
     float exposure;
@@ -144,6 +145,10 @@ static void print_help(FILE *f)
         "  --medium on|off        place an entry's change along its normal axis within the\n"
         "                         medium, flat beyond a face (default on; off: the paper's\n"
         "                         Eq. 6, 7 literally, darker lit faces)\n"
+        "  --samples N            Eq. 5's cap: at most N MIS samples per point of a new\n"
+        "                         entry, a multiple of 128 (default 768; at most 768 on\n"
+        "                         lavapipe, 8192 on a GPU): lower creates entries faster,\n"
+        "                         noisier\n"
         "  --debug-view cache     show where the cache is: hits green, misses red, entry\n"
         "                         centres white (needs --cache object|screen)\n"
         "  --debug-view error     the cache's error where it is used: R the cached, G a\n"
@@ -319,6 +324,8 @@ static int apply_option(options *o, const char *name, const char *value)
         if (!strcmp(value, "on")) *sw = PICVR_SWITCH_ON;
         else if (!strcmp(value, "off")) *sw = PICVR_SWITCH_OFF;
         else ok = 0;
+    } else if (!strcmp(name, "samples")) {
+        ok = parse_u32(value, 1, 8192, &o->max_samples);
     } else if (!strcmp(name, "device")) {
         o->device = value;
     } else if (!strcmp(name, "exposure")) {
@@ -345,7 +352,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "shares", "debug-view", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "samples", "shares", "debug-view", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -729,6 +736,7 @@ static int write_json(const options *o, const picvr_stats *s)
     fprintf(f, ", \"priorities\": \"%s\"", o->priorities == PICVR_SWITCH_OFF ? "off" : "on");
     fprintf(f, ", \"curvature_limit\": \"%s\"", o->curvature == PICVR_SWITCH_ON ? "on" : "off");
     fprintf(f, ", \"medium_model\": \"%s\"", o->medium == PICVR_SWITCH_OFF ? "off" : "on");
+    fprintf(f, ", \"max_samples\": %u", o->max_samples ? (o->max_samples + 127u) / 128u * 128u : 768u);
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
         fail("cannot write %s: %s", o->json_path, strerror(errno));
@@ -837,6 +845,7 @@ static int render(const options *o, const pvio_layout *layout)
     cfg.scheduler.priorities = o->priorities;
     cfg.cache.curvature_limit = o->curvature;
     cfg.cache.medium_model = o->medium;
+    cfg.cache.max_samples = o->max_samples;
     cfg.scheduler.create_min = o->shares[0];   /* 0 (not given): the defaults */
     cfg.scheduler.create_max = o->shares[1];
     cfg.scheduler.update_min = o->shares[2];

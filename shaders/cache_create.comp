@@ -4,7 +4,8 @@
 // at the centre and at the six points offset by Delta along the local axes (at most two
 // mean free paths: entry_delta in cache_math.glsl), by Monte
 // Carlo with MIS (one light sample + one phase sample per point and round); rounds
-// repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached.  Then
+// repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached (the cap,
+// cache.max_samples / 128; entries stored at it are counted in `capped`).  Then
 // thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10, and the curvature limit
 // of cache_math.glsl when turned on), and 27 threads insert
 // the entry into the octree (one per node its bounding box may overlap); the request's lock
@@ -14,9 +15,11 @@ layout(local_size_x = 128) in;
 
 // Loop budget (llvmpipe truncates past 65535 loop iterations per invocation):
 // CREATE_MAX_ROUNDS * 7 points * 2 tracking loops * MAX_TRACK_STEPS = 6*7*2*512 = 43008,
-// plus the light loops.  So at most 6 * 128 = 768 samples per point (the cap).
+// plus the light loops.  So on a CPU device at most 6 rounds, 6 * 128 = 768 samples per
+// point (the default cap; the host rejects more there).  A specialization constant set
+// from cache.max_samples; a GPU has no such bound (the host allows up to 64 rounds).
 #define MAX_TRACK_STEPS 512u
-#define CREATE_MAX_ROUNDS 6u
+layout(constant_id = 2) const uint CREATE_MAX_ROUNDS = 6u;
 
 #include "common.glsl"
 #include "cache.glsl"

@@ -645,6 +645,11 @@ void test_create_config_errors(void **state) {
     CFG_ROW("cache.max_entries 2^25", PICVR_ERROR_SIZE_OVERFLOW, cfg.cache.max_entries = 1u << 25);
     CFG_ROW("cache.max_nodes 100 (< pre-built top)", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_nodes = 100);
     CFG_ROW("cache.max_refs 1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_refs = 1);
+    CFG_ROW("cache.max_samples 8193", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_samples = 8193);
+    /* more than 6 rounds of the creation procedure would pass llvmpipe's loop bound */
+    if (tu_device_is_cpu())
+        CFG_ROW("cache.max_samples 769 on a CPU device", PICVR_ERROR_INVALID_ARGUMENT,
+                (cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE, cfg.cache.max_samples = 769));
     /* a pool larger than the device's storage-buffer range (2^24 entries x 144 B =
        2.25 GiB; lavapipe allows 128 MiB): the cache on, the pool cannot be created */
     CFG_ROW("cache pool 2^24 entries (2 GiB)", PICVR_ERROR_SIZE_OVERFLOW,

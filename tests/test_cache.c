@@ -170,14 +170,21 @@ void test_cache_pool_full_is_reported_and_safe(void **state) {
 }
 
 /* stats.cache_entries_capped counts the entries stored although Eq. 5 still failed at
-   the sample cap.  On a thin cube (sigma_t = 0.02 per voxel, optical depth below 0.6
+   the sample cap (cache.max_samples).  On a thin cube (sigma_t = 0.02 per voxel, optical depth below 0.6
    everywhere, so the transmittance estimates' coefficient of variation is below 1):
    with gamma = 1, Eq. 5 (1.96 cv / sqrt(N) < gamma / (1 + gamma) = 0.5) holds after the
    first round of 128 samples at every point, so no entry may be capped; with gamma =
    1e-4 it would need N > 1.5e9 cv^2 samples, so every entry whose seven points have any
    variance is capped - under a delta sun through a medium, all of them. */
-static picvr_stats capped_run(float gamma) {
-    picvr_context *ctx = create_cached(11, 0, gamma, 0.0f);
+static picvr_stats capped_run(float gamma, uint32_t max_samples) {
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = 11;
+    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    cfg.cache.gamma = gamma;
+    cfg.cache.max_samples = max_samples;
+    cfg.cache.max_requests = 16;
+    picvr_context *ctx = tu_create_config(&cfg);
     tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
     tu_upload(ctx, &vol);
     tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, 0.02f);
@@ -185,7 +192,8 @@ static picvr_stats capped_run(float gamma) {
     tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, 24, 24);
     TU_OK(picvr_step_iterations(ctx, 16));
     picvr_stats st = tu_stats_finite(ctx);
-    print_message("    gamma %g: %u entries, %u capped\n", gamma, st.cache_entries, st.cache_entries_capped);
+    print_message("    gamma %g, at most %u samples: %u entries, %u capped\n", gamma, max_samples,
+                  st.cache_entries, st.cache_entries_capped);
     tu_vol_free(&vol);
     tu_finish(ctx);
     return st;
@@ -193,12 +201,25 @@ static picvr_stats capped_run(float gamma) {
 
 void test_cache_capped_entries_counted(void **state) {
     (void)state;
-    picvr_stats loose = capped_run(1.0f);
+    picvr_stats loose = capped_run(1.0f, 0);
     assert_true(loose.cache_entries > 0);
     assert_int_equal(loose.cache_entries_capped, 0);
-    picvr_stats tight = capped_run(1e-4f);
+    picvr_stats tight = capped_run(1e-4f, 0);
     assert_true(tight.cache_entries > 0);
     assert_int_equal(tight.cache_entries_capped, tight.cache_entries);
+    /* cache.max_samples sets the cap.  Table 1's gamma = 0.1 needs N > (1.96 * 1.1 /
+       0.1)^2 cv^2 = 465 cv^2 samples.  Under a delta sun through a homogeneous medium the
+       ratio-tracking transmittance is 0 or 1, cv^2 = (1 - T) / T, and T lies between
+       exp(-0.02 * 24.2) = 0.62 (the cube's longest chord along the sun) and 1, so no
+       point needs more than 465 * 0.62 = 285 samples, while those deeper than 12.5 voxels
+       along the sun (T < 0.78) need more than 128: with the default 768 no entry is
+       capped, with 128 some are (5 of 14 when written). */
+    picvr_stats full = capped_run(0.1f, 768);
+    assert_true(full.cache_entries > 0);
+    assert_int_equal(full.cache_entries_capped, 0);
+    picvr_stats one_round = capped_run(0.1f, 100);   /* rounded up to 128: one round */
+    assert_true(one_round.cache_entries > 0);
+    assert_true(one_round.cache_entries_capped > 0);
 }
 
 /* PICVR_VIEW_CACHE_ERROR over the whole image after `iterations` more passes:

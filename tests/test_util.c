@@ -51,6 +51,15 @@ picvr_context *tu_create_config(picvr_config *cfg_in) {
     return ctx;
 }
 
+int tu_device_is_cpu(void) {
+    picvr_context *ctx = tu_create(0);
+    picvr_stats st;
+    TU_OK(picvr_get_stats(ctx, &st));
+    int cpu = strstr(st.device_name, "llvmpipe") != NULL || strstr(st.device_name, "SwiftShader") != NULL;
+    tu_finish(ctx);
+    return cpu;
+}
+
 void tu_finish(picvr_context *ctx) {
     picvr_stats st;
     TU_OK(picvr_get_stats(ctx, &st));

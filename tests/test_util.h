@@ -138,6 +138,8 @@ picvr_context *tu_create(uint32_t seed);
 picvr_context *tu_create_config(picvr_config *cfg);
 /* Asserts picvr_get_stats().validation_messages == 0, then destroys the context. */
 void tu_finish(picvr_context *ctx);
+/* 1 when picvr picks a CPU device (lavapipe's llvmpipe, SwiftShader), by its name. */
+int tu_device_is_cpu(void);
 /* Per-test setup/teardown: timing (printed) and destruction of leftover contexts. */
 int tu_setup(void **state);
 int tu_teardown(void **state);
