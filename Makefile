@@ -12,7 +12,7 @@ SHADER_INC  := $(wildcard shaders/*.glsl)
 TEST_SRC    := $(wildcard tests/test_*.c)
 LIB_OBJ     := $(B)/picvr_vk.o
 
-.PHONY: all deps lib test demo bench-speed bench-scheduler bench-long-run bench-hit-rate shaders check-shaders clean help
+.PHONY: all deps lib test demo bench-speed bench-scheduler bench-long-run bench-hit-rate shaders check-shaders check-layout clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
 
 help:
@@ -23,6 +23,7 @@ help:
 	@echo "make bench-long-run   10 min plain vs cached: hit rate and error ratio over time"
 	@echo "make bench-hit-rate   hit rate against entry count; time to 0.8 on this device"
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
+	@echo "make check-layout host mirrors of the shaders' buffer layouts and constants match"
 	@echo "make bench        error against run time, reduced (bonsai, 128x128; minutes)"
 	@echo "make bench-full   error against run time, the whole matrix (hours; resumable)"
 	@echo "make bench-bias   bias of the cache when full: default, paper model, curvature limit (~55 min)"
@@ -73,7 +74,13 @@ $(B)/picvr-tests: $(TEST_SRC) tests/test_util.h $(B)/cpu_reference.o $(B)/libpic
 $(B)/picvr-bench-speed: bench/bench_speed.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
 
-test: deps check-shaders $(B)/picvr-tests $(B)/picvr-render $(B)/picvr-bench-error
+# The host's mirrors of the shaders' layouts and constants (tools/check_layout.sh).
+$(B)/layout-host: tools/layout_host.c picvr_vk.c picvr.h picvr_shaders.h | $(B)/.deps
+	$(CC) $(CFLAGS) -o $@ tools/layout_host.c $(LDLIBS)
+check-layout: $(B)/layout-host
+	GLSLANG=$(GLSLANG) sh tools/check_layout.sh $(B)/layout-host
+
+test: deps check-shaders check-layout $(B)/picvr-tests $(B)/picvr-render $(B)/picvr-bench-error
 	$(B)/picvr-bench-error --self-test
 	cd $(B) && PICVR_VALIDATION=1 PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
 

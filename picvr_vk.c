@@ -27,7 +27,13 @@
 #define SCHED_HISTORY 128u         /* rounds remembered for the time shares and the hit rate */
 #define SHARE_WINDOW_MS 1000.0     /* stats.fraction_*: measured over the last second */
 #define MAX_QUEUE 65535u           /* blocks per dispatch (shaders/block_select.comp) */
+/* Sizes of the shaders' buffer elements (std430), mirrored here; `make check-layout`
+   (part of `make test`) compares them with glslang's reflection of the shaders. */
 #define CACHE_COUNTER_WORDS 12u    /* the CacheCounters block of shaders/cache.glsl */
+#define CACHE_NODE_BYTES 16u       /* struct Node */
+#define CACHE_REF_BYTES 8u         /* struct Ref */
+#define CACHE_REQUEST_BYTES 32u    /* struct Request */
+#define CACHE_ENTRY_BYTES 144u     /* struct Entry */
 /* Eq. 5's sample cap (cache.max_samples): rounds of the 128-thread creation workgroup
    (shaders/cache_create.comp, CREATE_MAX_ROUNDS).  On a CPU device at most 6 rounds:
    llvmpipe silently truncates an invocation's loops past 65535 iterations, and 6 rounds
@@ -872,7 +878,7 @@ void picvr_destroy(picvr_context *ctx) {
 
 #define CACHE_PREBUILT_MAX_DEPTH 4u
 #define CACHE_NODE_RADII 1.0f     /* as in shaders/cache.glsl (insertion_depth) */
-#define CACHE_ENTRY_BYTES 144u     /* sizeof(Entry) in shaders/cache.glsl (std430) */
+
 #ifndef CACHE_PIXELS_PER_REQUEST
 #define CACHE_PIXELS_PER_REQUEST 4096u
 #endif
@@ -914,8 +920,8 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
 static picvr_status create_cache_buffers(picvr_context *ctx) {
     const picvr_cache_config *c = &ctx->cache;
     VkBufferUsageFlags st = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    uint64_t sizes[3] = {(uint64_t)c->max_entries * CACHE_ENTRY_BYTES, (uint64_t)c->max_nodes * 16u,
-                         (uint64_t)c->max_refs * 8u};
+    uint64_t sizes[3] = {(uint64_t)c->max_entries * CACHE_ENTRY_BYTES, (uint64_t)c->max_nodes * CACHE_NODE_BYTES,
+                         (uint64_t)c->max_refs * CACHE_REF_BYTES};
     for (int i = 0; i < 3; i++)
         if (sizes[i] > ctx->props.limits.maxStorageBufferRange) return PICVR_ERROR_SIZE_OVERFLOW;
     picvr_status s;
@@ -924,8 +930,8 @@ static picvr_status create_cache_buffers(picvr_context *ctx) {
     if ((s = buffer_create(ctx, &ctx->cache_refs, sizes[2], st, 0))) return s;
     if ((s = buffer_create(ctx, &ctx->cache_counters, CACHE_COUNTER_WORDS * 4,
                            st | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 0))) return s;
-    if ((s = buffer_create(ctx, &ctx->cache_requests, (uint64_t)c->max_requests * 32u, st, 0))) return s;
-    if ((s = buffer_create(ctx, &ctx->cache_prebuilt_nodes, 4681u * 16u,
+    if ((s = buffer_create(ctx, &ctx->cache_requests, (uint64_t)c->max_requests * CACHE_REQUEST_BYTES, st, 0))) return s;
+    if ((s = buffer_create(ctx, &ctx->cache_prebuilt_nodes, 4681u * CACHE_NODE_BYTES,
                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
     return buffer_create(ctx, &ctx->cache_readback, CACHE_COUNTER_WORDS * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1);
 }
@@ -973,9 +979,9 @@ static picvr_status cache_clear(picvr_context *ctx) {
     uint32_t count = 0, level = 1;
     for (uint32_t d = 0; d <= depth; d++, level *= 8) count += level;
     uint32_t inner = count - level / 8;            /* nodes above the deepest level */
-    uint32_t *nodes = mem_alloc(&ctx->alloc, (size_t)count * 16);
+    uint32_t *nodes = mem_alloc(&ctx->alloc, (size_t)count * CACHE_NODE_BYTES);
     if (!nodes) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
-    memset(nodes, 0, (size_t)count * 16);
+    memset(nodes, 0, (size_t)count * CACHE_NODE_BYTES);
     for (uint32_t i = 0; i < inner; i++) nodes[i * 4] = 8 * i + 1;
     picvr_status s = cmd_begin(ctx);
     if (!s) {
@@ -985,8 +991,8 @@ static picvr_status cache_clear(picvr_context *ctx) {
         barrier_all(ctx);
         s = cmd_submit_wait(ctx);
     }
-    if (!s) s = upload_buffer(ctx, &ctx->cache_nodes, nodes, (size_t)count * 16);
-    if (!s) s = upload_buffer(ctx, &ctx->cache_prebuilt_nodes, nodes, (size_t)count * 16);
+    if (!s) s = upload_buffer(ctx, &ctx->cache_nodes, nodes, (size_t)count * CACHE_NODE_BYTES);
+    if (!s) s = upload_buffer(ctx, &ctx->cache_prebuilt_nodes, nodes, (size_t)count * CACHE_NODE_BYTES);
     mem_free(&ctx->alloc, nodes);
     uint32_t counters[CACHE_COUNTER_WORDS] = {0, 1, 1, 0, 0, count, 0, 0, 0, 0, 0, 0};
     if (!s) s = upload_buffer(ctx, &ctx->cache_counters, counters, sizeof counters);

@@ -1,0 +1,36 @@
+#!/bin/sh
+# tools/check_layout.sh - the host (picvr_vk.c, picvr.h) mirrors the shaders' buffer
+# layouts and a few constants; this checks that they agree, so that a change on one
+# side cannot silently corrupt the other (`make check-layout`, part of `make test`).
+#   buffer blocks: the size glslang's reflection gives for each block of
+#                  shaders/cache_create.comp (one array element for the pools) against
+#                  the host's sizeof / byte constants;
+#   constants:     the VIEW_* numbers of shaders/common.glsl against picvr.h's
+#                  picvr_debug_view, CACHE_NODE_RADII of shaders/cache.glsl against
+#                  picvr_vk.c's.
+# usage: tools/check_layout.sh HOST_PRINTER (the built tools/layout_host.c)
+set -eu
+HOST=$1
+GLSLANG=${GLSLANG:-glslangValidator}
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+"$HOST" > "$tmp/host"
+"$GLSLANG" -V --target-env vulkan1.1 -Ishaders -q -o "$tmp/x.spv" shaders/cache_create.comp > "$tmp/refl"
+# "Block: offset -1, type ffffffff, size N, ..." -> "Block N"
+sed -n 's/^\([A-Za-z]*\): offset -1, type ffffffff, size \([0-9]*\),.*/\1 \2/p' "$tmp/refl" > "$tmp/shader"
+for v in VIEW_IMAGE VIEW_CACHE VIEW_CACHE_ERROR; do
+    sed -n "s/^#define $v \([0-9]*\)u.*/$v \1/p" shaders/common.glsl
+done >> "$tmp/shader"
+sed -n 's/^#define CACHE_NODE_RADII \([0-9.]*\).*/CACHE_NODE_RADII \1/p' shaders/cache.glsl |
+    awk '{ printf "%s %g\n", $1, $2 }' >> "$tmp/shader"
+fail=0
+while read -r name value; do
+    got=$(awk -v n="$name" '$1 == n { print $2 }' "$tmp/shader")
+    if [ -z "$got" ]; then
+        echo "check-layout: $name not found in the shaders" >&2; fail=1
+    elif [ "$got" != "$value" ]; then
+        echo "check-layout: $name: shaders $got, host $value" >&2; fail=1
+    fi
+done < "$tmp/host"
+[ "$fail" = 0 ] || exit 1
+echo "host layouts match the shaders ($(wc -l < "$tmp/host") items)"

@@ -1,0 +1,18 @@
+/* layout_host.c - prints the host's mirrors of the shaders' layouts and constants, one
+   "NAME VALUE" per line, for tools/check_layout.sh (`make check-layout`).  It compiles
+   picvr_vk.c into itself to reach the library's private definitions. */
+#include "../picvr_vk.c"
+
+int main(void)
+{
+    printf("Scene %zu\n", sizeof(gpu_scene));
+    printf("CacheEntries %u\n", CACHE_ENTRY_BYTES);
+    printf("CacheNodes %u\n", CACHE_NODE_BYTES);
+    printf("CacheRefs %u\n", CACHE_REF_BYTES);
+    printf("CacheRequests %u\n", CACHE_REQUEST_BYTES);
+    printf("CacheCounters %u\n", CACHE_COUNTER_WORDS * 4u);
+    printf("VIEW_IMAGE %d\nVIEW_CACHE %d\nVIEW_CACHE_ERROR %d\n", (int)PICVR_VIEW_IMAGE,
+           (int)PICVR_VIEW_CACHE, (int)PICVR_VIEW_CACHE_ERROR);
+    printf("CACHE_NODE_RADII %g\n", (double)CACHE_NODE_RADII);
+    return 0;
+}
