@@ -442,6 +442,8 @@ typedef struct picvr_stats {
                                     sample cap (cache.max_samples per point, 768 by
                                     default): their relative error may exceed gamma's 9 %
                                     (README "The irradiance cache") */
+    uint32_t cache_max_samples;  /* that cap in force: cache.max_samples after its default
+                                    and the rounding to a multiple of 128 */
     uint32_t cache_requests;     /* creation requests issued in the last step */
     uint32_t cache_pending;      /* requests and locks outstanding when the step ended
                                     (0 today: each iteration completes its requests) */

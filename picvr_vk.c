@@ -670,20 +670,17 @@ static picvr_status create_pipelines(picvr_context *ctx) {
     /* Four variants of the rendering procedure: with and without phase-sampled MIS rays
        (left out for scenes lit only by delta lights), with and without voxel-level
        majorants (left out unless the medium is dense). */
+    /* One set of constants for all: 0 USE_PHASE_MIS, 1 USE_FINE, 2 the creation
+       procedure's rounds (CREATE_MAX_ROUNDS); a shader ignores the ones it lacks. */
     for (uint32_t v = 0; v < 4; v++) {
-        VkBool32 value[2] = {v & 1, v >> 1};
-        VkSpecializationMapEntry entry[2] = {{0, 0, sizeof(VkBool32)}, {1, sizeof(VkBool32), sizeof(VkBool32)}};
-        VkSpecializationInfo spec = {2, entry, sizeof value, value};
+        uint32_t value[3] = {v & 1, v >> 1, ctx->cache.max_samples / CACHE_CREATE_GROUP};
+        VkSpecializationMapEntry entry[3] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}};
+        VkSpecializationInfo spec = {3, entry, sizeof value, value};
         s = create_pipeline(ctx, ctx->render_module, ctx->render_layout, &spec, &ctx->render_pipe[v]);
         if (!s && ctx->cache_on)
             s = create_pipeline(ctx, ctx->render_cache_module, ctx->render_layout, &spec, &ctx->render_cache_pipe[v]);
-        if (!s && ctx->cache_on) {
-            /* creation also takes its round count (constant 2) */
-            uint32_t cvalue[3] = {v & 1, v >> 1, ctx->cache.max_samples / CACHE_CREATE_GROUP};
-            VkSpecializationMapEntry centry[3] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}};
-            VkSpecializationInfo cspec = {3, centry, sizeof cvalue, cvalue};
-            s = create_pipeline(ctx, ctx->create_module, ctx->render_layout, &cspec, &ctx->create_pipe[v]);
-        }
+        if (!s && ctx->cache_on)
+            s = create_pipeline(ctx, ctx->create_module, ctx->render_layout, &spec, &ctx->create_pipe[v]);
         if (!s && ctx->cache_on)
             s = create_pipeline(ctx, ctx->update_module, ctx->render_layout, &spec, &ctx->update_pipe[v]);
         if (s) return s;
@@ -2295,6 +2292,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_entries_capped = c[11] < st.cache_entries ? c[11] : st.cache_entries;
             st.cache_hit_rate = ctx->hit_rate;
         }
+        st.cache_max_samples = ctx->cache.max_samples;
         sched_shares(ctx, &st);
         st.iterations = ctx->block_total ? (uint32_t)(ctx->block_samples / ctx->block_total) : 0;
         st.elapsed_ms = ctx->elapsed_ms;

@@ -736,7 +736,7 @@ static int write_json(const options *o, const picvr_stats *s)
     fprintf(f, ", \"priorities\": \"%s\"", o->priorities == PICVR_SWITCH_OFF ? "off" : "on");
     fprintf(f, ", \"curvature_limit\": \"%s\"", o->curvature == PICVR_SWITCH_ON ? "on" : "off");
     fprintf(f, ", \"medium_model\": \"%s\"", o->medium == PICVR_SWITCH_OFF ? "off" : "on");
-    fprintf(f, ", \"max_samples\": %u", o->max_samples ? (o->max_samples + 127u) / 128u * 128u : 768u);
+    fprintf(f, ", \"max_samples\": %u", s->cache_max_samples);
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
         fail("cannot write %s: %s", o->json_path, strerror(errno));
