@@ -207,20 +207,20 @@ typedef struct picvr_cache_config {
                                   a full cache from 10-11 % too dark at a hit rate of
                                   0.89-0.93 to 1.1 % at 0.46, but the hit rate stays below
                                   0.6 even with 50,000 entries; with the medium model (the
-                                  default) the mean is already right without it (-0.03 %
-                                  at 0.90) and it left the local errors as they were (one
-                                  seed: +0.5 % at 0.40-0.50) */
+                                  default) the mean is already right without it (-0.38 %
+                                  at 0.78; README) */
     picvr_switch medium_model; /* ON (default): along an entry's normal axis, where the
                                   offset point lies beyond the medium's face, Eq. 6's change
                                   is placed over the part of Delta inside the medium (the
                                   light is attenuated there only) and the field is flat
-                                  beyond (cache_math.glsl, medium_fraction).  Entries whose
+                                  beyond (8 probes along the offset count the part in
+                                  the medium: cache_math.glsl, medium_fraction).  Entries whose
                                   axis stays in the medium are unchanged.  OFF: the paper's
                                   Eq. 6, 7 literally, whose one-sided secant undershoots at
                                   every lit face: a full cache on a dense cube under a sun
-                                  darkened the image by 12 % (5 % with the model; tests/
+                                  darkened the image by 8-12 % (under 1 % with it; tests/
                                   test_cache.c, test_cache_full_dense_lit_face); on bonsai
-                                  9.75 % too dark without the model, -0.03 % +- 0.14 % with
+                                  9.75 % too dark without the model, -0.38 % +- 0.15 % with
                                   it (README "The irradiance cache") */
 } picvr_cache_config;
 

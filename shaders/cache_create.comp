@@ -3,7 +3,8 @@
 // workgroup of 128 threads per request.  Each thread estimates the irradiance (Eq. 4)
 // at the centre and at the six points offset by Delta along the local axes (at most two
 // mean free paths: entry_delta in cache_math.glsl), by Monte
-// Carlo with MIS (one light sample + one phase sample per point and round); rounds
+// Carlo with MIS (one light sample + one phase sample per point and round, transmittance
+// by unbiased ray marching); rounds
 // repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached (the cap,
 // cache.max_samples / 128; entries stored at it are counted in `capped`).  Then
 // thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10, and the curvature limit
@@ -13,12 +14,16 @@
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 128) in;
 
+// Transmittance by unbiased ray marching (common.glsl, ray_marching_transmittance), not
+// ratio tracking: far fewer samples meet Eq. 5.
 // Loop budget (llvmpipe truncates past 65535 loop iterations per invocation):
-// CREATE_MAX_ROUNDS * 7 points * 2 tracking loops * MAX_TRACK_STEPS = 6*7*2*512 = 43008,
-// plus the light loops.  So on a CPU device at most 6 rounds, 6 * 128 = 768 samples per
-// point (the default cap; the host rejects more there).  A specialization constant set
-// from cache.max_samples; a GPU has no such bound (the host allows up to 64 rounds).
-#define MAX_TRACK_STEPS 512u
+// CREATE_MAX_ROUNDS * 7 points * 2 transmittance estimates * (RM_BUDGET + RM_MAX_ORDER)
+// = 6*7*2*(640+16) = 55104, plus the light loops (at most 4 * 32 per sample: 5376) and
+// the reductions (about 350).  So on a CPU device at most 6 rounds, 6 * 128 = 768 samples
+// per point (the default cap; the host rejects more there).  A specialization constant
+// set from cache.max_samples; a GPU has no such bound (the host allows up to 64 rounds).
+#define TRANSMITTANCE_RAY_MARCHING
+#define RM_BUDGET 640u
 layout(constant_id = 2) const uint CREATE_MAX_ROUNDS = 6u;
 
 #include "common.glsl"
@@ -75,15 +80,16 @@ void main() {
     for (uint k = 0u; k < 3u; k++) { p[1u + 2u * k] = x0 + delta * axis[k]; p[2u + 2u * k] = x0 - delta * axis[k]; }
 
     // The medium fraction of the half-axes +n and -n (cache_math.glsl, medium_fraction):
-    // optical depth to the offset point by the midpoint rule with 8 points.  1 (the
-    // paper's secant) when the medium model is off.
+    // how many of 8 probes, at the midpoints of eighths of Delta, lie in the medium.  1
+    // (the paper's secant) when the medium model is off.
     if (lid < 2u) {
         float f = 1.0;
         if (scene.cache_radii.w != 0.0) {
             vec3 dir = lid == 0u ? n : -n;
-            float tau = 0.0;
-            for (uint k = 0u; k < 8u; k++) tau += sigma_t_in_box(x0 + (float(k) + 0.5) * 0.125 * delta * dir);
-            f = CM_FN(medium_fraction)(tau * delta * 0.125, sigma_t_in_box(x0), delta);
+            float n_in = 0.0;
+            for (uint k = 0u; k < 8u; k++)
+                if (sigma_t_in_box(x0 + (float(k) + 0.5) * 0.125 * delta * dir) > 0.0) n_in += 1.0;
+            f = CM_FN(medium_fraction)(n_in);
         }
         s_f[lid] = f;
     }
@@ -132,12 +138,13 @@ void main() {
         converged = done;
         if (done) break;
     }
-    // Mean RGB irradiance at the seven points.
+    // Mean RGB irradiance at the seven points.  Rule: a negative mean (ray marching's
+    // estimates may be negative; only a mean of noise about 0 could be) is stored as 0.
     float N = float(rounds * 128u);
     for (uint k = 0u; k < 7u; k++) {
         s_red[lid] = vec4(sum[k], 0.0);
         reduce_red();
-        if (lid == 0u) s_E[k] = s_red[0].xyz / N;
+        if (lid == 0u) s_E[k] = max(s_red[0].xyz / N, vec3(0.0));
         barrier();
     }
 

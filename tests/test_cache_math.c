@@ -89,7 +89,7 @@
     X(3, entry_r_min)                                                                    \
     X(3, entry_r_max)                                                                    \
     X(7, curvature_radius)                                                               \
-    X(3, medium_fraction)                                                                \
+    X(1, medium_fraction)                                                                \
     X(3, medium_coord)                                                                   \
     X(7, medium_bound)
 
@@ -864,35 +864,45 @@ static void curvature_limit(const cmt_impl *im) {
 static void medium_model(const cmt_impl *im) {
     const double D = 2.0, eps = 0.1, L = log(1.1);
     char what[160];
-    /* homogeneous medium: tau = sigma D (also with the quadrature's rounding, 1e-6
-       relative): exactly 1, and u = x at every distance */
-    const double sig[4] = {1e-3, 0.7, 5.0, 1e4};
-    for (int k = 0; k < 4; k++) {
-        snprintf(what, sizeof what, "homogeneous sigma %g", sig[k]);
-        cmt_exact(im, what, im->medium_fraction(sig[k] * D, sig[k], D), 1.0);
-        cmt_exact(im, what, im->medium_fraction(sig[k] * D * (1 - 1e-6), sig[k], D), 1.0);
-        cmt_exact(im, what, im->medium_fraction(sig[k] * D * 3, sig[k], D), 1.0);   /* denser axis */
+    /* f counts the probes in the medium (midpoints of eighths of D): all 8 in a medium of
+       any extinction, homogeneous or not, give exactly 1, so Eq. 7 stays exact there and
+       an axis that never leaves the medium is never stretched */
+    cmt_exact(im, "all probes in the medium", im->medium_fraction(8.0), 1.0);
+    cmt_exact(im, "more than all", im->medium_fraction(9.0), 1.0);
+    for (int k = 1; k < 8; k++) {
+        snprintf(what, sizeof what, "%d of 8 probes", k);
+        cmt_exact(im, what, im->medium_fraction(k), cmt_r(im, k / 8.0));
     }
     for (double x = 0; x < 40; x += 0.37)
         cmt_exact(im, "f = 1: u = x", im->medium_coord(x, 1.0, D), cmt_r(im, x));
     /* a face at s: medium of extinction sigma on [0, s], air on (s, D]; a collimated light
        along the axis, from the air (lit face: E grows towards the face) or from the medium
        (unlit face: E falls towards it); flat in the air.  Closed form:
-       ln E(x) = ln E0 +- sigma min(x, s).  The entry's estimates are exact; tau = sigma s. */
-    const double svals[4] = {0.3, 0.8, 1.0, 1.7};
-    for (int k = 0; k < 4; k++)
+       ln E(x) = ln E0 +- sigma min(x, s).  The entry's estimates are exact; n_in counts the
+       probes (k + 1/2) h < s, h = D / 8.  Faces on a probe boundary (s = k h) give f = s / D
+       and the model is exact; between probes f = s' / D with |s' - s| <= h / 2, and the
+       model's ln E is off by at most sigma h / 2 (at x = min(s, s'), linear elsewhere). */
+    const double h = D / 8;
+    const double svals[8] = {0.25, 0.75, 1.0, 1.75, 0.3, 0.8, 1.1, 1.7};
+    for (int k = 0; k < 8; k++)
         for (int lit = 0; lit <= 1; lit++) {
             double s = svals[k], sigma = 1.3, lnE0 = log(0.02), sign = lit ? 1.0 : -1.0;
             double lnEd = lnE0 + sign * sigma * s;
-            double f = im->medium_fraction(sigma * s, sigma, D);
+            int n_in = 0;
+            for (int p = 0; p < 8; p++) n_in += (p + 0.5) * h < s;
+            double f = im->medium_fraction(n_in);
+            int on_boundary = fabs(s / h - floor(s / h + 0.5)) < 1e-12;
+            double tol = on_boundary ? (im == &cmt_impls[0] ? 1e-12 : 2e-6) : sigma * h / 2 + 2e-6;
             snprintf(what, sizeof what, "face at %g (%s): f", s, lit ? "lit" : "unlit");
-            cmt_close(im, what, f, s / D, im->tol, 0);
+            if (on_boundary) cmt_close(im, what, f, s / D, im->tol, 0);
+            else if (!(fabs(f * D - s) <= h / 2 + 1e-12)) fail_msg("[%s] %s = %g", im->prec, what, f);
             double sv = im->sigma_v_ln(lnE0, lnEd, D);                    /* Eq. 6 */
             for (double x = 0; x <= D; x += D / 64) {
                 double want = lnE0 + sign * sigma * fmin(x, s);
                 double got = im->ln_extrapolate(lnE0, sv, im->medium_coord(x, f, D));
                 snprintf(what, sizeof what, "face at %g (%s): ln E at x = %g", s, lit ? "lit" : "unlit", x);
-                cmt_close(im, what, got, want, im == &cmt_impls[0] ? 1e-12 : 2e-6, 1.0);
+                if (on_boundary) cmt_close(im, what, got, want, tol, 1.0);
+                else if (!(fabs(got - want) <= tol)) fail_msg("[%s] %s: %g, closed form %g", im->prec, what, got, want);
             }
             /* beyond delta, out to Eq. 10's radius, the model stays within eps of E_delta */
             double R = im->validity_radius_sigma(sv, D, eps, CM_R_MIN_VOXELS, CM_R_MAX_VOXELS);
@@ -927,19 +937,18 @@ static void medium_model(const cmt_impl *im) {
                   im == &cmt_impls[0] ? 1e-12 : 1e-5, 1.0);
     }
     /* rules */
-    cmt_exact(im, "sigma_0 = 0", im->medium_fraction(1.0, 0.0, D), 1.0);
-    cmt_exact(im, "sigma_0 NaN", im->medium_fraction(1.0, NAN, D), 1.0);
-    cmt_exact(im, "sigma_0 inf", im->medium_fraction(1.0, INFINITY, D), 1.0);
-    cmt_exact(im, "tau NaN", im->medium_fraction(NAN, 1.0, D), 1.0);
-    cmt_exact(im, "tau inf", im->medium_fraction(INFINITY, 1.0, D), 1.0);
-    cmt_exact(im, "tau 0: leaves at once", im->medium_fraction(0.0, 1.0, D), cmt_r(im, 0.125));
-    cmt_exact(im, "tau tiny: clamped", im->medium_fraction(1e-9, 1.0, D), cmt_r(im, 0.125));
+    cmt_exact(im, "n_in NaN: the paper's secant", im->medium_fraction(NAN), 1.0);
+    cmt_exact(im, "n_in inf", im->medium_fraction(INFINITY), 1.0);
+    cmt_exact(im, "n_in -inf", im->medium_fraction(-INFINITY), cmt_r(im, 0.125));
+    cmt_exact(im, "n_in 0: leaves at once", im->medium_fraction(0.0), cmt_r(im, 0.125));
+    cmt_exact(im, "n_in negative", im->medium_fraction(-3.0), cmt_r(im, 0.125));
+    cmt_exact(im, "n_in 0.5: clamped", im->medium_fraction(0.5), cmt_r(im, 0.125));
     cmt_exact(im, "f NaN: u = x", im->medium_coord(0.7, NAN, D), cmt_r(im, 0.7));
     cmt_close(im, "x NaN: far", im->medium_coord(NAN, 0.5, D), CM_LEN_MAX, 1e-6, 0);
     const double bad[7] = {NAN, INFINITY, -INFINITY, 0.0, 1e30, -1e30, 1e-30};
     for (int i = 0; i < 7; i++)
         for (int j = 0; j < 7; j++) {
-            double v[3] = {im->medium_fraction(bad[i], bad[j], bad[(i + j) % 7]),
+            double v[3] = {im->medium_fraction(bad[i] + bad[j]),
                            im->medium_coord(bad[i], bad[j], bad[(i + 2 * j) % 7]),
                            im->medium_bound(bad[i], bad[j], bad[(i + j) % 7], 1.0, bad[(i + 3) % 7],
                                             bad[(j + 1) % 7], bad[(i + j + 2) % 7])};

@@ -93,6 +93,7 @@
     X(test_beer_lambert_optical_depth_5)                            \
     X(test_beer_lambert_uint16_and_float32_volumes)                 \
     X(test_beer_lambert_loose_majorant_and_brick_apron)             \
+    X(test_ray_marching_estimator_unbiased)                         \
     /* test_single_scatter.c */                                     \
     X(test_single_scatter_delta_sun_coloured)                       \
     X(test_single_scatter_small_sun_closed_form)                    \
