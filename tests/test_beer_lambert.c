@@ -214,13 +214,6 @@ typedef struct {
     double base_sigma;      /* homogeneous extinction everywhere (0: only the sheets) */
 } rmh_profile;
 
-static double rmh_rand01(uint64_t *s) {   /* splitmix64 */
-    uint64_t z = (*s += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return (double)((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
-}
-
 static double rmh_sigma(const rmh_profile *p, double x) {
     double in_brick = fmod(x, 8.0);
     double s = p->base_sigma;
@@ -238,7 +231,7 @@ static double rmh_comb(const rmh_profile *p, uint64_t *rng) {
     for (int b = 0; b < p->bricks; b++) {
         double len = 8.0;
         int n = (int)fmin(fmax(ceil(maj * len / RMH_TAU_STEP), 1.0), ceil(len / 1.0));
-        double h = len / n, u = rmh_rand01(rng), s = 0.0;
+        double h = len / n, u = tu_rand01(rng), s = 0.0;
         for (int i = 0; i < n; i++) s += rmh_sigma(p, 8.0 * b + (i + u) * h);
         tau += s * h;
     }
@@ -250,13 +243,13 @@ static double rmh_estimate(const rmh_profile *p, uint64_t *rng, int shortcut) {
     if (shortcut && c <= 0.0) return 1.0;
     double base = exp(-c);
     if (c > RMH_DARK) {
-        if (rmh_rand01(rng) >= exp(RMH_DARK - c)) return 0.0;
+        if (tu_rand01(rng) >= exp(RMH_DARK - c)) return 0.0;
         base = exp(-RMH_DARK);
     }
     double sum = 1.0, term = 1.0;
     for (int k = 1; k <= RMH_MAX_ORDER; k++) {
         double pk = k == 1 ? 1.0 : fmin(1.0, fabs(term));
-        if (pk < 1.0 && rmh_rand01(rng) >= pk) break;
+        if (pk < 1.0 && tu_rand01(rng) >= pk) break;
         double X = rmh_comb(p, rng);
         term *= (c - X) / (k * pk);
         sum += term;
