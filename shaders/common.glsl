@@ -460,7 +460,7 @@ float comb_optical_depth(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, in
 // k-th power is estimated by the product of k further independent combs, so each term
 // is unbiased given c; the first order is always taken, order k >= 2 with probability
 // p_k = min(1, |W_{k-1}|) (Russian roulette on the weighted term W, which carries 1 /
-// (p_1 ... p_k)), so the sum is unbiased too (tests/test_cache_math.c checks this
+// (p_1 ... p_k)), so the sum is unbiased too (tests/test_beer_lambert.c checks this
 // loop, copied, against exp(-tau) on combs that miss thin sheets).  Rules: a pivot
 // darker than RM_DARK survives with probability exp(RM_DARK - c) and is then weighted
 // by its inverse (unbiased; these paths are dim); past RM_MAX_ORDER orders or RM_BUDGET
