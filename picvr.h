@@ -442,6 +442,13 @@ typedef struct picvr_stats {
                                     sample cap (cache.max_samples per point, 768 by
                                     default): their relative error may exceed gamma's 9 %
                                     (README "The irradiance cache") */
+    uint64_t cache_samples;      /* irradiance samples the stored entries took (each point
+                                    of each entry: 128 per round until Eq. 5 or the cap;
+                                    each sample has a light and a phase ray) */
+    uint64_t cache_samples_truncated; /* of those, samples whose transmittance estimate was
+                                    cut at its loop bound (biased, like truncated_paths; a
+                                    share above ~1e-4 says the rays are too long for the
+                                    creation procedure's budget) */
     uint32_t cache_max_samples;  /* that cap in force: cache.max_samples after its default
                                     and the rounding to a multiple of 128 */
     uint32_t cache_requests;     /* creation requests issued in the last step */

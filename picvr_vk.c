@@ -29,7 +29,7 @@
 #define MAX_QUEUE 65535u           /* blocks per dispatch (shaders/block_select.comp) */
 /* Sizes of the shaders' buffer elements (std430), mirrored here; `make check-layout`
    (part of `make test`) compares them with glslang's reflection of the shaders. */
-#define CACHE_COUNTER_WORDS 12u    /* the CacheCounters block of shaders/cache.glsl */
+#define CACHE_COUNTER_WORDS 14u    /* the CacheCounters block of shaders/cache.glsl */
 #define CACHE_NODE_BYTES 16u       /* struct Node */
 #define CACHE_REF_BYTES 8u         /* struct Ref */
 #define CACHE_REQUEST_BYTES 32u    /* struct Request */
@@ -991,7 +991,7 @@ static picvr_status cache_clear(picvr_context *ctx) {
     if (!s) s = upload_buffer(ctx, &ctx->cache_nodes, nodes, (size_t)count * CACHE_NODE_BYTES);
     if (!s) s = upload_buffer(ctx, &ctx->cache_prebuilt_nodes, nodes, (size_t)count * CACHE_NODE_BYTES);
     mem_free(&ctx->alloc, nodes);
-    uint32_t counters[CACHE_COUNTER_WORDS] = {0, 1, 1, 0, 0, count, 0, 0, 0, 0, 0, 0};
+    uint32_t counters[CACHE_COUNTER_WORDS] = {0, 1, 1, 0, 0, count, 0, 0, 0, 0, 0, 0, 0, 0};
     if (!s) s = upload_buffer(ctx, &ctx->cache_counters, counters, sizeof counters);
     ctx->cache_prebuilt = count;
     memcpy(ctx->cache_counts, counters, sizeof counters);
@@ -2290,6 +2290,9 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_full = c[7];
             st.cache_refs_per_entry = st.cache_entries ? (double)st.cache_refs / st.cache_entries : 0.0;
             st.cache_entries_capped = c[11] < st.cache_entries ? c[11] : st.cache_entries;
+            /* each round: 128 samples at each of the 7 points */
+            st.cache_samples = (uint64_t)c[12] * 128u * 7u;
+            st.cache_samples_truncated = c[13] < st.cache_samples ? c[13] : st.cache_samples;
             st.cache_hit_rate = ctx->hit_rate;
         }
         st.cache_max_samples = ctx->cache.max_samples;

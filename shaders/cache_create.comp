@@ -16,14 +16,17 @@ layout(local_size_x = 128) in;
 
 // Transmittance by unbiased ray marching (common.glsl, ray_marching_transmittance), not
 // ratio tracking: far fewer samples meet Eq. 5.
-// Loop budget (llvmpipe truncates past 65535 loop iterations per invocation):
-// CREATE_MAX_ROUNDS * 7 points * 2 transmittance estimates * (RM_BUDGET + RM_MAX_ORDER)
-// = 6*7*2*(640+16) = 55104, plus the light loops (at most 4 * 32 per sample: 5376) and
-// the reductions (about 350).  So on a CPU device at most 6 rounds, 6 * 128 = 768 samples
-// per point (the default cap; the host rejects more there).  A specialization constant
-// set from cache.max_samples; a GPU has no such bound (the host allows up to 64 rounds).
+// Loop budget (llvmpipe truncates past 65535 loop iterations per invocation, summed over
+// all loops): the estimates' combs share the pool rm_pool = CREATE_MAX_ROUNDS * 7 points
+// * 2 estimates * RM_POOL_PER_ESTIMATE, one estimate taking at most RM_BUDGET of it; their
+// order loops add at most RM_MAX_ORDER each: 6*7*2*(640+16) = 55104, plus the light
+// loops (at most 4 * 32 per sample: 5376) and the reductions (about 350).  So on a CPU
+// device at most 6 rounds, 6 * 128 = 768 samples per point (the default cap; the host
+// rejects more there).  A specialization constant set from cache.max_samples; a GPU has
+// no such bound (the host allows up to 64 rounds).
 #define TRANSMITTANCE_RAY_MARCHING
-#define RM_BUDGET 640u
+#define RM_POOL_PER_ESTIMATE 640u
+#define RM_BUDGET 4096u
 layout(constant_id = 2) const uint CREATE_MAX_ROUNDS = 6u;
 
 #include "common.glsl"
@@ -33,8 +36,9 @@ layout(constant_id = 2) const uint CREATE_MAX_ROUNDS = 6u;
 // (the §6 creation share); the other queued requests are dropped and their locks released.
 layout(push_constant) uniform Push { uint sched_round; uint seed; uint budget; uint pad; } pc;
 
-shared vec4 s_red[128];          // reduction scratch: (lum sum, lum sq sum) or RGB sums
+shared vec4 s_red[128];          // reduction scratch: (mean, m2, n) statistics or RGB sums
 shared bool s_done;
+shared uint s_truncated;         // samples whose transmittance estimate hit its loop bound
 shared vec3 s_E[7];
 shared vec2 s_f;                 // medium fraction of +n, -n
 
@@ -47,6 +51,21 @@ void reduce_red() {
     barrier();
 }
 
+// Merges the sample statistics s_red = (mean, m2, n, -) over the workgroup into s_red[0]
+// (Chan et al.'s pairwise rule, cache_math.glsl).
+void reduce_stats() {
+    for (uint stride = 64u; stride > 0u; stride >>= 1u) {
+        barrier();
+        uint i = gl_LocalInvocationID.x;
+        if (i < stride) {
+            vec4 a = s_red[i], b = s_red[i + stride];
+            s_red[i] = vec4(CM_FN(stat_merge_mean)(a.z, a.x, b.z, b.x),
+                            CM_FN(stat_merge_m2)(a.z, a.x, a.y, b.z, b.x, b.y), a.z + b.z, 0.0);
+        }
+    }
+    barrier();
+}
+
 void main() {
     uint req = gl_WorkGroupID.x;
     uint lid = gl_LocalInvocationID.x;
@@ -54,7 +73,7 @@ void main() {
     uint locked = requests[req].node;
     // A full pool (entries, nodes or references) stops growth: no estimation is spent
     // on an entry that could not be stored.  Read once, so the branch is uniform.
-    if (lid == 0u) s_done = cache_counters.full != 0u;
+    if (lid == 0u) { s_done = cache_counters.full != 0u; s_truncated = 0u; }
     barrier();
     bool full = s_done;
     barrier();
@@ -63,6 +82,7 @@ void main() {
         return;
     }
     vec3 x0 = requests[req].pos.xyz;
+    rm_pool = CREATE_MAX_ROUNDS * 7u * 2u * RM_POOL_PER_ESTIMATE;
 
     vec3 n = entry_normal(x0), t, b;
     basis(n, t, b);
@@ -95,10 +115,12 @@ void main() {
     }
     barrier();
 
+    // Per point: the RGB sum (the stored mean) and, for Eq. 5, the luminance samples'
+    // running mean and m2 (Welford; cache_math.glsl, "Eq. 5's sample statistics").
     vec3 sum[7];
-    float lsum[7], lsq[7];
-    for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lsum[k] = 0.0; lsq[k] = 0.0; }
-    bool truncated = false;
+    float lmean[7], lm2[7];
+    for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lmean[k] = 0.0; lm2[k] = 0.0; }
+    uint truncated = 0u;             // this thread's samples with a truncated estimate
     bool converged = false;
     float gamma = scene.cache_params.x;
     uint rounds = 0u;
@@ -113,22 +135,25 @@ void main() {
         Rng light_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x5bd1e995u);
         Rng phase_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u);
         for (uint k = 0u; k < 7u; k++) {
-            vec3 e = irradiance_sample(p[k], light_rng, phase_rng, truncated);
+            bool cut = false;
+            vec3 e = irradiance_sample(p[k], light_rng, phase_rng, cut);
+            if (cut) truncated++;
             // Rule: a non-finite sample (only from extreme input) counts as 0.
             if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
-            float l = luminance(e);
-            sum[k] += e; lsum[k] += l; lsq[k] += l * l;
+            float l = CM_FN(stat_sample)(luminance(e));
+            float n_before = float(round);
+            lm2[k] = CM_FN(stat_merge_m2)(n_before, lmean[k], lm2[k], 1.0, l, 0.0);
+            lmean[k] = CM_FN(stat_merge_mean)(n_before, lmean[k], 1.0, l);
+            sum[k] += e;
         }
-        // Eq. 5 at every point: 1.96 sqrt(S^2(N)/N) < gamma/(gamma+1) E(N).  Rule: a
-        // point with E = 0 and S = 0 (fully shadowed) passes; S^2 >= 0 is clamped.
+        // Eq. 5 at every point: 1.96 sqrt(S^2(N)/N) <= gamma/(gamma+1) E(N), on the
+        // merged statistics (cache_math.glsl, eq5_met; rule: a point with E = 0 and S = 0,
+        // fully shadowed, passes).
         if (lid == 0u) s_done = true;
-        float N = float(rounds * 128u);
         for (uint k = 0u; k < 7u; k++) {
-            s_red[lid] = vec4(lsum[k], lsq[k], 0.0, 0.0);
-            reduce_red();
-            float mean = s_red[0].x / N;
-            float var = max(s_red[0].y / N - mean * mean, 0.0) * N / max(N - 1.0, 1.0);
-            bool ok = 1.96 * sqrt(var / N) <= gamma / (gamma + 1.0) * mean;
+            s_red[lid] = vec4(lmean[k], lm2[k], float(rounds), 0.0);
+            reduce_stats();
+            bool ok = CM_FN(eq5_met)(s_red[0].z, s_red[0].x, s_red[0].y, gamma);
             barrier();
             if (lid == 0u && !ok) s_done = false;
         }
@@ -138,6 +163,7 @@ void main() {
         converged = done;
         if (done) break;
     }
+    if (truncated > 0u) atomicAdd(s_truncated, truncated);   // rare: no reduction
     // Mean RGB irradiance at the seven points.  Rule: a negative mean (ray marching's
     // estimates may be negative; only a mean of noise about 0 could be) is stored as 0.
     float N = float(rounds * 128u);
@@ -157,6 +183,10 @@ void main() {
             // Stored although Eq. 5 still failed at the cap: counted, so that a user can
             // see how many entries carry more than gamma's error (stats.cache_entries_capped).
             if (!converged) atomicAdd(cache_counters.capped, 1u);
+            // The samples it took, and those with an estimate cut at RM_BUDGET or
+            // RM_MAX_ORDER (biased; stats.cache_samples, cache_samples_truncated).
+            atomicAdd(cache_counters.rounds, rounds);
+            if (s_truncated > 0u) atomicAdd(cache_counters.truncated, s_truncated);
             float eps = scene.cache_params.y;
             float rmin = CM_FN(entry_r_min)(scene.cache_radii.x, delta, scene.cache_params.z);
             float rmax_cap = CM_FN(entry_r_max)(scene.cache_radii.y, delta, scene.cache_params.z);

@@ -584,6 +584,73 @@ CM_API real CM_FN(medium_bound)(real l, real lnE0, real sx, real sy, real sz, re
     return cm_clamp(CM_FN(san_ln)(l), cm_max(lo, CM_LN_E_MIN), cm_min(hi, CM_LN_E_MAX));
 }
 
+// ---- Eq. 5's sample statistics (cache_create.comp) -----------------------------------
+// Eq. 5 needs the spread S^2 of each point's samples.  A set of samples is kept as
+// (n, mean, m2) with m2 = sum (l - mean)^2, and two sets are merged by the pairwise rule
+// of Chan, Golub and LeVeque (one sample is the set (1, l, 0): Welford's update).  The
+// textbook E[l^2] - E[l]^2 from float sums subtracts two numbers that agree to every digit
+// once the samples agree to about 1e-4 of their mean (float's 6e-8 per rounding, ~1e3
+// terms), which turns S^2 into rounding noise and flips Eq. 5 either way at a small
+// gamma; the merge never subtracts two large numbers, so S^2 keeps its digits (and is
+// exactly 0 for identical samples).
+// Rules (so that no square or sum can overflow float and every output is finite):
+//   sample l    NaN -> 0; clamped to [-CM_STAT_MAX, CM_STAT_MAX] (+-inf to the bound);
+//   count n     NaN or negative -> 0; capped at CM_STAT_N_MAX;
+//   mean        as a sample;  m2  NaN or negative -> 0; capped at CM_STAT_M2_MAX;
+//   a merge of two empty sets (n_a + n_b = 0) gives mean 0 and m2 0.
+// Then |mean_b - mean_a| <= 2e15, the merge's term d^2 n_a n_b / n <= 4e30 n / 4 <= 1e36,
+// and m2 <= CM_STAT_M2_MAX: all below float's 3.4e38.
+#ifndef CM_STAT_CONSTANTS
+#define CM_STAT_CONSTANTS 1
+#define CM_STAT_MAX    CM_REAL(1e15)
+#define CM_STAT_N_MAX  CM_REAL(1e6)
+#define CM_STAT_M2_MAX CM_REAL(1e36)
+#endif
+CM_API real CM_FN(stat_sample)(real l) {
+    if (!cm_isfinite(l)) return l > CM_REAL(0.0) ? CM_STAT_MAX : (l < CM_REAL(0.0) ? -CM_STAT_MAX : CM_REAL(0.0));
+    return cm_clamp(l, -CM_STAT_MAX, CM_STAT_MAX);
+}
+
+CM_API real CM_FN(stat_count)(real n) {
+    if (!cm_isfinite(n)) return n > CM_REAL(0.0) ? CM_STAT_N_MAX : CM_REAL(0.0);
+    return cm_clamp(n, CM_REAL(0.0), CM_STAT_N_MAX);
+}
+
+CM_API real CM_FN(stat_m2)(real m2) {
+    if (!cm_isfinite(m2)) return m2 > CM_REAL(0.0) ? CM_STAT_M2_MAX : CM_REAL(0.0);
+    return cm_clamp(m2, CM_REAL(0.0), CM_STAT_M2_MAX);
+}
+
+// The mean of the union of two sets: mean_a + (mean_b - mean_a) n_b / n.
+CM_API real CM_FN(stat_merge_mean)(real n_a, real mean_a, real n_b, real mean_b) {
+    real na = CM_FN(stat_count)(n_a), nb = CM_FN(stat_count)(n_b);
+    real ma = CM_FN(stat_sample)(mean_a), mb = CM_FN(stat_sample)(mean_b);
+    if (na + nb <= CM_REAL(0.0)) return CM_REAL(0.0);
+    return ma + (mb - ma) * (nb / (na + nb));
+}
+
+// The m2 of the union of two sets: m2_a + m2_b + (mean_b - mean_a)^2 n_a n_b / n.
+CM_API real CM_FN(stat_merge_m2)(real n_a, real mean_a, real m2_a, real n_b, real mean_b,
+                                 real m2_b) {
+    real na = CM_FN(stat_count)(n_a), nb = CM_FN(stat_count)(n_b);
+    real d = CM_FN(stat_sample)(mean_b) - CM_FN(stat_sample)(mean_a);
+    if (na + nb <= CM_REAL(0.0)) return CM_REAL(0.0);
+    return CM_FN(stat_m2)(CM_FN(stat_m2)(m2_a) + CM_FN(stat_m2)(m2_b) + d * d * (na * (nb / (na + nb))));
+}
+
+// Eq. 5 for a set of n samples:  1.96 sqrt(S^2 / n) <= gamma / (gamma + 1) mean, with the
+// sample variance S^2 = m2 / (n - 1).  Rules: n < 2 -> not met (no spread to judge);
+// mean 0 with m2 0 (a fully shadowed point) -> met; a negative mean -> not met; gamma NaN
+// or negative -> 0 (met only without spread), +inf -> 1 (gamma / (gamma + 1) -> 1).
+CM_API bool CM_FN(eq5_met)(real n, real mean, real m2, real gamma) {
+    real nn = CM_FN(stat_count)(n);
+    if (nn < CM_REAL(2.0)) return false;
+    real g = cm_isfinite(gamma) ? cm_max(gamma, CM_REAL(0.0)) : (gamma > CM_REAL(0.0) ? CM_REAL(1.0) : CM_REAL(0.0));
+    real rel = cm_isfinite(gamma) ? g / (g + CM_REAL(1.0)) : g;
+    real s2 = CM_FN(stat_m2)(m2) / (nn - CM_REAL(1.0));
+    return CM_REAL(1.96) * cm_sqrt(s2 / nn) <= rel * CM_FN(stat_sample)(mean);
+}
+
 #ifdef CM_GLSL
 #undef real
 #endif

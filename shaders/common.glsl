@@ -405,13 +405,20 @@ float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout boo
 // pot").  This estimator is exact in a homogeneous medium and low-variance elsewhere:
 // 24 % of the entries miss Eq. 5.  It costs about 4x a ratio-tracking sample, so the
 // renderer keeps ratio tracking (one sample per pixel and iteration, no Eq. 5).
-// A kernel that defines TRANSMITTANCE_RAY_MARCHING defines RM_BUDGET: the most loop
-// iterations (DDA steps plus samples, all orders) one estimate may take; past it the
-// estimate is truncated (biased, like a tracking loop at its bound).
+// A kernel that defines TRANSMITTANCE_RAY_MARCHING defines RM_BUDGET, the most loop
+// iterations (DDA steps plus samples, all orders) one estimate may take, and sets the
+// pool rm_pool before its first estimate: the iterations all its estimates may still
+// take together.  An estimate takes at most min(RM_BUDGET, rm_pool); past that it is
+// truncated (biased, flagged like a tracking loop at its bound).  Why a pool:
+// llvmpipe's cap bounds the sum over an invocation, not each estimate, and most
+// estimates take a few dozen iterations, so a long ray through many bricks may use
+// what the short ones left (a fixed 640 per estimate cut 3e-4 of bonsai's creation
+// samples, clustered in 5 % of the entries).
 #define RM_TAU_STEP 0.5     // majorant optical depth per stratum (at most one per voxel)
 #define RM_COMB_SAMPLES 192.0 // long rays: strata at least (t1 - t0) / this apart
 #define RM_DARK 6.9         // pivots darker than exp(-6.9) = 1e-3 go to Russian roulette
 #define RM_MAX_ORDER 16u
+uint rm_pool;               // iterations left to this invocation's estimates (see above)
 
 // X, an unbiased estimate of the optical depth of [t0, t1]: a stratified comb.  Each
 // non-empty brick the ray crosses gets n equal strata with one jittered sample each, n
@@ -420,12 +427,12 @@ float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout boo
 // across a large volume stays within RM_BUDGET); empty bricks (majorant 0, so sigma_t =
 // 0) are skipped.  E[X] = tau exactly.
 float comb_optical_depth(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout uint steps,
-                         inout bool truncated) {
+                         uint limit, inout bool truncated) {
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, tau = 0.0;
     float h_min = max(scene.cell_size.w, (t1 - t0) / RM_COMB_SAMPLES);
     while (true) {
-        if (steps >= RM_BUDGET) { truncated = true; break; }
+        if (steps >= limit) { truncated = true; break; }
         steps++;
         float maj = cell_majorant(d);
         if (maj <= 0.0) {
@@ -442,7 +449,7 @@ float comb_optical_depth(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, in
         if (maj > 0.0 && len > 0.0) {
             float n_max = max(ceil(len / h_min), 1.0);
             uint n = uint(clamp(ceil(maj * len / RM_TAU_STEP), 1.0, n_max));
-            if (steps + n > RM_BUDGET) { truncated = true; n = RM_BUDGET - steps; }
+            if (steps + n > limit) { truncated = true; n = limit - steps; }
             float h = len / float(max(n, 1u));
             float u = rnd(rng);
             float s = 0.0;
@@ -469,22 +476,23 @@ float comb_optical_depth(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, in
 // shortcut on c = 0: a pivot may miss a thin sheet that the next comb finds.
 float ray_marching_transmittance(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng,
                                  inout bool truncated) {
-    uint steps = 0u;
-    float c = comb_optical_depth(ro, rd, t0, t1, rng, steps, truncated);
+    uint steps = 0u, limit = min(RM_BUDGET, rm_pool);
+    float c = comb_optical_depth(ro, rd, t0, t1, rng, steps, limit, truncated);
     float base = exp(-c);
     if (c > RM_DARK) {
-        if (rnd(rng) >= exp(RM_DARK - c)) return 0.0;
+        if (rnd(rng) >= exp(RM_DARK - c)) { rm_pool -= steps; return 0.0; }
         base = exp(-RM_DARK);            // exp(-c) / exp(RM_DARK - c), without overflow
     }
     float sum = 1.0, term = 1.0;
     for (uint k = 1u; k <= RM_MAX_ORDER; k++) {
         float p = k == 1u ? 1.0 : min(1.0, abs(term));
         if (p < 1.0 && rnd(rng) >= p) break;
-        float X = comb_optical_depth(ro, rd, t0, t1, rng, steps, truncated);
+        float X = comb_optical_depth(ro, rd, t0, t1, rng, steps, limit, truncated);
         term *= (c - X) / (float(k) * p);
         sum += term;
         if (k == RM_MAX_ORDER) truncated = true;
     }
+    rm_pool -= steps;                    // steps <= limit <= rm_pool
     return base * sum;
 }
 #endif

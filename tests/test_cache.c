@@ -213,12 +213,30 @@ void test_cache_capped_entries_counted(void **state) {
     picvr_stats exact = capped_run(1e-4f, 0, 0.0f);
     assert_true(exact.cache_entries > 0);
     assert_int_equal(exact.cache_entries_capped, 0);
+    /* stats.cache_samples: one round of 128 samples at 7 points per entry here, six (the
+       cap, 768) for every capped entry below; no estimate is cut at its loop bound. */
+    assert_true(exact.cache_samples == (uint64_t)exact.cache_entries * 128u * 7u);
+    assert_true(loose.cache_samples == (uint64_t)loose.cache_entries * 128u * 7u);
+    assert_true(exact.cache_samples_truncated == 0 && loose.cache_samples_truncated == 0);
     /* A background adds variance: each sample's value depends on the light chosen (the
        sun or the sky) and on the sky direction.  gamma = 1e-4 would need a coefficient of
        variation below 1.96 * 1.0001 / 1e-4 / sqrt(768) = 0.0014: every entry is capped. */
     picvr_stats tight = capped_run(1e-4f, 0, 0.5f);
     assert_true(tight.cache_entries > 0);
     assert_int_equal(tight.cache_entries_capped, tight.cache_entries);
+    assert_true(tight.cache_samples == (uint64_t)tight.cache_entries * 768u * 7u);
+    assert_true(tight.cache_samples_truncated == 0);
+    /* Eq. 5's statistics keep their digits (cache_math.glsl, "Eq. 5's sample statistics").
+       A background of 1e-5 spreads the estimates by about 1e-5 of their mean (its phase
+       samples carry 4 pi 1e-5 T against the sun's 2 T; the light choice picks it with
+       p = 6.3e-5, in under 1 % of the first rounds of 128), so at gamma = 1e-5 Eq. 5
+       holds after one round (1.96 * 1e-5 / sqrt(128) = 1.7e-6 < 1e-5).  The textbook
+       E[l^2] - E[l]^2 in float read a spread of order 1e-4 from its own rounding and
+       capped 6 of 7 entries here (and 6 of 10 with a background of 1e-4, where the
+       merge caps 2 of 7: a spread of 1e-4 is genuinely near the edge at 768 samples). */
+    picvr_stats faint = capped_run(1e-5f, 0, 1e-5f);
+    assert_true(faint.cache_entries > 0);
+    assert_true(faint.cache_entries_capped <= 2);   /* a light choice of the background: rare */
     /* cache.max_samples sets the cap.  At gamma = 0.05 Eq. 5 needs cv < 0.05 / 1.05 *
        sqrt(N) / 1.96: 0.275 with 128 samples, 0.673 with 768.  The points of this scene
        lie in between (when written: none of 5 entries capped at 768, 3 of 5 at 128), so
@@ -229,6 +247,43 @@ void test_cache_capped_entries_counted(void **state) {
     picvr_stats one_round = capped_run(0.05f, 100, 0.5f);   /* rounded up to 128: one round */
     assert_true(one_round.cache_entries > 0);
     assert_true(one_round.cache_entries_capped > 0);
+}
+
+/* stats.cache_samples_truncated counts creation samples whose transmittance estimate was
+   cut (common.glsl, ray_marching_transmittance: RM_MAX_ORDER orders or the loop pool).  A
+   sheet two voxels thick and dense (sigma_t up to 40 per voxel) in empty space, under a
+   sun that crosses it: one comb sample per voxel either lands in the sheet's core or in
+   its thin tail, so the combs differ by tens of optical depths, the expansion's terms
+   (c - X)^k / k! stay above 1 for many orders, and some estimates reach the 16th.  Each
+   such sample is counted, and nothing non-finite reaches an entry or a pixel. */
+void test_cache_truncated_samples_counted(void **state) {
+    (void)state;
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = 5;
+    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    cfg.cache.max_requests = 16;
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 0);
+    for (uint32_t y = 0; y < 16; y++)
+        for (uint32_t x = 0; x < 16; x++) *tu_vox(&vol, x, y, 7) = *tu_vox(&vol, x, y, 8) = 255;
+    tu_upload(ctx, &vol);
+    tu_tf_ramp(ctx, 0.8f, 0.8f, 0.8f, 40.0f);
+    tu_sun(ctx, 0.3, 0.2, 0.93, 1.0f, 1.0f, 1.0f, 2.0f, 0.0f);
+    tu_set_camera(ctx, 0, -30, 10, 0, 0, 0, 20, 24, 24);
+    TU_OK(picvr_step_iterations(ctx, 16));
+    picvr_stats st = tu_stats_finite(ctx);
+    print_message("    %u entries, %llu samples, %llu truncated\n", st.cache_entries,
+                  (unsigned long long)st.cache_samples, (unsigned long long)st.cache_samples_truncated);
+    assert_true(st.cache_entries > 0);
+    assert_true(st.cache_samples >= (uint64_t)st.cache_entries * 128u * 7u);
+    assert_true(st.cache_samples_truncated > 0);
+    assert_true(st.cache_samples_truncated <= st.cache_samples);
+    float *img = tu_read(ctx, 24, 24);
+    tu_assert_image_valid(img, 24, 24, "dense sheet, cached");
+    free(img);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
 }
 
 /* PICVR_VIEW_CACHE_ERROR over the whole image after `iterations` more passes:

@@ -35,12 +35,14 @@
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 
 /* ---- both instantiations behind one table --------------------------------------- */
 
 #define CMT_A1 double a
 #define CMT_A2 double a, double b
 #define CMT_A3 double a, double b, double c
+#define CMT_A4 double a, double b, double c, double d
 #define CMT_A5 double a, double b, double c, double d, double e
 #define CMT_A6 double a, double b, double c, double d, double e, double f
 #define CMT_A7 double a, double b, double c, double d, double e, double f, double g
@@ -50,6 +52,7 @@
 #define CMT_F1 (float)a
 #define CMT_F2 (float)a, (float)b
 #define CMT_F3 (float)a, (float)b, (float)c
+#define CMT_F4 (float)a, (float)b, (float)c, (float)d
 #define CMT_F5 (float)a, (float)b, (float)c, (float)d, (float)e
 #define CMT_F6 (float)a, (float)b, (float)c, (float)d, (float)e, (float)f
 #define CMT_F7 (float)a, (float)b, (float)c, (float)d, (float)e, (float)f, (float)g
@@ -91,7 +94,12 @@
     X(7, curvature_radius)                                                               \
     X(1, medium_fraction)                                                                \
     X(3, medium_coord)                                                                   \
-    X(7, medium_bound)
+    X(7, medium_bound)                                                                   \
+    X(1, stat_sample)                                                                    \
+    X(1, stat_count)                                                                     \
+    X(1, stat_m2)                                                                        \
+    X(4, stat_merge_mean)                                                                \
+    X(6, stat_merge_m2)
 
 #define CMT_MEMBER(n, name) double (*name)(CMT_A##n);
 #define CMT_WRAP(n, name) \
@@ -104,17 +112,19 @@ typedef struct cmt_impl {
     double tol;         /* relative tolerance of the exact closed forms */
     double ulp;         /* machine epsilon of the instantiation */
     bool (*log_average_valid)(double);
+    bool (*eq5_met)(double, double, double, double);
     CMT_FUNCS(CMT_MEMBER)
 } cmt_impl;
 
 CMT_FUNCS(CMT_WRAP)
 static bool cmt_f_log_average_valid(double a) { return cmf_log_average_valid((float)a); }
+static bool cmt_f_eq5_met(CMT_A4) { return cmf_eq5_met(CMT_F4); }
 
 static const cmt_impl cmt_impls[2] = {
     {.prec = "double", .tol = 1e-12, .ulp = DBL_EPSILON,
-     .log_average_valid = cm_log_average_valid, CMT_FUNCS(CMT_INIT_D)},
+     .log_average_valid = cm_log_average_valid, .eq5_met = cm_eq5_met, CMT_FUNCS(CMT_INIT_D)},
     {.prec = "float", .tol = 1e-5, .ulp = FLT_EPSILON,
-     .log_average_valid = cmt_f_log_average_valid, CMT_FUNCS(CMT_INIT_F)},
+     .log_average_valid = cmt_f_log_average_valid, .eq5_met = cmt_f_eq5_met, CMT_FUNCS(CMT_INIT_F)},
 };
 
 /* Deterministic random numbers (splitmix64), uniform in [0, 1). */
@@ -962,6 +972,158 @@ static void medium_model(const cmt_impl *im) {
         }
 }
 
+/* ---- Eq. 5's sample statistics (stat_merge_mean, stat_merge_m2, eq5_met) ------------- */
+
+enum { CMT_THREADS = 128 };   /* cache_create.comp's workgroup */
+
+/* The creation procedure's statistics, step for step: each of 128 threads takes `rounds`
+   samples (sample r * 128 + t) by Welford's update, then the workgroup merges them
+   pairwise at strides 64, 32, ..., 1.  Returns n, mean and m2 in out[3]. */
+static void cmt_workgroup_stats(const cmt_impl *im, const double *x, int rounds, double out[3]) {
+    double mean[CMT_THREADS], m2[CMT_THREADS], n[CMT_THREADS];
+    for (int t = 0; t < CMT_THREADS; t++) {
+        mean[t] = m2[t] = 0.0;
+        for (int r = 0; r < rounds; r++) {
+            double l = im->stat_sample(x[r * CMT_THREADS + t]);
+            m2[t] = im->stat_merge_m2(r, mean[t], m2[t], 1.0, l, 0.0);
+            mean[t] = im->stat_merge_mean(r, mean[t], 1.0, l);
+        }
+        n[t] = rounds;
+    }
+    for (int stride = CMT_THREADS / 2; stride > 0; stride >>= 1)
+        for (int i = 0; i < stride; i++) {
+            double m = im->stat_merge_mean(n[i], mean[i], n[i + stride], mean[i + stride]);
+            m2[i] = im->stat_merge_m2(n[i], mean[i], m2[i], n[i + stride], mean[i + stride],
+                                      m2[i + stride]);
+            mean[i] = m;
+            n[i] += n[i + stride];
+        }
+    out[0] = n[0]; out[1] = mean[0]; out[2] = m2[0];
+}
+
+/* The rule the creation procedure used before (float sums of l and l^2 per thread, summed
+   over the workgroup, S^2 = (E[l^2] - E[l]^2) N / (N - 1), clamped at 0): the control that
+   shows what the merge is for. */
+static double cmt_textbook_variance_float(const double *x, int rounds) {
+    float s[CMT_THREADS], q[CMT_THREADS];
+    for (int t = 0; t < CMT_THREADS; t++) {
+        s[t] = q[t] = 0.0f;
+        for (int r = 0; r < rounds; r++) {
+            float l = (float)x[r * CMT_THREADS + t];
+            s[t] += l; q[t] += l * l;
+        }
+    }
+    for (int stride = CMT_THREADS / 2; stride > 0; stride >>= 1)
+        for (int i = 0; i < stride; i++) { s[i] += s[i + stride]; q[i] += q[i + stride]; }
+    float N = (float)(rounds * CMT_THREADS), mean = s[0] / N;
+    float var = q[0] / N - mean * mean;
+    return (var > 0.0f ? var : 0.0f) * N / (N - 1.0f);
+}
+
+static void sample_statistics(const cmt_impl *im) {
+    char what[160];
+    const int rounds_list[3] = {1, 6, 64};       /* one round, the CPU cap, the GPU cap */
+    const double spreads[4] = {0.3, 1e-2, 1e-4, 1e-6};   /* relative half-width of the samples */
+    /* Merged S^2 against the exact S^2 of the same (rounded) samples, by precision and
+       spread: double 1e-9; float 2e-4 down to 1e-4 of spread and 0.1 at 1e-6, where the
+       samples differ by only a few float steps of 1.2e-7 and each deviation l - mean
+       carries up to half a step of rounding (measured when written: float at most 3.7e-5
+       and 3.4e-2, double 1.6e-11). */
+    double *x = malloc(sizeof(double) * 64 * CMT_THREADS);
+    assert_non_null(x);
+    double worst_textbook = 0.0, worst_merge = 0.0;   /* textbook: relative; merge: of its bound */
+    for (int ri = 0; ri < 3; ri++)
+        for (int si = 0; si < 4; si++) {
+            int rounds = rounds_list[ri], N = rounds * CMT_THREADS;
+            uint64_t rng = 77u + 13u * (uint64_t)(ri * 4 + si);
+            const double mu = 1.7;
+            for (int i = 0; i < N; i++) {
+                double v = mu * (1.0 + spreads[si] * (2.0 * tu_rand01(&rng) - 1.0));
+                x[i] = cmt_r(im, v);
+            }
+            long double m = 0.0L, q = 0.0L;             /* exact reference: two passes */
+            for (int i = 0; i < N; i++) m += x[i];
+            m /= N;
+            for (int i = 0; i < N; i++) q += ((long double)x[i] - m) * ((long double)x[i] - m);
+            double s2_ref = (double)(q / (N - 1));
+            double st[3];
+            cmt_workgroup_stats(im, x, rounds, st);
+            cmt_exact(im, "merged count", st[0], N);
+            snprintf(what, sizeof what, "%d rounds, spread %g: mean", rounds, spreads[si]);
+            cmt_close(im, what, st[1], (double)m, im == &cmt_impls[0] ? 1e-12 : 1e-6, 0);
+            double tol = im == &cmt_impls[0] ? 1e-9 : (spreads[si] >= 1e-4 ? 2e-4 : 0.1);
+            snprintf(what, sizeof what, "%d rounds, spread %g: S^2", rounds, spreads[si]);
+            cmt_close(im, what, st[2] / (N - 1), s2_ref, tol, 0);
+            double e_merge = fabs(st[2] / (N - 1) - s2_ref) / s2_ref / tol;
+            if (e_merge > worst_merge) worst_merge = e_merge;
+            if (im == &cmt_impls[1] && spreads[si] <= 1e-4) {
+                double e = fabs(cmt_textbook_variance_float(x, rounds) - s2_ref) / s2_ref;
+                if (e > worst_textbook) worst_textbook = e;
+            }
+        }
+    print_message("    %s: merged S^2 within %.2g of its bound\n", im->prec, worst_merge);
+    if (im == &cmt_impls[1]) {
+        print_message("    float S^2 at spreads <= 1e-4: the textbook E[l^2] - E[l]^2 is off by up "
+                      "to %.3g of S^2\n", worst_textbook);
+        /* The control: the rounding that the merge avoids is real, at least 10x what the
+           merge is allowed. */
+        if (!(worst_textbook > 10 * 0.1)) fail_msg("the textbook formula's error %g: no control", worst_textbook);
+    }
+    free(x);
+
+    /* Identical samples: S^2 exactly 0, so Eq. 5 holds at any gamma > 0. */
+    double same[6 * CMT_THREADS], st[3];
+    for (int i = 0; i < 6 * CMT_THREADS; i++) same[i] = cmt_r(im, 0.3183);
+    cmt_workgroup_stats(im, same, 6, st);
+    cmt_exact(im, "identical samples: m2", st[2], 0.0);
+    cmt_exact(im, "identical samples: mean", st[1], cmt_r(im, 0.3183));
+    if (!im->eq5_met(st[0], st[1], st[2], 1e-7)) fail_msg("[%s] identical samples fail Eq. 5", im->prec);
+
+    /* Eq. 5's boundary: 1.96 sqrt(S^2 / n) = gamma / (gamma + 1) mean at m2 = m2_edge. */
+    const double n = 768, mean = 2.0, gamma = 0.1;
+    double h = gamma / (gamma + 1) * mean / 1.96;
+    double m2_edge = h * h * n * (n - 1);
+    if (!im->eq5_met(n, mean, 0.99 * m2_edge, gamma)) fail_msg("[%s] Eq. 5 inside the edge", im->prec);
+    if (im->eq5_met(n, mean, 1.01 * m2_edge, gamma)) fail_msg("[%s] Eq. 5 outside the edge", im->prec);
+
+    /* The rules. */
+    if (!im->eq5_met(n, 0.0, 0.0, gamma)) fail_msg("[%s] a fully shadowed point must pass", im->prec);
+    if (im->eq5_met(n, -1e-3, 0.0, gamma)) fail_msg("[%s] a negative mean passed", im->prec);
+    if (im->eq5_met(1.0, mean, 0.0, gamma)) fail_msg("[%s] one sample passed", im->prec);
+    if (im->eq5_met(NAN, mean, 0.0, gamma)) fail_msg("[%s] n NaN passed", im->prec);
+    if (!im->eq5_met(n, mean, 0.0, NAN)) fail_msg("[%s] gamma NaN: no spread must pass", im->prec);
+    if (im->eq5_met(n, mean, m2_edge, NAN)) fail_msg("[%s] gamma NaN: spread passed", im->prec);
+    if (!im->eq5_met(n, mean, 0.99 * mean * mean / 3.8416 * n * (n - 1), INFINITY))
+        fail_msg("[%s] gamma inf: the limit 1 of gamma / (gamma + 1)", im->prec);
+    cmt_exact(im, "sample NaN", im->stat_sample(NAN), 0.0);
+    cmt_exact(im, "sample +inf", im->stat_sample(INFINITY), cmt_r(im, CM_STAT_MAX));
+    cmt_exact(im, "sample -inf", im->stat_sample(-INFINITY), -cmt_r(im, CM_STAT_MAX));
+    cmt_exact(im, "sample 1e30", im->stat_sample(1e30), cmt_r(im, CM_STAT_MAX));
+    cmt_exact(im, "merge of empty sets: mean", im->stat_merge_mean(0, 5, 0, 7), 0.0);
+    cmt_exact(im, "merge of empty sets: m2", im->stat_merge_m2(0, 5, 1, 0, 7, 1), 0.0);
+    cmt_exact(im, "merge with an empty set", im->stat_merge_mean(3, 5, 0, 7), 5.0);
+    cmt_exact(im, "one sample each", im->stat_merge_m2(1, 1, 0, 1, 3, 0), 2.0);
+    const double bad[8] = {NAN, INFINITY, -INFINITY, 0.0, 1e30, -1e30, 1e-30, 5e5};
+    for (int i = 0; i < 8; i++)
+        for (int j = 0; j < 8; j++) {
+            double v[3] = {im->stat_merge_mean(bad[i], bad[j], bad[(i + j) % 8], bad[(i + 3) % 8]),
+                           im->stat_merge_m2(bad[i], bad[j], bad[(i + 1) % 8], bad[(j + 2) % 8],
+                                             bad[(i + j) % 8], bad[(i + 5) % 8]),
+                           im->stat_count(bad[i] + bad[j])};
+            for (int k = 0; k < 3; k++) {
+                snprintf(what, sizeof what, "degenerate statistics %d %d (%d)", i, j, k);
+                CMT_FINITE(im, what, v[k]);
+            }
+            if (!(v[1] >= 0.0 && v[1] <= cmt_r(im, CM_STAT_M2_MAX))) fail_msg("[%s] m2 = %g", im->prec, v[1]);
+            (void)im->eq5_met(bad[i], bad[j], bad[(i + 1) % 8], bad[(j + 3) % 8]);
+        }
+    /* The largest merge the bounds allow stays finite in float: N_MAX samples split in
+       halves at -MAX and +MAX, each half with the largest m2. */
+    double big = im->stat_merge_m2(CM_STAT_N_MAX / 2, -CM_STAT_MAX, CM_STAT_M2_MAX,
+                                   CM_STAT_N_MAX / 2, CM_STAT_MAX, CM_STAT_M2_MAX);
+    CMT_FINITE(im, "largest merge", big);
+}
+
 /* ---- the cmocka tests ---------------------------------------------------------------- */
 
 void test_cache_math_medium_model(void **state) {
@@ -1006,4 +1168,9 @@ void test_cache_math_degenerate_inputs(void **state) {
     print_message("    largest relative error in the checks at the base tolerance: "
                   "double %.2g, float %.2g\n",
                   cmt_max_rel[0], cmt_max_rel[1]);
+}
+
+void test_cache_math_sample_statistics(void **state) {
+    (void)state;
+    for (int k = 0; k < 2; k++) sample_statistics(&cmt_impls[k]);
 }

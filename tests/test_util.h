@@ -50,6 +50,7 @@
     X(test_cache_math_entry_offset)                                 \
     X(test_cache_math_curvature_radius)                             \
     X(test_cache_math_medium_model)                                 \
+    X(test_cache_math_sample_statistics)                            \
     /* test_cache.c */                                              \
     X(test_cache_off_by_default_allocates_nothing)                  \
     X(test_cache_homogeneous_sun_matches_closed_form)               \
@@ -58,6 +59,7 @@
     X(test_cache_invalidation_and_camera_keeps_cache)               \
     X(test_cache_pool_full_is_reported_and_safe)                    \
     X(test_cache_capped_entries_counted)                            \
+    X(test_cache_truncated_samples_counted)                         \
     X(test_cache_debug_view)                                        \
     X(test_cache_full_dense_lit_face)                               \
     /* test_scheduler.c */                                          \
