@@ -150,6 +150,10 @@ typedef struct picvr_allocator {
     void *user;
 } picvr_allocator;
 
+/* The limits of cache.max_samples (below). */
+#define PICVR_CACHE_MAX_SAMPLES 8192u
+#define PICVR_CACHE_MAX_SAMPLES_CPU 768u
+
 /* The irradiance cache (paper §4-5).  Zero fields mean the Table 1 values. */
 typedef enum picvr_cache_mode {
     PICVR_CACHE_DEFAULT = 0,       /* currently PICVR_CACHE_NONE: the cache is being built
@@ -179,8 +183,10 @@ typedef struct picvr_cache_config {
                                   (README, "Robustness") */
     uint32_t max_samples;      /* Eq. 5's cap: MIS samples per point at most (rounded up to
                                   a multiple of 128, one round of the creation workgroup);
-                                  0: 768.  At most 8192, and 768 on a CPU device (lavapipe:
-                                  its loop bound), PICVR_ERROR_INVALID_ARGUMENT beyond.
+                                  0: 768.  At most PICVR_CACHE_MAX_SAMPLES (8192), and
+                                  PICVR_CACHE_MAX_SAMPLES_CPU (768) on a CPU device
+                                  (lavapipe: its loop bound), PICVR_ERROR_INVALID_ARGUMENT
+                                  beyond.
                                   Entries stored at the cap are counted in
                                   stats.cache_entries_capped.  Lower caps create entries
                                   faster but noisier (bonsai, 128: 4.3x as many in 20 s;
@@ -419,6 +425,20 @@ picvr_status picvr_read_rgba32f(picvr_context *ctx, float *pixels, size_t size);
    `count` is the number of uint32_t that `counts` holds. */
 picvr_status picvr_read_sample_counts(picvr_context *ctx, uint32_t *counts, size_t count);
 
+/* The kind of device a context runs on (VkPhysicalDeviceType).  On PICVR_DEVICE_CPU
+   (Mesa's lavapipe) the cache does not yet pay for itself (README "Error against run
+   time"), and cache.max_samples is capped at 768 (llvmpipe's loop bound). */
+typedef enum picvr_device_type {
+    PICVR_DEVICE_OTHER = 0,
+    PICVR_DEVICE_INTEGRATED_GPU,
+    PICVR_DEVICE_DISCRETE_GPU,
+    PICVR_DEVICE_VIRTUAL_GPU,
+    PICVR_DEVICE_CPU
+} picvr_device_type;
+
+/* "cpu", "discrete-gpu", ... (a static string; "other" for unknown values). */
+const char *picvr_device_type_string(picvr_device_type type);
+
 typedef struct picvr_stats {
     uint32_t iterations;         /* blocks rendered since the last reset / blocks of the
                                     image: whole-image passes (see picvr_step) */
@@ -464,6 +484,7 @@ typedef struct picvr_stats {
     uint32_t validation_enabled; /* 1 when the validation layer is active */
     uint32_t width, height;
     char device_name[256];
+    picvr_device_type device_type;
 } picvr_stats;
 
 /* Fills *stats (reduces the per-pixel statistics on the device). */

@@ -37,11 +37,12 @@
 /* Eq. 5's sample cap (cache.max_samples): rounds of the 128-thread creation workgroup
    (shaders/cache_create.comp, CREATE_MAX_ROUNDS).  On a CPU device at most 6 rounds:
    llvmpipe silently truncates an invocation's loops past 65535 iterations, and 6 rounds
-   x 7 points x 2 tracking loops x 512 steps = 43008. */
+   x 7 points x 2 transmittance estimates x (640 pooled comb steps + 16 orders) = 55104,
+   plus the light loops (the budget is spelled out in cache_create.comp). */
 #define CACHE_CREATE_GROUP 128u
 #define CACHE_DEFAULT_SAMPLES 768u
-#define CACHE_CPU_MAX_SAMPLES 768u
-#define CACHE_MAX_SAMPLES 8192u
+#define CACHE_CPU_MAX_SAMPLES PICVR_CACHE_MAX_SAMPLES_CPU
+#define CACHE_MAX_SAMPLES PICVR_CACHE_MAX_SAMPLES
 #define ROUND_READBACK_BYTES (CACHE_COUNTER_WORDS * 4 + 16)
 enum { PROC_CREATE, PROC_UPDATE, PROC_RENDER };
 #define PICVR_PI 3.14159265358979323846
@@ -503,6 +504,26 @@ static picvr_status create_instance(picvr_context *ctx, int validation) {
         ctx->validation_enabled = 1;
     }
     return PICVR_OK;
+}
+
+const char *picvr_device_type_string(picvr_device_type type) {
+    switch (type) {
+    case PICVR_DEVICE_INTEGRATED_GPU: return "integrated-gpu";
+    case PICVR_DEVICE_DISCRETE_GPU: return "discrete-gpu";
+    case PICVR_DEVICE_VIRTUAL_GPU: return "virtual-gpu";
+    case PICVR_DEVICE_CPU: return "cpu";
+    default: return "other";
+    }
+}
+
+static picvr_device_type device_type_of(VkPhysicalDeviceType t) {
+    switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return PICVR_DEVICE_INTEGRATED_GPU;
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return PICVR_DEVICE_DISCRETE_GPU;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return PICVR_DEVICE_VIRTUAL_GPU;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return PICVR_DEVICE_CPU;
+    default: return PICVR_DEVICE_OTHER;
+    }
 }
 
 static int device_rank(VkPhysicalDeviceType t) {
@@ -2310,5 +2331,6 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
     out->width = ctx->has_camera ? ctx->camera.width : 0;
     out->height = ctx->has_camera ? ctx->camera.height : 0;
     snprintf(out->device_name, sizeof out->device_name, "%s", ctx->props.deviceName);
+    out->device_type = device_type_of(ctx->props.deviceType);
     return PICVR_OK;
 }

@@ -30,8 +30,9 @@ mkdir -p "$OUT"
 "$B/picvr-render" --volume "$VOL" --tf ct-bonsai --lights paper1 --size 16x16 --iterations 1 \
     --quiet --json "$OUT/gpu_device.json" > /dev/null
 device=$(sed -n 's/.*"device_name": "\([^"]*\)".*/\1/p' "$OUT/gpu_device.json")
-echo "device: $device"
-case "$device" in *llvmpipe*) echo "gpu_check: WARNING: lavapipe, not a GPU" >&2 ;; esac
+device_type=$(sed -n 's/.*"device_type": "\([^"]*\)".*/\1/p' "$OUT/gpu_device.json")
+echo "device: $device ($device_type)"
+case "$device_type" in cpu) echo "gpu_check: WARNING: a CPU driver, not a GPU" >&2 ;; esac
 
 # The log's columns by name (picvr-render --log).
 col() { head -1 "$1" | tr ',' '\n' | grep -n -x "$2" | cut -d: -f1; }

@@ -325,7 +325,7 @@ static int apply_option(options *o, const char *name, const char *value)
         else if (!strcmp(value, "off")) *sw = PICVR_SWITCH_OFF;
         else ok = 0;
     } else if (!strcmp(name, "samples")) {
-        ok = parse_u32(value, 1, 8192, &o->max_samples);
+        ok = parse_u32(value, 1, PICVR_CACHE_MAX_SAMPLES, &o->max_samples);
     } else if (!strcmp(name, "device")) {
         o->device = value;
     } else if (!strcmp(name, "exposure")) {
@@ -709,6 +709,8 @@ static int write_json(const options *o, const picvr_stats *s)
     char device[sizeof s->device_name + 1];
     snprintf(device, sizeof device, "%.*s", (int)sizeof s->device_name, s->device_name);
     json_string(f, device);
+    fputs(", \"device_type\": ", f);
+    json_string(f, picvr_device_type_string(s->device_type));
     fputs(", \"volume\": ", f);
     json_string(f, o->volume_path);
     fputs(", \"tf\": ", f);
@@ -749,10 +751,10 @@ static int write_json(const options *o, const picvr_stats *s)
 static void print_summary(const options *o, const picvr_stats *s)
 {
     printf("%s: %ux%u, %u iterations in %.2f s (%.3g samples/s), est_rel_error %.4g, "
-           "est_error %.4g, mean_luminance %.4g, device %.*s", base_name(o->volume_path),
+           "est_error %.4g, mean_luminance %.4g, device %.*s (%s)", base_name(o->volume_path),
            s->width, s->height, s->iterations, s->elapsed_ms / 1e3, s->samples_per_second,
            s->est_rel_error, s->est_error, s->mean_luminance,
-           (int)sizeof s->device_name, s->device_name);
+           (int)sizeof s->device_name, s->device_name, picvr_device_type_string(s->device_type));
     if (s->truncated_paths) printf(", %llu truncated paths",
                                    (unsigned long long)s->truncated_paths);
     if (s->validation_messages) printf(", %u validation messages", s->validation_messages);

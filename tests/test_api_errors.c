@@ -36,6 +36,31 @@ void test_status_strings_non_null_and_distinct(void **state) {
     }
 }
 
+/* picvr_device_type_string names every type distinctly, "other" out of range; the stats
+   report the type of the device in use, and the name the Vulkan driver gives agrees with
+   it for the drivers we know (lavapipe and SwiftShader are CPU devices). */
+void test_device_type_reported(void **state) {
+    (void)state;
+    const char *names[PICVR_DEVICE_CPU + 1];
+    for (int t = 0; t <= PICVR_DEVICE_CPU; t++) {
+        names[t] = picvr_device_type_string((picvr_device_type)t);
+        if (!names[t] || !names[t][0]) fail_msg("picvr_device_type_string(%d) is NULL or empty", t);
+        for (int u = 0; u < t; u++)
+            if (strcmp(names[t], names[u]) == 0) fail_msg("types %d and %d share \"%s\"", u, t, names[t]);
+    }
+    assert_string_equal(picvr_device_type_string(PICVR_DEVICE_CPU), "cpu");
+    assert_string_equal(picvr_device_type_string((picvr_device_type)99), "other");
+    assert_string_equal(picvr_device_type_string((picvr_device_type)-1), "other");
+    picvr_context *ctx = tu_create(0);
+    picvr_stats st;
+    TU_OK(picvr_get_stats(ctx, &st));
+    print_message("    %s: %s\n", st.device_name, picvr_device_type_string(st.device_type));
+    assert_true((unsigned)st.device_type <= PICVR_DEVICE_CPU);
+    if (strstr(st.device_name, "llvmpipe") || strstr(st.device_name, "SwiftShader"))
+        assert_int_equal(st.device_type, PICVR_DEVICE_CPU);
+    tu_finish(ctx);
+}
+
 static void *dummy_alloc(size_t size, void *user) { (void)user; return malloc(size); }
 static void free_hook(void *p, void *user) { (void)user; free(p); }
 
@@ -645,11 +670,11 @@ void test_create_config_errors(void **state) {
     CFG_ROW("cache.max_entries 2^25", PICVR_ERROR_SIZE_OVERFLOW, cfg.cache.max_entries = 1u << 25);
     CFG_ROW("cache.max_nodes 100 (< pre-built top)", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_nodes = 100);
     CFG_ROW("cache.max_refs 1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_refs = 1);
-    CFG_ROW("cache.max_samples 8193", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_samples = 8193);
+    CFG_ROW("cache.max_samples 8193", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_samples = PICVR_CACHE_MAX_SAMPLES + 1);
     /* more than 6 rounds of the creation procedure would pass llvmpipe's loop bound */
     if (tu_device_is_cpu())
         CFG_ROW("cache.max_samples 769 on a CPU device", PICVR_ERROR_INVALID_ARGUMENT,
-                (cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE, cfg.cache.max_samples = 769));
+                (cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE, cfg.cache.max_samples = PICVR_CACHE_MAX_SAMPLES_CPU + 1));
     /* a pool larger than the device's storage-buffer range (2^24 entries x 144 B =
        2.25 GiB; lavapipe allows 128 MiB): the cache on, the pool cannot be created */
     CFG_ROW("cache pool 2^24 entries (2 GiB)", PICVR_ERROR_SIZE_OVERFLOW,

@@ -55,7 +55,7 @@ int tu_device_is_cpu(void) {
     picvr_context *ctx = tu_create(0);
     picvr_stats st;
     TU_OK(picvr_get_stats(ctx, &st));
-    int cpu = strstr(st.device_name, "llvmpipe") != NULL || strstr(st.device_name, "SwiftShader") != NULL;
+    int cpu = st.device_type == PICVR_DEVICE_CPU;
     tu_finish(ctx);
     return cpu;
 }

@@ -71,6 +71,7 @@
     X(test_scheduler_config_errors)                                 \
     /* test_api_errors.c */                                         \
     X(test_status_strings_non_null_and_distinct)                    \
+    X(test_device_type_reported)                                    \
     X(test_create_destroy_errors)                                   \
     X(test_step_before_volume_and_camera_is_not_ready)              \
     X(test_bad_inputs_rejected_and_state_kept)                      \
