@@ -81,7 +81,18 @@ for size in 128x128 512x512; do
         done
     done
 done
+# Creation's truncated transmittance estimates (biased; README "The irradiance cache",
+# the loop pool): a GPU runs more rounds per entry, so say how many were cut.
+json_u() { sed -n "s/.*\"$2\": \([0-9]*\).*/\1/p" "$1"; }
 {
-    echo "device: $device; bonsai, paper1, ${SECS} s per run, Table 1 shares"
+    echo "device: $device ($device_type); bonsai, paper1, ${SECS} s per run, Table 1 shares"
     column -s, -t < "$SUMMARY" 2>/dev/null || cat "$SUMMARY"
+    for size in 128x128 512x512; do
+        for cache in object screen object-2048; do
+            j="$OUT/gpu_${size}_${cache}.json"
+            [ -s "$j" ] || continue
+            echo "$size $cache: creation samples $(json_u "$j" cache_samples)," \
+                "truncated $(json_u "$j" cache_samples_truncated)"
+        done
+    done
 } | tee "$OUT/gpu_check.txt"
