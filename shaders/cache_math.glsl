@@ -598,8 +598,9 @@ CM_API real CM_FN(medium_bound)(real l, real lnE0, real sx, real sy, real sz, re
 //   count n     NaN or negative -> 0; capped at CM_STAT_N_MAX;
 //   mean        as a sample;  m2  NaN or negative -> 0; capped at CM_STAT_M2_MAX;
 //   a merge of two empty sets (n_a + n_b = 0) gives mean 0 and m2 0.
-// Then |mean_b - mean_a| <= 2e15, the merge's term d^2 n_a n_b / n <= 4e30 n / 4 <= 1e36,
-// and m2 <= CM_STAT_M2_MAX: all below float's 3.4e38.
+// Then |mean_b - mean_a| <= 2e15, the merge's term d^2 n_a n_b / n <= 4e30 * 1e6 / 2 =
+// 2e36 (n_a n_b / n <= min(n_a, n_b)), so its sum with two m2 <= CM_STAT_M2_MAX stays
+// below 4e36, far under float's 3.4e38.
 #ifndef CM_STAT_CONSTANTS
 #define CM_STAT_CONSTANTS 1
 #define CM_STAT_MAX    CM_REAL(1e15)
