@@ -34,15 +34,14 @@
 #define CACHE_REF_BYTES 8u         /* struct Ref */
 #define CACHE_REQUEST_BYTES 32u    /* struct Request */
 #define CACHE_ENTRY_BYTES 144u     /* struct Entry */
-/* Eq. 5's sample cap (cache.max_samples): rounds of the 128-thread creation workgroup
-   (shaders/cache_create.comp, CREATE_MAX_ROUNDS).  On a CPU device at most 6 rounds:
+/* Eq. 5's sample cap (cache.max_samples; its limits PICVR_CACHE_MAX_SAMPLES and
+   PICVR_CACHE_MAX_SAMPLES_CPU are in picvr.h): rounds of the 128-thread creation
+   workgroup (shaders/cache_create.comp, CREATE_MAX_ROUNDS).  On a CPU device at most 6 rounds:
    llvmpipe silently truncates an invocation's loops past 65535 iterations, and 6 rounds
    x 7 points x 2 transmittance estimates x (640 pooled comb steps + 16 orders) = 55104,
    plus the light loops (the budget is spelled out in cache_create.comp). */
 #define CACHE_CREATE_GROUP 128u
 #define CACHE_DEFAULT_SAMPLES 768u
-#define CACHE_CPU_MAX_SAMPLES PICVR_CACHE_MAX_SAMPLES_CPU
-#define CACHE_MAX_SAMPLES PICVR_CACHE_MAX_SAMPLES
 #define ROUND_READBACK_BYTES (CACHE_COUNTER_WORDS * 4 + 16)
 enum { PROC_CREATE, PROC_UPDATE, PROC_RENDER };
 #define PICVR_PI 3.14159265358979323846
@@ -675,9 +674,9 @@ static picvr_status create_pipelines(picvr_context *ctx) {
         if (!s) s = create_pipeline(ctx, ctx->priority_module, ctx->render_layout, NULL, &ctx->priority_pipe);
     }
     if (!s && ctx->cache_on && ctx->props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU &&
-        ctx->cache.max_samples > CACHE_CPU_MAX_SAMPLES) {
+        ctx->cache.max_samples > PICVR_CACHE_MAX_SAMPLES_CPU) {
         logf_(ctx, PICVR_LOG_ERROR, "cache.max_samples %u: at most %u on a CPU device (loop bound)",
-              ctx->cache.max_samples, CACHE_CPU_MAX_SAMPLES);
+              ctx->cache.max_samples, PICVR_CACHE_MAX_SAMPLES_CPU);
         s = PICVR_ERROR_INVALID_ARGUMENT;
     }
     if (!s && ctx->cache_on) {
@@ -928,7 +927,7 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
     if (!c->max_refs) c->max_refs = 16 * c->max_entries;
     if (!c->max_requests) c->max_requests = 1000;
     if (!c->max_samples) c->max_samples = CACHE_DEFAULT_SAMPLES;
-    if (c->max_samples > CACHE_MAX_SAMPLES) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->max_samples > PICVR_CACHE_MAX_SAMPLES) return PICVR_ERROR_INVALID_ARGUMENT;
     c->max_samples = (c->max_samples + CACHE_CREATE_GROUP - 1) / CACHE_CREATE_GROUP * CACHE_CREATE_GROUP;
     if (c->max_nodes < 4681 || c->max_refs < 2 || c->max_nodes > (1u << 28) || c->max_refs > (1u << 28))
         return PICVR_ERROR_INVALID_ARGUMENT;
