@@ -190,7 +190,7 @@ typedef struct picvr_cache_config {
                                   Entries stored at the cap are counted in
                                   stats.cache_entries_capped.  Lower caps create entries
                                   faster but noisier (bonsai, 128: 4.3x as many in 20 s;
-                                  README "The irradiance cache") */
+                                  docs/cache.md) */
     float update_threshold;    /* §4.3: predictions conflict when they differ by more than
                                   this relative amount; 0: 0.1 */
     float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */

@@ -944,7 +944,7 @@ static void note_run_time(const char *path)
 /* --bias-warm: fills the cache for rs->warm_ms with creation at WARM_CREATE_SHARE, then
    restarts the image; picvr_reset keeps the cache.  The run that follows measures the
    image of a full cache - the state a GPU reaches within seconds (the paper's §8), which
-   on lavapipe takes minutes at the default 5-15 % creation share (README, "The cache"). */
+   on lavapipe takes minutes at the default 5-15 % creation share (README, "The irradiance cache"). */
 static int warm_up(const run_spec *rs, session *ss)
 {
     double t = 0;

@@ -81,8 +81,8 @@ for size in 128x128 512x512; do
         done
     done
 done
-# Creation's truncated transmittance estimates (biased; README "The irradiance cache",
-# the loop pool): a GPU runs more rounds per entry, so say how many were cut.
+# Creation's truncated transmittance estimates (biased; docs/cache.md, "Guards on
+# creation's estimates"): a GPU runs more rounds per entry, so say how many were cut.
 json_u() { sed -n "s/.*\"$2\": \([0-9]*\).*/\1/p" "$1"; }
 {
     echo "device: $device ($device_type); bonsai, paper1, ${SECS} s per run, Table 1 shares"

@@ -533,9 +533,10 @@ CM_API real CM_FN(curvature_radius)(real lnEm, real lnE0, real lnEp, real delta,
 // Why a count and not the optical depth: until 2026-11-29 f was tau / (sigma_0 delta),
 // the length of medium *of the centre's density*.  Entries sit at scatter events, which
 // fall where the extinction is high, so sigma_0 tends to exceed the extinction along the
-// axis; that f < 1 stretched axes that never leave the medium.  On bonsai with noise-free
-// entries (README, "Entry noise and the dark pot") the error per hit went from +5.5 % /
-// +7.1 % to +1.1 % / +1.3 % (2 seeds), the tree's from up to +19 % to up to +11 %.
+// axis; that f < 1 stretched axes that never leave the medium.  On bonsai with
+// noise-free entries (docs/cache.md, "Entry noise and the dark pot") the error per hit
+// went from +5.5 % / +7.1 % to +1.1 % / +1.3 % (2 seeds), the tree's from up to +19 % to
+// up to +11 %.
 // Rules: n_in NaN or +inf -> 1 (the paper's secant), -inf -> CM_F_MIN; n_in >=
 // CM_F_PROBES -> exactly 1 (a homogeneous medium keeps Eq. 7 exact); n_in <= 0 (the axis
 // leaves the medium at once) -> CM_F_MIN; otherwise n_in / CM_F_PROBES, at least CM_F_MIN.

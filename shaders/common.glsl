@@ -401,8 +401,8 @@ float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout boo
 // Why, in creation only: ratio tracking against tight majorants is nearly a 0/1
 // estimate, so Eq. 5 needs thousands of samples wherever the light arrives through the
 // medium; at the 768-sample cap 81 % of bonsai's entries still missed it, and their
-// noise darkened the image where several entries meet (README, "Entry noise and the dark
-// pot").  This estimator is exact in a homogeneous medium and low-variance elsewhere:
+// noise darkened the image where several entries meet (docs/cache.md, "Entry noise and
+// the dark pot").  This estimator is exact in a homogeneous medium and low-variance elsewhere:
 // 24 % of the entries miss Eq. 5.  It costs about 4x a ratio-tracking sample, so the
 // renderer keeps ratio tracking (one sample per pixel and iteration, no Eq. 5).
 // A kernel that defines TRANSMITTANCE_RAY_MARCHING defines RM_BUDGET, the most loop
