@@ -12,7 +12,7 @@ SHADER_INC  := $(wildcard shaders/*.glsl)
 TEST_SRC    := $(wildcard tests/test_*.c)
 LIB_OBJ     := $(B)/picvr_vk.o
 
-.PHONY: all deps lib test demo bench-speed bench-scheduler bench-long-run bench-hit-rate shaders check-shaders check-layout clean help
+.PHONY: all deps lib test demo bench-speed bench-scheduler bench-long-run bench-hit-rate shaders check-shaders check-layout check-examples clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
 
 help:
@@ -24,6 +24,7 @@ help:
 	@echo "make bench-hit-rate   hit rate against entry count; time to 0.8 on this device"
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
 	@echo "make check-layout host mirrors of the shaders' buffer layouts and constants match"
+	@echo "make check-examples  the examples of picvr.h and README.md compile (-Werror) and run"
 	@echo "make bench        error against run time, reduced (bonsai, 128x128; minutes)"
 	@echo "make bench-full   error against run time, the whole matrix (hours; resumable)"
 	@echo "make bench-bias   bias of the cache when full: default, paper model, curvature limit (~55 min)"
@@ -80,7 +81,11 @@ $(B)/layout-host: tools/layout_host.c picvr_vk.c picvr.h picvr_shaders.h | $(B)/
 check-layout: $(B)/layout-host
 	GLSLANG=$(GLSLANG) sh tools/check_layout.sh $(B)/layout-host
 
-test: deps check-shaders check-layout $(B)/picvr-tests $(B)/picvr-render $(B)/picvr-bench-error
+# The examples of picvr.h and README.md, cut out as written, compiled and run.
+check-examples: deps $(B)/libpicvr.a
+	CC=$(CC) sh tools/check_examples.sh $(B) $(B)/libpicvr.a
+
+test: deps check-shaders check-layout check-examples $(B)/picvr-tests $(B)/picvr-render $(B)/picvr-bench-error
 	$(B)/picvr-bench-error --self-test
 	cd $(B) && PICVR_VALIDATION=1 PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
 

@@ -1,0 +1,55 @@
+#!/bin/sh
+# check_examples.sh BUILD_DIR LIB - compiles and runs the two examples a user copies
+# first: the EXAMPLE at the top of picvr.h and the C block under "Using the library" in
+# README.md.  Each is cut out of its document as written, wrapped in a main() that
+# supplies what the text leaves to the reader (the voxels: a ball; the pixel buffer),
+# compiled with -Wall -Wextra -Werror and run with the validation layer on.  It fails if
+# an example does not compile against the current API, does not return 0, renders no
+# iteration, gives a non-finite error estimate, or draws a validation message.
+set -eu
+B=$1
+LIB=$2
+CC=${CC:-cc}
+mkdir -p "$B/examples-check"
+D=$B/examples-check
+
+# The header's example: the comment lines between " * EXAMPLE" and the next rule,
+# without the comment prefix.
+awk '/^ \* EXAMPLE/ { on = 1; next } on && /^ \* -----/ { exit } on' picvr.h |
+    sed -e 's/^ \*    //' -e 's/^ \*$//' > "$D/header_example.inc"
+# The README's example: the first ```c block.
+awk '/^```c$/ { on = 1; next } on && /^```$/ { exit } on' README.md |
+    grep -v '^#include' > "$D/readme_example.inc"
+
+for name in header_example readme_example; do
+    if [ ! -s "$D/$name.inc" ]; then echo "check_examples: $name not found" >&2; exit 1; fi
+    cat > "$D/$name.c" <<WRAP
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include "picvr.h"
+
+static uint8_t voxels[256 * 256 * 256];   /* the data the example uploads */
+static uint8_t pixels[512 * 512 * 4];     /* the README example's output */
+
+int main(void) {
+    for (int z = 0; z < 256; z++)         /* a soft ball of radius 100 voxels */
+        for (int y = 0; y < 256; y++)
+            for (int x = 0; x < 256; x++) {
+                double r = sqrt((x - 127.5) * (x - 127.5) + (y - 127.5) * (y - 127.5) +
+                                (z - 127.5) * (z - 127.5));
+                double v = r < 100.0 ? 1.0 - r / 100.0 : 0.0;
+                voxels[x + 256 * (y + 256 * z)] = (uint8_t)(255.0 * v);
+            }
+    (void)pixels;
+#include "$name.inc"
+    fprintf(stderr, "$name: %u iterations, est_rel_error %g, %u validation messages, device %s\n",
+            st.iterations, st.est_rel_error, st.validation_messages, st.device_name);
+    return st.iterations > 0 && isfinite(st.est_rel_error) && st.validation_messages == 0 ? 0 : 1;
+}
+WRAP
+    $CC -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -Wall -Wextra -Werror -I. -I"$D" \
+        -o "$D/$name" "$D/$name.c" "$LIB" -lvulkan -lm
+    PICVR_VALIDATION=1 "$D/$name" > "$D/$name.out"
+done
+echo "check_examples: the header's and the README's examples compile and run"
