@@ -276,6 +276,19 @@ bool dda_advance(inout Dda d) {
     return all(greaterThanEqual(d.cell, ivec3(0))) && all(lessThanEqual(d.cell, d.hi));
 }
 
+// One ratio-tracking collision with extinction s under majorant m: T *= 1 - s / m (Eq.
+// 2), and Russian roulette below 0.1, which ends long, dark paths early without bias
+// (a survivor is raised to 0.1).  Returns true when the path ended (T = 0).
+bool ratio_collide(inout float T, float s, float m, inout Rng rng) {
+    // s <= m by construction; the clamp keeps T >= 0 under rounding
+    T *= clamp(1.0 - s / m, 0.0, 1.0);
+    if (T < 0.1) {
+        if (T <= 0.0 || rnd(rng) >= T * 10.0) { T = 0.0; return true; }
+        T = 0.1;
+    }
+    return false;
+}
+
 // Tracking through one dense brick at voxel resolution, from t to t_end, sharing the
 // caller's step counter.  Returns true when the walk ended the whole track: a real
 // collision (delta tracking; t holds it) or a zero transmittance (ratio tracking).
@@ -292,12 +305,8 @@ bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, inou
                 float s = sigma_t(ro + rd * t);
                 if (!ratio) {
                     if (rnd(rng) * m < s) return true;
-                } else {
-                    T *= clamp(1.0 - s / m, 0.0, 1.0);
-                    if (T < 0.1) {
-                        if (T <= 0.0 || rnd(rng) >= T * 10.0) { T = 0.0; return true; }
-                        T = 0.1;
-                    }
+                } else if (ratio_collide(T, s, m, rng)) {
+                    return true;
                 }
                 continue;
             }
@@ -309,12 +318,15 @@ bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, inou
     return false;
 }
 
-// Delta (Woodcock) tracking in [t0, t1]: the distance of a real collision, or -1 when
-// the ray passes.  Free flights restart at cell boundaries (the exponential
+// Delta (Woodcock) tracking (ratio false) or ratio tracking (ratio true) in [t0, t1]:
+// one walk through the majorant grid for both; every caller passes a constant, so each
+// compiles to its own loop.  Free flights restart at cell boundaries (the exponential
 // distribution is memoryless), so each cell uses its own majorant.  Every iteration
-// (a tentative collision, a cell step, an empty-space jump, also inside
-// fine_segment) counts against one bound.
-float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+// (a tentative collision, a cell step, an empty-space jump, also inside fine_segment)
+// counts against one bound; past it the track is truncated (biased, counted) and
+// treated as passing.  Returns, for delta tracking, the distance of a real collision
+// or -1 when the ray passes; for ratio tracking, the transmittance estimate (Eq. 2).
+float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, T = 1.0;
     float maj = cell_majorant(d);
@@ -322,57 +334,18 @@ float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout boo
         float t_cell = min(dda_exit(d), t1);
         if (maj > 0.0) {
             if (USE_FINE && maj * (t_cell - t) > FINE_THRESHOLD) {
-                if (fine_segment(false, ro, rd, t, t_cell, T, rng, i)) return t;
+                if (fine_segment(ratio, ro, rd, t, t_cell, T, rng, i)) return ratio ? T : t;
                 if (i >= MAX_TRACK_STEPS) break;
             } else {
                 // -log(1 - u) is finite because u < 1 (rnd has 24 bits).
                 float t_try = t - log(1.0 - rnd(rng)) / maj;
                 if (t_try < t_cell) {
                     t = t_try;
-                    if (rnd(rng) * maj < sigma_t(ro + rd * t)) return t;
-                    continue;
-                }
-            }
-        } else {
-            float jump = empty_skip(d, rd);
-            if (jump > 0.0) {
-                t += jump;
-                if (t >= t1) return -1.0;
-                d = coarse_start(ro, rd, t);
-                maj = cell_majorant(d);
-                continue;
-            }
-        }
-        t = t_cell;
-        if (t >= t1 || !dda_advance(d)) return -1.0;
-        maj = cell_majorant(d);
-    }
-    truncated = true;   // bound reached: treated as escaping (biased, counted)
-    return -1.0;
-}
-
-// Ratio tracking in [t0, t1]: an unbiased transmittance estimate (Eq. 2).  Russian
-// roulette below 0.1 ends long, dark paths early without bias.
-float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
-    Dda d = coarse_start(ro, rd, t0);
-    float t = t0;
-    float T = 1.0;
-    float maj = cell_majorant(d);
-    for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
-        float t_cell = min(dda_exit(d), t1);
-        if (maj > 0.0) {
-            if (USE_FINE && maj * (t_cell - t) > FINE_THRESHOLD) {
-                if (fine_segment(true, ro, rd, t, t_cell, T, rng, i)) return T;
-                if (i >= MAX_TRACK_STEPS) break;
-            } else {
-                float t_try = t - log(1.0 - rnd(rng)) / maj;
-                if (t_try < t_cell) {
-                    t = t_try;
-                    // sigma_t <= maj by construction; the clamp keeps T >= 0 under rounding
-                    T *= clamp(1.0 - sigma_t(ro + rd * t) / maj, 0.0, 1.0);
-                    if (T < 0.1) {
-                        if (T <= 0.0 || rnd(rng) >= T * 10.0) return 0.0;
-                        T = 0.1;
+                    float s = sigma_t(ro + rd * t);
+                    if (!ratio) {
+                        if (rnd(rng) * maj < s) return t;
+                    } else if (ratio_collide(T, s, maj, rng)) {
+                        return 0.0;
                     }
                     continue;
                 }
@@ -381,18 +354,26 @@ float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout boo
             float jump = empty_skip(d, rd);
             if (jump > 0.0) {
                 t += jump;
-                if (t >= t1) return T;
+                if (t >= t1) return ratio ? T : -1.0;
                 d = coarse_start(ro, rd, t);
                 maj = cell_majorant(d);
                 continue;
             }
         }
         t = t_cell;
-        if (t >= t1 || !dda_advance(d)) return T;
+        if (t >= t1 || !dda_advance(d)) return ratio ? T : -1.0;
         maj = cell_majorant(d);
     }
     truncated = true;
-    return T;
+    return ratio ? T : -1.0;
+}
+
+float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    return track(false, ro, rd, t0, t1, rng, truncated);
+}
+
+float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    return track(true, ro, rd, t0, t1, rng, truncated);
 }
 
 #ifdef TRANSMITTANCE_RAY_MARCHING
