@@ -15,12 +15,14 @@
 # Writes OUT/gpu_check.csv, the per-round logs OUT/gpu_*.csv and OUT/gpu_check.txt.
 #
 # usage: bench/gpu_check.sh [SECS, default 20] [OUT, default bench/results]
-# env:   DATA (default ../shared/data), B (build directory, default build)
+# env:   DATA (default ../shared/data), B (build directory, default build),
+#        EXTRA (default .gpu/extra: libraries for a bare machine, see gpu_env.sh)
 set -eu
 SECS=${1:-20}
 OUT=${2:-bench/results}
 B=${B:-build}
 DATA=${DATA:-../shared/data}
+. "$(dirname "$0")/gpu_env.sh"
 VOL="$DATA/bonsai_256x256x256_uint8.raw.gz"
 mkdir -p "$OUT"
 [ -f "$VOL" ] || { echo "gpu_check: no $VOL (set DATA)" >&2; exit 1; }
