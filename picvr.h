@@ -462,9 +462,10 @@ typedef struct picvr_stats {
                                     sample cap (cache.max_samples per point, 768 by
                                     default): their relative error may exceed gamma's 9 %
                                     (README "The irradiance cache") */
-    uint64_t cache_samples;      /* irradiance samples the stored entries took (each point
-                                    of each entry: 128 per round until Eq. 5 or the cap;
-                                    each sample has a light and a phase ray) */
+    uint64_t cache_samples;      /* irradiance samples the stored entries took (each of an
+                                    entry's seven points: 128 per round until its own
+                                    Eq. 5 holds or the cap; each sample has a light and a
+                                    phase ray) */
     uint64_t cache_samples_truncated; /* of those, samples whose transmittance estimate was
                                     cut at its loop bound (biased, like truncated_paths; a
                                     share above ~1e-4 says the rays are too long for the

@@ -139,6 +139,10 @@ struct picvr_context {
     uint32_t cache_prebuilt;         /* nodes of the pre-built top of the octree */
     uint32_t cache_requests_issued;  /* by the rounds of the last step */
     uint32_t cache_counts[CACHE_COUNTER_WORDS]; /* as read after the last round */
+    uint64_t cache_point_rounds;     /* creation rounds of the stored entries' points, and */
+    uint64_t cache_truncated;        /* their truncated samples: counter words 12 and 13,
+                                        which wrap at 2^32 on the device (16.7M entries of
+                                        7 x 64 rounds would), summed here round by round */
     int descriptors_dirty;
 
     /* scheduler (§6, §7; see "The scheduler" in ARCHITECTURE.md) */
@@ -1015,6 +1019,7 @@ static picvr_status cache_clear(picvr_context *ctx) {
     if (!s) s = upload_buffer(ctx, &ctx->cache_counters, counters, sizeof counters);
     ctx->cache_prebuilt = count;
     memcpy(ctx->cache_counts, counters, sizeof counters);
+    ctx->cache_point_rounds = ctx->cache_truncated = 0;
     ctx->requests_pending = 0;
     ctx->cache_since_rebuild_ms = 0.0;
     /* the hit rate restarts from an empty cache */
@@ -2012,6 +2017,9 @@ static picvr_status finish_round(picvr_context *ctx, const round_plan *p, double
     r->end_ms = now_ms();
     for (int i = 0; i < 3; i++) r->device_ms[i] = dev[i];
     if (ctx->cache_on) {
+        /* one round adds far less than 2^32, so the difference modulo 2^32 is exact */
+        ctx->cache_point_rounds += (uint32_t)(rb[12] - ctx->cache_counts[12]);
+        ctx->cache_truncated += (uint32_t)(rb[13] - ctx->cache_counts[13]);
         memcpy(ctx->cache_counts, rb, CACHE_COUNTER_WORDS * 4);
         r->hits = rb[8];
         r->misses = rb[9];
@@ -2310,9 +2318,10 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_full = c[7];
             st.cache_refs_per_entry = st.cache_entries ? (double)st.cache_refs / st.cache_entries : 0.0;
             st.cache_entries_capped = c[11] < st.cache_entries ? c[11] : st.cache_entries;
-            /* each round: 128 samples at each of the 7 points */
-            st.cache_samples = (uint64_t)c[12] * 128u * 7u;
-            st.cache_samples_truncated = c[13] < st.cache_samples ? c[13] : st.cache_samples;
+            /* each round of a point: 128 samples */
+            st.cache_samples = ctx->cache_point_rounds * 128u;
+            st.cache_samples_truncated =
+                ctx->cache_truncated < st.cache_samples ? ctx->cache_truncated : st.cache_samples;
             st.cache_hit_rate = ctx->hit_rate;
         }
         st.cache_max_samples = ctx->cache.max_samples;

@@ -4,9 +4,9 @@
 // at the centre and at the six points offset by Delta along the local axes (at most two
 // mean free paths: entry_delta in cache_math.glsl), by Monte
 // Carlo with MIS (one light sample + one phase sample per point and round, transmittance
-// by unbiased ray marching); rounds
-// repeat until Eq. 5 holds at all seven points or CREATE_MAX_ROUNDS is reached (the cap,
-// cache.max_samples / 128; entries stored at it are counted in `capped`).  Then
+// by unbiased ray marching).  Each point takes rounds of 128 samples until its own Eq. 5
+// holds or CREATE_MAX_ROUNDS is reached (the cap, cache.max_samples / 128; an entry with
+// a point stopped at the cap is counted in `capped`).  Then
 // thread 0 derives sigma_v (Eq. 6) and the radii (Eq. 9, 10, and the curvature limit
 // of cache_math.glsl when turned on), and 27 threads insert
 // the entry into the octree (one per node its bounding box may overlap); the request's lock
@@ -38,6 +38,7 @@ layout(push_constant) uniform Push { uint sched_round; uint seed; uint budget; u
 
 shared vec4 s_red[128];          // reduction scratch: (mean, m2, n) statistics or RGB sums
 shared bool s_done;
+shared bool s_point_done[7];     // point k met Eq. 5 in an earlier round: it stops sampling
 shared uint s_truncated;         // samples whose transmittance estimate hit its loop bound
 shared vec3 s_E[7];
 shared vec2 s_f;                 // medium fraction of +n, -n
@@ -117,15 +118,23 @@ void main() {
 
     // Per point: the RGB sum (the stored mean) and, for Eq. 5, the luminance samples'
     // running mean and m2 (Welford; cache_math.glsl, "Eq. 5's sample statistics").
+    // Eq. 5 is a rule per estimate, so a point stops sampling once its own estimate meets
+    // it (s_point_done) while the others go on: on bonsai a full-rule entry took 2,250
+    // samples on average, this one 1,500, for 1.3x the entries in the same time and a
+    // higher hit rate per entry (README, "The irradiance cache").  Points still sampling
+    // share each round's random streams, so common random numbers (below) still tie
+    // their ratios; a stopped point shares with them the rounds it took.
     vec3 sum[7];
     float lmean[7], lm2[7];
     for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lmean[k] = 0.0; lm2[k] = 0.0; }
     uint truncated = 0u;             // this thread's samples with a truncated estimate
     bool converged = false;
     float gamma = scene.cache_params.x;
-    uint rounds = 0u;
+    uint point_rounds[7];            // rounds each point took (uniform over the workgroup)
+    for (uint k = 0u; k < 7u; k++) point_rounds[k] = 0u;
+    if (lid < 7u) s_point_done[lid] = false;
+    barrier();
     for (uint round = 0u; round < CREATE_MAX_ROUNDS; round++) {
-        rounds = round + 1u;
         // Common random numbers: in one round a thread estimates all seven points with
         // the same random streams (same light, point on it and phase direction), so the
         // ratios E_Delta / E_0 of Eq. 6 and 10 are far less noisy than the points'
@@ -135,27 +144,31 @@ void main() {
         Rng light_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x5bd1e995u);
         Rng phase_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u);
         for (uint k = 0u; k < 7u; k++) {
+            if (s_point_done[k]) continue;           // uniform over the workgroup
             bool cut = false;
             vec3 e = irradiance_sample(p[k], light_rng, phase_rng, cut);
             if (cut) truncated++;
             // Rule: a non-finite sample (only from extreme input) counts as 0.
             if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
             float l = CM_FN(stat_sample)(luminance(e));
-            float n_before = float(round);
+            float n_before = float(point_rounds[k]);
+            point_rounds[k]++;
             lm2[k] = CM_FN(stat_merge_m2)(n_before, lmean[k], lm2[k], 1.0, l, 0.0);
             lmean[k] = CM_FN(stat_merge_mean)(n_before, lmean[k], 1.0, l);
             sum[k] += e;
         }
-        // Eq. 5 at every point: 1.96 sqrt(S^2(N)/N) <= gamma/(gamma+1) E(N), on the
-        // merged statistics (cache_math.glsl, eq5_met; rule: a point with E = 0 and S = 0,
-        // fully shadowed, passes).
+        // Eq. 5 at every point still sampling: 1.96 sqrt(S^2(N)/N) <= gamma/(gamma+1) E(N),
+        // on the merged statistics (cache_math.glsl, eq5_met; rule: a point with E = 0 and
+        // S = 0, fully shadowed, passes); the entry is done when all seven are.
         if (lid == 0u) s_done = true;
         for (uint k = 0u; k < 7u; k++) {
-            s_red[lid] = vec4(lmean[k], lm2[k], float(rounds), 0.0);
+            if (s_point_done[k]) continue;           // uniform
+            s_red[lid] = vec4(lmean[k], lm2[k], float(point_rounds[k]), 0.0);
             reduce_stats();
             bool ok = CM_FN(eq5_met)(s_red[0].z, s_red[0].x, s_red[0].y, gamma);
             barrier();
-            if (lid == 0u && !ok) s_done = false;
+            if (lid == 0u) { if (ok) s_point_done[k] = true; else s_done = false; }
+            barrier();
         }
         barrier();
         bool done = s_done;
@@ -166,8 +179,10 @@ void main() {
     if (truncated > 0u) atomicAdd(s_truncated, truncated);   // rare: no reduction
     // Mean RGB irradiance at the seven points.  Rule: a negative mean (ray marching's
     // estimates may be negative; only a mean of noise about 0 could be) is stored as 0.
-    float N = float(rounds * 128u);
+    uint point_rounds_sum = 0u;
     for (uint k = 0u; k < 7u; k++) {
+        point_rounds_sum += point_rounds[k];
+        float N = float(point_rounds[k] * 128u);
         s_red[lid] = vec4(sum[k], 0.0);
         reduce_red();
         if (lid == 0u) s_E[k] = max(s_red[0].xyz / N, vec3(0.0));
@@ -185,7 +200,7 @@ void main() {
             if (!converged) atomicAdd(cache_counters.capped, 1u);
             // The samples it took, and those with an estimate cut at RM_BUDGET or
             // RM_MAX_ORDER (biased; stats.cache_samples, cache_samples_truncated).
-            atomicAdd(cache_counters.rounds, rounds);
+            atomicAdd(cache_counters.rounds, point_rounds_sum);
             if (s_truncated > 0u) atomicAdd(cache_counters.truncated, s_truncated);
             float eps = scene.cache_params.y;
             float rmin = CM_FN(entry_r_min)(scene.cache_radii.x, delta, scene.cache_params.z);

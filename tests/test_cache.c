@@ -249,6 +249,54 @@ void test_cache_capped_entries_counted(void **state) {
     assert_true(one_round.cache_entries_capped > 0);
 }
 
+/* Eq. 5 is a rule per estimate: each of an entry's seven points stops sampling when its
+   own estimate meets it (cache_create.comp).  A thin homogeneous block lit by a delta sun
+   along +x, with no background: ray marching is exact there, so a point whose sun ray
+   stays in the homogeneous medium has zero variance and meets Eq. 5 after one round,
+   even at gamma = 1e-4.  Noise fills the block where x >= 20 and y >= 16 (voxels), so a
+   point at y >= 15.5 sees it on its way to the sun and, at gamma = 1e-4, runs to the cap
+   (6 rounds).  The camera looks at the band around y = 15.5, so many entries have points
+   on both sides.  An entry's samples are then 128 (7 + 5 n) for its n noisy points: a
+   capped entry has 1 <= n <= 7, and n < 7 for some of them, which the rule of all seven
+   points (42 rounds for every capped entry) could not give. */
+void test_cache_points_stop_on_their_own(void **state) {
+    (void)state;
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = 3;
+    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    cfg.cache.gamma = 1e-4f;
+    cfg.cache.max_requests = 16;
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_vol vol = tu_vol_new(32, 32, 32, 1.0f, 40);
+    uint64_t rng = 99;
+    for (uint32_t z = 0; z < 32; z++)
+        for (uint32_t y = 16; y < 32; y++)
+            for (uint32_t x = 20; x < 32; x++) *tu_vox(&vol, x, y, z) = (uint8_t)(255.0 * tu_rand01(&rng));
+    tu_upload(ctx, &vol);
+    tu_tf_ramp(ctx, 0.8f, 0.8f, 0.8f, 0.5f);     /* sigma_t 0.078 per voxel in the block */
+    tu_sun(ctx, 1.0, 0.0, 0.0, 1.0f, 1.0f, 1.0f, 2.0f, 0.0f);
+    /* world y = voxel y - 16: the band -3 < y < 2 at x = -4 (voxel 12) */
+    tu_set_camera(ctx, -4, -0.5, 60, -4, -0.5, 0, 4.8, 16, 16);
+    TU_OK(picvr_step_iterations(ctx, 16));
+    picvr_stats st = tu_stats_finite(ctx);
+    uint64_t e = st.cache_entries, c = st.cache_entries_capped;
+    uint64_t rounds = st.cache_samples / 128u;
+    print_message("    %llu entries, %llu capped, %llu point rounds (%.2f noisy points per capped entry)\n",
+                  (unsigned long long)e, (unsigned long long)c, (unsigned long long)rounds,
+                  c ? (double)(rounds - 7 * e) / (5.0 * c) : 0.0);
+    assert_true(st.cache_samples % 128u == 0);
+    assert_true(c > 0 && c < e + 1);
+    assert_true(rounds >= 7 * e + 5 * c);        /* every capped entry has a noisy point */
+    assert_true(rounds < 7 * e + 35 * c);        /* and some have quiet ones, which stopped */
+    assert_true(st.cache_samples_truncated == 0);
+    float *img = tu_read(ctx, 16, 16);
+    tu_assert_image_valid(img, 16, 16, "points stopping on their own");
+    free(img);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+}
+
 /* stats.cache_samples_truncated counts creation samples whose transmittance estimate was
    cut (common.glsl, ray_marching_transmittance: RM_MAX_ORDER orders or the loop pool).  A
    sheet two voxels thick and dense (sigma_t up to 40 per voxel) in empty space, under a

@@ -59,6 +59,7 @@
     X(test_cache_invalidation_and_camera_keeps_cache)               \
     X(test_cache_pool_full_is_reported_and_safe)                    \
     X(test_cache_capped_entries_counted)                            \
+    X(test_cache_points_stop_on_their_own)                          \
     X(test_cache_truncated_samples_counted)                         \
     X(test_cache_debug_view)                                        \
     X(test_cache_full_dense_lit_face)                               \
