@@ -119,11 +119,11 @@ void main() {
     // Per point: the RGB sum (the stored mean) and, for Eq. 5, the luminance samples'
     // running mean and m2 (Welford; cache_math.glsl, "Eq. 5's sample statistics").
     // Eq. 5 is a rule per estimate, so a point stops sampling once its own estimate meets
-    // it (s_point_done) while the others go on: on bonsai a full-rule entry took 2,250
-    // samples on average, this one 1,500, for 1.3x the entries in the same time and a
-    // higher hit rate per entry (README, "The irradiance cache").  Points still sampling
-    // share each round's random streams, so common random numbers (below) still tie
-    // their ratios; a stopped point shares with them the rounds it took.
+    // it (s_point_done) while the others go on.  On bonsai an entry took 2,250 samples on
+    // average when all seven waited for the last, and takes 1,500, for 1.3x the entries
+    // in the same time at a hit rate per entry at least as high (docs/cache.md, "Eq. 5 per
+    // point").  The common random numbers (below) still tie the points that sample in a
+    // round; a stopped point shares with the others the rounds it took.
     vec3 sum[7];
     float lmean[7], lm2[7];
     for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lmean[k] = 0.0; lm2[k] = 0.0; }
@@ -135,8 +135,9 @@ void main() {
     if (lid < 7u) s_point_done[lid] = false;
     barrier();
     for (uint round = 0u; round < CREATE_MAX_ROUNDS; round++) {
-        // Common random numbers: in one round a thread estimates all seven points with
-        // the same random streams (same light, point on it and phase direction), so the
+        // Common random numbers: in one round a thread estimates every point still
+        // sampling with the same random streams (same light, point on it and phase
+        // direction), so the
         // ratios E_Delta / E_0 of Eq. 6 and 10 are far less noisy than the points'
         // errors and a smooth field is not mistaken for a steep one.  Each point's
         // estimate stays unbiased.  Two streams, so that the phase sample does not
