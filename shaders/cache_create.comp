@@ -161,21 +161,18 @@ void main() {
         // Eq. 5 at every point still sampling: 1.96 sqrt(S^2(N)/N) <= gamma/(gamma+1) E(N),
         // on the merged statistics (cache_math.glsl, eq5_met; rule: a point with E = 0 and
         // S = 0, fully shadowed, passes); the entry is done when all seven are.
-        if (lid == 0u) s_done = true;
         for (uint k = 0u; k < 7u; k++) {
             if (s_point_done[k]) continue;           // uniform
             s_red[lid] = vec4(lmean[k], lm2[k], float(point_rounds[k]), 0.0);
             reduce_stats();
             bool ok = CM_FN(eq5_met)(s_red[0].z, s_red[0].x, s_red[0].y, gamma);
             barrier();
-            if (lid == 0u) { if (ok) s_point_done[k] = true; else s_done = false; }
+            if (lid == 0u && ok) s_point_done[k] = true;
             barrier();
         }
-        barrier();
-        bool done = s_done;
-        barrier();                                   // everyone has read s_done
-        converged = done;
-        if (done) break;
+        converged = true;
+        for (uint k = 0u; k < 7u; k++) converged = converged && s_point_done[k];
+        if (converged) break;
     }
     if (truncated > 0u) atomicAdd(s_truncated, truncated);   // rare: no reduction
     // Mean RGB irradiance at the seven points.  Rule: a negative mean (ray marching's
