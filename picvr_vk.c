@@ -519,6 +519,12 @@ const char *picvr_device_type_string(picvr_device_type type) {
     }
 }
 
+/* lavapipe and other CPU drivers: llvmpipe's loop bound and one workgroup per core
+   (../shared/LAVAPIPE.md) shape the sample cap and the creation batch. */
+static int on_cpu_device(const picvr_context *ctx) {
+    return ctx->props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+}
+
 static picvr_device_type device_type_of(VkPhysicalDeviceType t) {
     switch (t) {
     case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return PICVR_DEVICE_INTEGRATED_GPU;
@@ -677,7 +683,7 @@ static picvr_status create_pipelines(picvr_context *ctx) {
         s = create_shader(ctx, picvr_spv_block_priority, sizeof picvr_spv_block_priority, &ctx->priority_module);
         if (!s) s = create_pipeline(ctx, ctx->priority_module, ctx->render_layout, NULL, &ctx->priority_pipe);
     }
-    if (!s && ctx->cache_on && ctx->props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU &&
+    if (!s && ctx->cache_on && on_cpu_device(ctx) &&
         ctx->cache.max_samples > PICVR_CACHE_MAX_SAMPLES_CPU) {
         logf_(ctx, PICVR_LOG_ERROR, "cache.max_samples %u: at most %u on a CPU device (loop bound)",
               ctx->cache.max_samples, PICVR_CACHE_MAX_SAMPLES_CPU);
@@ -1836,12 +1842,24 @@ static void push4(picvr_context *ctx, uint32_t a, uint32_t b, uint32_t c, uint32
     vkCmdPushConstants(ctx->cmd, ctx->render_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, push);
 }
 
+/* Entries this round's creation may add: one per workgroup of its indirect dispatch,
+   which holds the requests the previous round queued (read back), within the budget. */
+static uint32_t round_creations(const picvr_context *ctx, const round_plan *p) {
+    if (!ctx->cache_on) return 0;
+    return p->create_budget < ctx->requests_pending ? p->create_budget : ctx->requests_pending;
+}
+
 /* The octree rebuild (§4.4): empty node and reference pools (the pre-built top copied
    back), then cache_rebuild.comp re-inserts every entry with its current, possibly
    shrunk, radii, so references that shrunk entries no longer need disappear.  Recorded
-   after the creation procedure, when no request holds a node lock. */
-static void record_rebuild(picvr_context *ctx) {
-    uint32_t entries = ctx->cache_counts[4] < ctx->cache.max_entries ? ctx->cache_counts[4] : ctx->cache.max_entries;
+   after the creation procedure, when no request holds a node lock.  So the dispatch
+   must cover the entries this round's creation adds (at most one per workgroup, see
+   run_round's `created`) as well as those the host read back: sized by the host's
+   count alone, an entry past it lost every reference until the next rebuild (seen as
+   126 references for 127 entries).  The shader skips threads past the device's count. */
+static void record_rebuild(picvr_context *ctx, uint32_t created) {
+    uint64_t upper = (uint64_t)ctx->cache_counts[4] + created;
+    uint32_t entries = upper < ctx->cache.max_entries ? (uint32_t)upper : ctx->cache.max_entries;
     vkCmdFillBuffer(ctx->cmd, ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE, 0);
     barrier_all(ctx);
     VkBufferCopy region = {0, 0, (VkDeviceSize)ctx->cache_prebuilt * 16};
@@ -1901,7 +1919,7 @@ static void record_round(picvr_context *ctx, const round_plan *p) {
         barrier_all(ctx);
     }
     timestamp(ctx, 1);
-    if (ctx->cache_on && p->rebuild) record_rebuild(ctx);
+    if (ctx->cache_on && p->rebuild) record_rebuild(ctx, round_creations(ctx, p));
     timestamp(ctx, 2);
     if (ctx->cache_on && p->update_groups > 0) {
         vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->update_pipe[variant]);
@@ -2052,7 +2070,7 @@ static void sched_shares(const picvr_context *ctx, picvr_stats *st) {
 }
 
 static picvr_status run_round(picvr_context *ctx, const round_plan *p) {
-    uint32_t created = ctx->cache_on ? (p->create_budget < ctx->requests_pending ? p->create_budget : ctx->requests_pending) : 0;
+    uint32_t created = round_creations(ctx, p);
     double t0 = now_ms();
     picvr_status s = cmd_begin(ctx);
     if (s) return s;
@@ -2085,7 +2103,7 @@ static uint32_t packages(const picvr_context *ctx, int proc, double share_ms, ui
    setting, else the online cores; at most 64), and the measured cost per entry halves.
    A GPU runs a round's many entries side by side anyway: 1. */
 static uint32_t creation_batch(const picvr_context *ctx) {
-    if (ctx->props.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU) return 1;
+    if (!on_cpu_device(ctx)) return 1;
     long n = 0;
     const char *env = getenv("LP_NUM_THREADS");
     if (env && *env) n = strtol(env, NULL, 10);

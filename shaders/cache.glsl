@@ -42,7 +42,7 @@ layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
     uint entry_count, node_count, ref_count, full;
     uint hits, misses, requests;
     uint capped;          // entries stored without Eq. 5 met at the sample cap (cache_create)
-    uint rounds;          // creation rounds of the stored entries' points (128 samples each);
+    uint point_rounds;    // creation rounds of the stored entries' points (128 samples each);
                           // wraps at 2^32, the host sums the differences
     uint truncated;       // creation samples with a transmittance estimate cut at its loop bound
 } cache_counters;

@@ -198,7 +198,7 @@ void main() {
             if (!converged) atomicAdd(cache_counters.capped, 1u);
             // The samples it took, and those with an estimate cut at RM_BUDGET or
             // RM_MAX_ORDER (biased; stats.cache_samples, cache_samples_truncated).
-            atomicAdd(cache_counters.rounds, point_rounds_sum);
+            atomicAdd(cache_counters.point_rounds, point_rounds_sum);
             if (s_truncated > 0u) atomicAdd(cache_counters.truncated, s_truncated);
             float eps = scene.cache_params.y;
             float rmin = CM_FN(entry_r_min)(scene.cache_radii.x, delta, scene.cache_params.z);
