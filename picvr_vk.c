@@ -56,6 +56,7 @@ typedef struct gpu_scene {
     float value_map[4];
     float cache_params[4], cache_radii[4];
     uint32_t cache_caps[4], cache_screen[4], view[4];
+    float light_mono[4];
     gpu_light lights[PICVR_MAX_LIGHTS];
 } gpu_scene;
 
@@ -1539,6 +1540,40 @@ static int light_is_delta(const gpu_light *g) {
     return type == PICVR_LIGHT_POINT || (type == PICVR_LIGHT_DIRECTIONAL && g->p2[3] == 0.0f);
 }
 
+/* scene.light_mono: whether every emitter (a light or the background with power) has
+   one chromaticity k, as white lights do.  Transmittance and the phase function are
+   scalars, so the irradiance is then k times one scalar field: an entry's three rates
+   and radii agree, and a cache lookup extrapolates only channel m (k's largest) and
+   adds ln(k_c / k_m) for the others (cache.glsl, predict), a third of the work.  The
+   results are those of the three-channel path up to float rounding, except in an entry
+   whose centre estimate is 0: there the zero rule of Eq. 6 (cache_math.glsl) gives each
+   channel its own rate, while this path keeps the exact ratio k.  Colours count as one
+   chromaticity when they agree to 1e-6 of k_m (cross-multiplied, no division).  No
+   emitter at all: channel 0 with k = (1, 1, 1) (the image is black anyway). */
+static void light_chromaticity(const float (*emit)[3], uint32_t n, float out[4]) {
+    const float *k = NULL;
+    for (uint32_t i = 0; i < n && !k; i++)
+        if (emit[i][0] > 0.0f || emit[i][1] > 0.0f || emit[i][2] > 0.0f) k = emit[i];
+    static const float white[3] = {1.0f, 1.0f, 1.0f};
+    if (!k) k = white;
+    int m = k[1] > k[0] ? 1 : 0;
+    if (k[2] > k[m]) m = 2;
+    for (uint32_t i = 0; i < n; i++) {
+        const float *e = emit[i];
+        if (!(e[0] > 0.0f || e[1] > 0.0f || e[2] > 0.0f)) continue;
+        for (int c = 0; c < 3; c++)
+            if (fabs((double)e[c] * k[m] - (double)k[c] * e[m]) > 1e-6 * (double)e[m] * k[m]) {
+                out[0] = out[1] = out[2] = 0.0f;
+                out[3] = 3.0f;
+                return;
+            }
+    }
+    /* ln(k_c / k_m) > ln(1e-45 / FLT_MAX) > -193: a float; k_c = 0 -> below the code for 0 */
+    for (int c = 0; c < 3; c++)
+        out[c] = k[c] > 0.0f ? (float)log((double)k[c] / k[m]) : -138.2f;
+    out[3] = (float)m;
+}
+
 picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uint32_t count,
                               const picvr_background *bg) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
@@ -1579,6 +1614,11 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
     if (bg) for (int c = 0; c < 3; c++) bgr[c] = bg->color[c] * bg->intensity;
     set4(ctx->scene.background, bgr, total > 0.0 ? (float)(bg_power / total) : 0.0f);
     if (bg_power > 0.0) mis = 1;
+    float emit[PICVR_MAX_LIGHTS + 1][3];
+    for (uint32_t i = 0; i < count; i++)
+        for (int c = 0; c < 3; c++) emit[i][c] = power[i] > 0.0 ? ctx->scene.lights[i].p1[c] : 0.0f;
+    for (int c = 0; c < 3; c++) emit[count][c] = bg_power > 0.0 ? bgr[c] : 0.0f;
+    light_chromaticity((const float (*)[3])emit, count + 1, ctx->scene.light_mono);
     ctx->scene.grid[3] = count;
     ctx->use_phase_mis = mis;
     picvr_status s = cache_clear(ctx);

@@ -130,7 +130,11 @@ Prediction predict(uint e, vec3 x) {
     bool stretched = u.z > a.z;
     float d1u = CM_FN(length1)(u.x, u.y, u.z);
     float rmin_e = entry_r_min_of(e), rmax_e = entry_r_max_of(e);
-    for (uint c = 0u; c < 3u; c++) {
+    // Lights of one chromaticity (scene.light_mono): only their channel m is
+    // extrapolated, the others follow below.  Uniform over the dispatch.
+    uint m = uint(scene.light_mono.w);
+    uint c_end = m < 3u ? m + 1u : 3u;
+    for (uint c = m < 3u ? m : 0u; c < c_end; c++) {
         float sx = entries[e].sigma_v[half_axis.x * 3u + c];
         float sy = entries[e].sigma_v[half_axis.y * 3u + c];
         float sz = entries[e].sigma_v[half_axis.z * 3u + c];
@@ -145,6 +149,12 @@ Prediction predict(uint e, vec3 x) {
                                       delta_e, scene.cache_params.y);
         pr.lnE[c] = lnE;
     }
+    // E_c = (k_c / k_m) E_m at every point, so ln E_c = ln E_m + ln(k_c / k_m); clamped
+    // like every ln E, so k_c = 0 (ratio code CM_LN_E_MIN - CM_LN_E_MAX) and a zero E_m
+    // give the code for 0, as the three-channel path does.
+    if (m < 3u)
+        for (uint c = 0u; c < 3u; c++)
+            if (c != m) pr.lnE[c] = clamp(pr.lnE[m] + scene.light_mono[c], CM_LN_E_MIN, CM_LN_E_MAX);
     pr.w = w;
     return pr;
 }

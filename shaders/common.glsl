@@ -50,13 +50,16 @@ layout(set = 0, binding = 0, std140) uniform Scene {
     uvec4 dims;        // xyz voxel dims
     vec4 background;   // rgb radiance, w = selection probability
     vec4 value_map;    // x scale, y offset: normalized value = clamp(texel * x + y, 0, 1)
-    vec4 cache_params; // x gamma (Eq. 5), y epsilon (Eq. 10), z Delta (world), w unused
+    vec4 cache_params; // x gamma (Eq. 5), y epsilon (Eq. 10), z Delta (world), w update threshold
     vec4 cache_radii;  // x minimum, y maximum validity radius (world), z 1: curvature limit on,
                        // w 1: medium model on (cache_math.glsl, medium_fraction)
     uvec4 cache_caps;  // pool capacities: entries, nodes, refs, requests
     uvec4 cache_screen;// x superpixel side, y superpixels per row, z superpixel count,
                        // w locking: 0 object space, 1 screen space
     uvec4 view;        // x: 0 image, 1 cache debug view
+    vec4 light_mono;   // lights of one chromaticity (picvr_vk.c, light_chromaticity): w the
+                       // channel m that carries their irradiance, xyz ln(k_c / k_m) of their
+                       // colour k (CM_LN_E_MIN - CM_LN_E_MAX where k_c = 0); w = 3: colours differ
     Light lights[MAX_LIGHTS];
 } scene;
 
