@@ -1550,17 +1550,19 @@ static int light_is_delta(const gpu_light *g) {
    channel its own rate, while this path keeps the exact ratio k.  Colours count as one
    chromaticity when they agree to 1e-6 of k_m (cross-multiplied, no division).  No
    emitter at all: channel 0 with k = (1, 1, 1) (the image is black anyway). */
+static int emits(const float e[3]) { return e[0] > 0.0f || e[1] > 0.0f || e[2] > 0.0f; }
+
 static void light_chromaticity(const float (*emit)[3], uint32_t n, float out[4]) {
     const float *k = NULL;
     for (uint32_t i = 0; i < n && !k; i++)
-        if (emit[i][0] > 0.0f || emit[i][1] > 0.0f || emit[i][2] > 0.0f) k = emit[i];
+        if (emits(emit[i])) k = emit[i];
     static const float white[3] = {1.0f, 1.0f, 1.0f};
     if (!k) k = white;
     int m = k[1] > k[0] ? 1 : 0;
     if (k[2] > k[m]) m = 2;
     for (uint32_t i = 0; i < n; i++) {
         const float *e = emit[i];
-        if (!(e[0] > 0.0f || e[1] > 0.0f || e[2] > 0.0f)) continue;
+        if (!emits(e)) continue;
         for (int c = 0; c < 3; c++)
             if (fabs((double)e[c] * k[m] - (double)k[c] * e[m]) > 1e-6 * (double)e[m] * k[m]) {
                 out[0] = out[1] = out[2] = 0.0f;
@@ -1893,10 +1895,10 @@ static uint32_t round_creations(const picvr_context *ctx, const round_plan *p) {
    back), then cache_rebuild.comp re-inserts every entry with its current, possibly
    shrunk, radii, so references that shrunk entries no longer need disappear.  Recorded
    after the creation procedure, when no request holds a node lock.  So the dispatch
-   must cover the entries this round's creation adds (at most one per workgroup, see
-   run_round's `created`) as well as those the host read back: sized by the host's
-   count alone, an entry past it lost every reference until the next rebuild (seen as
-   126 references for 127 entries).  The shader skips threads past the device's count. */
+   must cover the entries this round's creation adds (`created`, round_creations) as
+   well as those the host read back: sized by the host's count alone, an entry past it
+   lost every reference until the next rebuild (seen as 126 references for 127
+   entries).  The shader skips threads past the device's count. */
 static void record_rebuild(picvr_context *ctx, uint32_t created) {
     uint64_t upper = (uint64_t)ctx->cache_counts[4] + created;
     uint32_t entries = upper < ctx->cache.max_entries ? (uint32_t)upper : ctx->cache.max_entries;
@@ -1942,7 +1944,7 @@ static void record_render(picvr_context *ctx, const round_plan *p, uint32_t vari
     }
 }
 
-static void record_round(picvr_context *ctx, const round_plan *p) {
+static void record_round(picvr_context *ctx, const round_plan *p, uint32_t created) {
     uint32_t variant = (ctx->use_phase_mis ? 1 : 0) + (ctx->use_fine ? 2 : 0);
     barrier_all(ctx);
     if (ctx->timestamps) vkCmdResetQueryPool(ctx->cmd, ctx->timestamps, 0, ROUND_TIMESTAMPS);
@@ -1959,7 +1961,7 @@ static void record_round(picvr_context *ctx, const round_plan *p) {
         barrier_all(ctx);
     }
     timestamp(ctx, 1);
-    if (ctx->cache_on && p->rebuild) record_rebuild(ctx, round_creations(ctx, p));
+    if (ctx->cache_on && p->rebuild) record_rebuild(ctx, created);
     timestamp(ctx, 2);
     if (ctx->cache_on && p->update_groups > 0) {
         vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->update_pipe[variant]);
@@ -2114,7 +2116,7 @@ static picvr_status run_round(picvr_context *ctx, const round_plan *p) {
     double t0 = now_ms();
     picvr_status s = cmd_begin(ctx);
     if (s) return s;
-    record_round(ctx, p);
+    record_round(ctx, p, created);
     if ((s = cmd_submit_wait(ctx))) return s;
     return finish_round(ctx, p, now_ms() - t0, created);
 }

@@ -149,12 +149,12 @@ Prediction predict(uint e, vec3 x) {
                                       delta_e, scene.cache_params.y);
         pr.lnE[c] = lnE;
     }
-    // E_c = (k_c / k_m) E_m at every point, so ln E_c = ln E_m + ln(k_c / k_m); clamped
-    // like every ln E, so k_c = 0 (ratio code CM_LN_E_MIN - CM_LN_E_MAX) and a zero E_m
-    // give the code for 0, as the three-channel path does.
+    // E_c = (k_c / k_m) E_m at every point, so ln E_c = ln E_m + ln(k_c / k_m), clamped
+    // like every ln E (san_ln): k_c = 0 (ratio code CM_LN_E_MIN - CM_LN_E_MAX) and a
+    // zero E_m give the code for 0, as the three-channel path does.
     if (m < 3u)
         for (uint c = 0u; c < 3u; c++)
-            if (c != m) pr.lnE[c] = clamp(pr.lnE[m] + scene.light_mono[c], CM_LN_E_MIN, CM_LN_E_MAX);
+            if (c != m) pr.lnE[c] = CM_FN(san_ln)(pr.lnE[m] + scene.light_mono[c]);
     pr.w = w;
     return pr;
 }

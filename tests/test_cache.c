@@ -11,17 +11,24 @@
  */
 #include "test_util.h"
 
-static picvr_context *create_cached_curv(picvr_cache_mode mode, picvr_switch curvature, uint32_t seed,
-                                        uint32_t max_entries, float gamma, float eps) {
+/* The config of these tests: the seed, the cache mode, and 16 requests per iteration,
+   which fills the cache of their tiny images fast; the rest at its defaults. */
+static picvr_config cache_config(picvr_cache_mode mode, uint32_t seed) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
     cfg.cache.mode = mode;
+    cfg.cache.max_requests = 16;
+    return cfg;
+}
+
+static picvr_context *create_cached_curv(picvr_cache_mode mode, picvr_switch curvature, uint32_t seed,
+                                        uint32_t max_entries, float gamma, float eps) {
+    picvr_config cfg = cache_config(mode, seed);
     cfg.cache.curvature_limit = curvature;
     cfg.cache.max_entries = max_entries;
     cfg.cache.gamma = gamma;
     cfg.cache.epsilon = eps;
-    cfg.cache.max_requests = 16;   /* per iteration: fills the cache of these tiny images fast */
     return tu_create_config(&cfg);
 }
 
@@ -198,12 +205,8 @@ void test_cache_rebuild_keeps_new_entries(void **state) {
        up to 16 (max_requests), as on a GPU, where a round creates many */
     const picvr_cache_mode modes[2] = {PICVR_CACHE_OBJECT_SPACE, PICVR_CACHE_SCREEN_SPACE};
     for (int m = 0; m < 2; m++) {
-        picvr_config cfg;
-        memset(&cfg, 0, sizeof cfg);
-        cfg.seed = 3;
-        cfg.cache.mode = modes[m];
+        picvr_config cfg = cache_config(modes[m], 3);
         cfg.cache.superpixel_size = 8;
-        cfg.cache.max_requests = 16;
         cfg.cache.rebuild_interval_ms = 1e-3f;   /* every round */
         picvr_context *ctx = tu_create_config(&cfg);
         tu_vol vol;
@@ -302,13 +305,9 @@ void test_cache_pool_full_is_reported_and_safe(void **state) {
    1e-4 it would need N > 1.5e9 cv^2 samples, so every entry whose seven points have any
    variance is capped - under a delta sun through a medium, all of them. */
 static picvr_stats capped_run(float gamma, uint32_t max_samples, float background) {
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 11;
-    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    picvr_config cfg = cache_config(PICVR_CACHE_OBJECT_SPACE, 11);
     cfg.cache.gamma = gamma;
     cfg.cache.max_samples = max_samples;
-    cfg.cache.max_requests = 16;
     picvr_context *ctx = tu_create_config(&cfg);
     tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
     tu_upload(ctx, &vol);
@@ -386,12 +385,8 @@ void test_cache_capped_entries_counted(void **state) {
    points (42 rounds for every capped entry) could not give. */
 void test_cache_points_stop_on_their_own(void **state) {
     (void)state;
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 3;
-    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    picvr_config cfg = cache_config(PICVR_CACHE_OBJECT_SPACE, 3);
     cfg.cache.gamma = 1e-4f;
-    cfg.cache.max_requests = 16;
     picvr_context *ctx = tu_create_config(&cfg);
     tu_vol vol = tu_vol_new(32, 32, 32, 1.0f, 40);
     uint64_t rng = 99;
@@ -431,11 +426,7 @@ void test_cache_points_stop_on_their_own(void **state) {
    such sample is counted, and nothing non-finite reaches an entry or a pixel. */
 void test_cache_truncated_samples_counted(void **state) {
     (void)state;
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 5;
-    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
-    cfg.cache.max_requests = 16;
+    picvr_config cfg = cache_config(PICVR_CACHE_OBJECT_SPACE, 5);
     picvr_context *ctx = tu_create_config(&cfg);
     tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 0);
     for (uint32_t y = 0; y < 16; y++)
@@ -546,10 +537,7 @@ void test_cache_debug_view(void **state) {
    medium model (the default) |bias| <= 2 % and |error per hit| <= 3 %, the paper
    model's error per hit below -5 %. */
 static double dense_cube_bias(picvr_switch medium, double *hit_rate, double *per_hit) {
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 21;
-    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    picvr_config cfg = cache_config(PICVR_CACHE_OBJECT_SPACE, 21);
     cfg.cache.medium_model = medium;
     cfg.cache.max_requests = 32;
     picvr_context *ctx = tu_create_config(&cfg);
