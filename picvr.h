@@ -471,6 +471,10 @@ typedef struct picvr_stats {
                                     cut at its loop bound (biased, like truncated_paths; a
                                     share above ~1e-4 says the rays are too long for the
                                     creation procedure's budget) */
+    uint64_t cache_lookups_cut;  /* scatter events whose octree walk (rendering or update)
+                                    stopped at its bound of 8192 references and ignored
+                                    the entries beyond; 0 unless a node's list is
+                                    pathologically long (bonsai: at most ~200) */
     uint32_t cache_max_samples;  /* that cap in force: cache.max_samples after its default
                                     and the rounding to a multiple of 128 */
     uint32_t cache_requests;     /* creation requests issued in the last step */

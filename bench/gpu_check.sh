@@ -84,7 +84,8 @@ for size in 128x128 512x512; do
     done
 done
 # Creation's truncated transmittance estimates (biased; docs/cache.md, "Guards on
-# creation's estimates"): a GPU runs more rounds per entry, so say how many were cut.
+# creation's estimates"): a GPU runs more rounds per entry, so say how many were cut;
+# and lookups cut at the octree walk's bound (more entries, longer lists).
 json_u() { sed -n "s/.*\"$2\": \([0-9]*\).*/\1/p" "$1"; }
 {
     echo "device: $device ($device_type); bonsai, paper1, ${SECS} s per run, Table 1 shares"
@@ -94,7 +95,8 @@ json_u() { sed -n "s/.*\"$2\": \([0-9]*\).*/\1/p" "$1"; }
             j="$OUT/gpu_${size}_${cache}.json"
             [ -s "$j" ] || continue
             echo "$size $cache: creation samples $(json_u "$j" cache_samples)," \
-                "truncated $(json_u "$j" cache_samples_truncated)"
+                "truncated $(json_u "$j" cache_samples_truncated);" \
+                "lookups cut at the walk's bound $(json_u "$j" cache_lookups_cut)"
         done
     done
 } | tee "$OUT/gpu_check.txt"

@@ -720,11 +720,12 @@ static int write_json(const options *o, const picvr_stats *s)
     fprintf(f, ", \"cache_entries\": %u, \"cache_nodes\": %u, \"cache_refs\": %u, "
             "\"cache_references\": %u, \"cache_full\": %u, \"cache_requests\": %u, "
             "\"pending_requests\": %u, \"cache_bytes\": %llu, \"cache_entries_capped\": %u, "
-            "\"cache_samples\": %llu, \"cache_samples_truncated\": %llu, \"cache_refs_per_entry\": ",
+            "\"cache_samples\": %llu, \"cache_samples_truncated\": %llu, \"cache_lookups_cut\": %llu, "
+            "\"cache_refs_per_entry\": ",
             s->cache_entries, s->cache_nodes, s->cache_refs, s->cache_refs, s->cache_full,
             s->cache_requests, s->cache_pending, (unsigned long long)s->cache_bytes,
             s->cache_entries_capped, (unsigned long long)s->cache_samples,
-            (unsigned long long)s->cache_samples_truncated);
+            (unsigned long long)s->cache_samples_truncated, (unsigned long long)s->cache_lookups_cut);
     json_number(f, s->cache_refs_per_entry);
     fputs(", \"cache_hit_rate\": ", f);
     json_number(f, s->cache_hit_rate);
@@ -767,6 +768,9 @@ static void print_summary(const options *o, const picvr_stats *s)
     if (s->cache_samples_truncated)
         printf(", %llu of %llu creation samples with a truncated transmittance estimate (biased)",
                (unsigned long long)s->cache_samples_truncated, (unsigned long long)s->cache_samples);
+    if (s->cache_lookups_cut)
+        printf(", %llu lookups cut at the octree walk's bound (entries ignored)",
+               (unsigned long long)s->cache_lookups_cut);
     if (interrupted) printf(", interrupted");
     printf("\n");
 }

@@ -7,7 +7,6 @@
 #include "cache_math.glsl"
 
 #define CACHE_MAX_DEPTH 10u        // octree depth limit (root = 0)
-#define CACHE_MAX_REFS_PER_NODE 64u // references visited per node during a lookup
 #define CACHE_NIL 0u               // index 0 of the ref pool, and as a child index, means "none"
 #define CACHE_NO_NODE 0xffffffffu  // descend_create failed (node 0 is the root)
 
@@ -45,6 +44,7 @@ layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
     uint point_rounds;    // creation rounds of the stored entries' points (128 samples each);
                           // wraps at 2^32, the host sums the differences
     uint truncated;       // creation samples with a transmittance estimate cut at its loop bound
+    uint lookups_cut;     // octree walks stopped at CACHE_MAX_LOOKUP_REFS (walk_next)
 } cache_counters;
 layout(set = 0, binding = 13, std430) buffer CacheRequests { Request requests[]; };
 // Screen-space locking (§5.2): per superpixel a lock, then two sets of (rays, misses)
@@ -176,29 +176,82 @@ uint child_containing(uint ch, vec3 x, inout vec3 lo, inout vec3 size) {
     return ch + o.x + 2u * o.y + 4u * o.z;
 }
 
+// ---- the octree walk: every reference of every node on x's path from the root to the
+// deepest node enclosing x (an entry is referenced wherever its zone may reach, §4.4),
+// shared by the lookup and the update procedure.
+// Bounded in total, not per node: llvmpipe cuts an invocation's loops past 65535
+// iterations in all (../shared/LAVAPIPE.md), and a render invocation's tracking loops
+// (at most 5 x MAX_TRACK_STEPS with the error view) leave room for 8192 references
+// (two loop iterations each, with walk_next's descent loop) and the 11 levels.  A walk
+// that reaches the bound with references left says so in cache_counters.lookups_cut
+// (stats.cache_lookups_cut) and ignores the rest.  The bound was 64 per node until
+// 2026-11-29, cut silently: on bonsai lists grew to 205 references at 13,000 entries
+// (entries flat along n but wide along t, b sit high in the tree), lookups missed the
+// entries beyond the 64th, and their misses created redundant ones (docs/cache.md,
+// "Long lists").
+#define CACHE_MAX_LOOKUP_REFS 8192u
+struct CacheWalk { uint node; uint ref; uint visited; vec3 lo; vec3 size; };
+
+CacheWalk walk_start() {
+    CacheWalk w;
+    w.node = 0u;
+    w.ref = nodes[0].refs;
+    w.visited = 0u;
+    w.lo = scene.box_min.xyz;
+    w.size = scene.box_size.xyz;
+    return w;
+}
+
+// Moves w one level down x's path; false at the deepest node.
+bool walk_descend(inout CacheWalk w, vec3 x) {
+    uint ch = nodes[w.node].children;
+    if (ch == CACHE_NIL) return false;
+    w.node = child_containing(ch, x, w.lo, w.size);
+    w.ref = nodes[w.node].refs;
+    return true;
+}
+
+// The next entry e referenced on x's path: true, or false at the path's end or the
+// bound.  The tree is at most CACHE_MAX_DEPTH deep (descend_create), so the descent
+// loop's bound is never the reason to stop.
+bool walk_next(inout CacheWalk w, vec3 x, out uint e) {
+    e = 0u;
+    for (uint d = 0u; d <= CACHE_MAX_DEPTH && w.ref == CACHE_NIL; d++)
+        if (!walk_descend(w, x)) return false;
+    if (w.ref == CACHE_NIL) return false;
+    if (w.visited == CACHE_MAX_LOOKUP_REFS) {
+        atomicAdd(cache_counters.lookups_cut, 1u);
+        w.ref = CACHE_NIL;
+        return false;
+    }
+    w.visited++;
+    e = refs[w.ref].entry;
+    w.ref = refs[w.ref].next;
+    return true;
+}
+
+// The deepest node enclosing x (for locking), also after a walk cut at the bound.
+uint walk_deepest(inout CacheWalk w, vec3 x) {
+    for (uint d = 0u; d <= CACHE_MAX_DEPTH && walk_descend(w, x); d++) {}
+    return w.node;
+}
+
 // Looks x up in the octree: true and the extrapolated irradiance when entries cover
 // it (Eq. 11); always returns the deepest existing node enclosing x (for locking).
 bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
     near_centre = false;
-    uint node = 0u;
-    vec3 lo = scene.box_min.xyz, size = scene.box_size.xyz;
     float sum_w = 0.0;
     vec3 sum_wlog = vec3(0.0);
-    for (uint depth = 0u; depth <= CACHE_MAX_DEPTH; depth++) {
-        uint r = nodes[node].refs;
-        for (uint k = 0u; k < CACHE_MAX_REFS_PER_NODE && r != CACHE_NIL; k++) {
-            eval_entry(refs[r].entry, x, sum_w, sum_wlog);
-            if (scene.view.x == VIEW_CACHE) {   // is x within a voxel of a centre?
-                vec3 d = x - entries[refs[r].entry].pos_rmax.xyz;
-                near_centre = near_centre || dot(d, d) < scene.cell_size.w * scene.cell_size.w;
-            }
-            r = refs[r].next;
+    CacheWalk w = walk_start();
+    uint e;
+    while (walk_next(w, x, e)) {
+        eval_entry(e, x, sum_w, sum_wlog);
+        if (scene.view.x == VIEW_CACHE) {   // is x within a voxel of a centre?
+            vec3 d = x - entries[e].pos_rmax.xyz;
+            near_centre = near_centre || dot(d, d) < scene.cell_size.w * scene.cell_size.w;
         }
-        uint ch = nodes[node].children;
-        if (ch == CACHE_NIL) break;
-        node = child_containing(ch, x, lo, size);
     }
-    deepest = node;
+    deepest = walk_deepest(w, x);
     E = vec3(0.0);
     if (!CM_FN(log_average_valid)(sum_w)) return false;
     for (uint c = 0u; c < 3u; c++) E[c] = CM_FN(log_average_finalize)(sum_wlog[c], sum_w);

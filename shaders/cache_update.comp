@@ -38,30 +38,22 @@ void main() {
     if (t < 0.0) return;
     vec3 x = ro + rd * t;
 
-    // Candidates: every entry whose zone contains x (octree walk as in cache_lookup).
+    // Candidates: every entry whose zone contains x (the lookup's walk, walk_next).
     uint cand[UPDATE_MAX_CANDIDATES];
     float weight[UPDATE_MAX_CANDIDATES], lnE[UPDATE_MAX_CANDIDATES];
     vec3 local[UPDATE_MAX_CANDIDATES];
     uint count = 0u;
-    uint node = 0u;
-    vec3 lo = scene.box_min.xyz, size = scene.box_size.xyz;
-    for (uint depth = 0u; depth <= CACHE_MAX_DEPTH; depth++) {
-        uint r = nodes[node].refs;
-        for (uint k = 0u; k < CACHE_MAX_REFS_PER_NODE && r != CACHE_NIL && count < UPDATE_MAX_CANDIDATES; k++) {
-            uint e = refs[r].entry;
-            Prediction p = predict(e, x);
-            if (p.w > 0.0) {
-                cand[count] = e;
-                weight[count] = p.w;
-                lnE[count] = luminance(p.lnE);   // the luminance weights applied to ln E
-                local[count] = p.local;
-                count++;
-            }
-            r = refs[r].next;
+    CacheWalk w = walk_start();
+    uint entry;
+    while (count < UPDATE_MAX_CANDIDATES && walk_next(w, x, entry)) {
+        Prediction p = predict(entry, x);
+        if (p.w > 0.0) {
+            cand[count] = entry;
+            weight[count] = p.w;
+            lnE[count] = luminance(p.lnE);   // the luminance weights applied to ln E
+            local[count] = p.local;
+            count++;
         }
-        uint ch = nodes[node].children;
-        if (ch == CACHE_NIL) break;
-        node = child_containing(ch, x, lo, size);
     }
 
     // Resolve conflicts: at most count - 1 removals.
