@@ -333,8 +333,10 @@ void cache_request(vec3 x, uint node, uvec2 px, uint round, float u, uint cap) {
 // (18 % of them inside the entry's sphere) and made the cached renderer slower as the
 // cache grew: 20 iterations per second at 700 entries, 12 at 6,400, against 18-19
 // throughout with this rule (bonsai 128x128, 300 s runs, 2026-11-28); 9 visits at 1,200
-// entries.  The price: about 12 references per entry instead of 5.  picvr_vk.c mirrors
-// this rule for the pre-built top of the tree (prebuilt_depth).
+// entries.  The price: about 12 references per entry instead of 5 with the bounding
+// sphere alone; 8 since the oriented bounding box decides too (zone_reaches,
+// 2026-11-29).  picvr_vk.c mirrors this rule for the pre-built top of the tree
+// (prebuilt_depth).
 #define CACHE_NODE_RADII 1.0
 uint insertion_depth(float rmax) {
     float edge = min(scene.box_size.x, min(scene.box_size.y, scene.box_size.z));
@@ -385,20 +387,42 @@ void push_ref(uint node, uint e) {
     refs[r].next = atomicExchange(nodes[node].refs, r);
 }
 
-// Inserts entry e (centre x0, largest radius rmax) into cell k (0..26) of the up to
-// 3 x 3 x 3 cells its bounding box overlaps at the insertion depth, if that cell exists
-// and the sphere of radius rmax reaches into it (the entry's zone lies in that sphere).
-// The creation procedure runs the 27 cells on 27 threads, the rebuild on one thread
-// per entry.
-void insert_cell(uint e, vec3 x0, float rmax, uint k) {
+// Whether an entry's zone can reach into the box [bmin, bmin + size].  The zone (the
+// union of elliptic octants) lies in the sphere of its largest radius rmax around x0,
+// and in its oriented bounding box (§4.4): along each axis of the frame (t, b, n), from
+// -r_neg to +r_pos.  Both must overlap the box.  The oriented box is tested on the
+// separating axes of the world and of the frame, 6 of the exact test's 15: it may keep
+// a box that only a cross-product axis separates, never drop one the zone reaches.
+// What the box adds to the sphere: an entry flat along n (lit faces, the surfaces of
+// leaves) reaches far fewer of the 3 x 3 x 3 nodes around it (docs/cache.md, "Long lists").
+bool zone_reaches(vec3 x0, float rmax, mat3 frame, vec3 r_pos, vec3 r_neg, vec3 bmin, vec3 size) {
+    vec3 d = max(max(bmin - x0, x0 - (bmin + size)), vec3(0.0));   // sphere-box distance
+    if (dot(d, d) > rmax * rmax) return false;
+    vec3 c = x0 + frame * (0.5 * (r_pos - r_neg));                 // the oriented box's centre
+    vec3 h = 0.5 * (r_pos + r_neg);                                 // and half extents
+    mat3 af = mat3(abs(frame[0]), abs(frame[1]), abs(frame[2]));
+    vec3 to_box = bmin + 0.5 * size - c;
+    if (any(greaterThan(abs(to_box), af * h + 0.5 * size))) return false;             // world axes
+    return !any(greaterThan(abs(to_box * frame), h + (0.5 * size) * af));             // frame axes
+}
+
+// Inserts entry e (centre x0, frame normal n, radii r_pos along +t, +b, +n and r_neg
+// along -t, -b, -n) into cell k (0..26) of the up to 3 x 3 x 3 cells its bounding
+// sphere's box overlaps at the insertion depth, if that cell exists and the zone can
+// reach into it (zone_reaches).  The creation procedure runs the 27 cells on 27 threads,
+// the rebuild on one thread per entry.
+void insert_cell(uint e, vec3 x0, vec3 n, vec3 r_pos, vec3 r_neg, uint k) {
+    vec3 r = max(r_pos, r_neg);
+    float rmax = max(r.x, max(r.y, r.z));
     uint depth = insertion_depth(rmax);
     uvec3 lo = cell_at(x0 - vec3(rmax), depth), hi = cell_at(x0 + vec3(rmax), depth);
     uvec3 cell = lo + uvec3(k % 3u, (k / 3u) % 3u, k / 9u);
     if (any(greaterThan(cell, hi))) return;
     vec3 size = scene.box_size.xyz / float(1u << depth);
     vec3 bmin = scene.box_min.xyz + vec3(cell) * size;
-    vec3 d = max(max(bmin - x0, x0 - (bmin + size)), vec3(0.0));   // sphere-box distance
-    if (dot(d, d) > rmax * rmax) return;
+    vec3 t, b;
+    basis(n, t, b);
+    if (!zone_reaches(x0, rmax, mat3(t, b, n), r_pos, r_neg, bmin, size)) return;
     uint node = descend_create(cell, depth);
     if (node != CACHE_NO_NODE) push_ref(node, e);
 }

@@ -41,6 +41,8 @@ shared bool s_done;
 shared bool s_point_done[7];     // point k met Eq. 5 in an earlier round: it stops sampling
 shared uint s_truncated;         // samples whose transmittance estimate hit its loop bound
 shared vec3 s_E[7];
+shared uint s_entry;             // the stored entry's index and radii, for the inserters
+shared float s_radius[6];
 shared vec2 s_f;                 // medium fraction of +n, -n
 
 // Sums s_red over the workgroup into s_red[0].
@@ -219,19 +221,22 @@ void main() {
                     }
                 }
                 entries[e].radius[h] = floatBitsToUint(r);
+                s_radius[h] = r;
                 rmax = max(rmax, r);
             }
             entries[e].e0 = vec4(s_E[0], delta);         // w: the entry's own Delta
             entries[e].normal = n;
             entries[e].medium_f = packUnorm2x16(vec2(1.0) - s_f);
             entries[e].pos_rmax = vec4(x0, rmax);
-            s_E[1] = vec3(float(e), rmax, 0.0);          // hand the index to the inserters
+            s_entry = e;
             s_done = true;
         }
     }
     memoryBarrierBuffer();
     barrier();
-    if (s_done && lid < 27u) insert_cell(uint(s_E[1].x), x0, s_E[1].y, lid);
+    if (s_done && lid < 27u)
+        insert_cell(s_entry, x0, n, vec3(s_radius[0], s_radius[2], s_radius[4]),
+                    vec3(s_radius[1], s_radius[3], s_radius[5]), lid);
     barrier();
     if (lid == 0u) cache_unlock(locked);
 }

@@ -12,10 +12,11 @@ layout(local_size_x = 64) in;
 void main() {
     uint e = gl_GlobalInvocationID.x;
     if (e >= min(cache_counters.entry_count, scene.cache_caps.x)) return;
-    // The largest radius may have shrunk: recompute the bound used for insertion.
-    float rmax = 0.0;
-    for (uint h = 0u; h < 6u; h++) rmax = max(rmax, entry_radius(e, h));
-    entries[e].pos_rmax.w = rmax;
-    vec3 x0 = entries[e].pos_rmax.xyz;
-    for (uint k = 0u; k < 27u; k++) insert_cell(e, x0, rmax, k);
+    // The radii may have shrunk: recompute the largest, the lookup's sphere test.
+    vec3 r_pos = vec3(entry_radius(e, 0u), entry_radius(e, 2u), entry_radius(e, 4u));
+    vec3 r_neg = vec3(entry_radius(e, 1u), entry_radius(e, 3u), entry_radius(e, 5u));
+    vec3 r = max(r_pos, r_neg);
+    entries[e].pos_rmax.w = max(r.x, max(r.y, r.z));
+    vec3 x0 = entries[e].pos_rmax.xyz, n = entries[e].normal;
+    for (uint k = 0u; k < 27u; k++) insert_cell(e, x0, n, r_pos, r_neg, k);
 }

@@ -231,65 +231,90 @@ void test_cache_rebuild_keeps_new_entries(void **state) {
     }
 }
 
-/* A lookup sees every reference of a long list.  A 32^3 cube (sigma 0.2 per voxel) under
-   a sun straight above it (+y), seen from inside (the camera 8 voxels from the centre,
-   looking at it with a 90-degree field of view, so that few scatter events lie near a
-   face): the irradiance falls exactly exponentially with height, so with delta = 0.05
-   voxels and epsilon = 0.01 each entry's radius along y is delta + ln(1.01) / sigma =
-   0.1 voxels (Eq. 9, 10), and the maximum along x and z (flat there; 64 voxels, set
-   above half the box), which puts the entry in the root's list.  The scatter events,
-   5 voxels ahead on average, span 10 voxels and more in y: hundreds of such slabs.
-   Until 2026-11-29 a lookup visited at most 64 references per node, so the slabs past
-   the root list's 64th were never seen; with the bound set back to 64 this test's
-   object-space run stayed at a hit rate of 0.40 after 40 steps (335 entries, 310,583
-   walks cut), where it now reaches 0.99.  Asserted: more than 64 entries, none of the walks cut
-   (stats.cache_lookups_cut), a hit rate of at least 0.9, and the image mean within 2 %
-   of the closed form (the entries are exact here: ray-marched transmittance in a
-   homogeneous medium has no variance and the field is exactly exponential, so the
-   extrapolation is exact too; measured -0.5 % to +0.04 %, the primary rays' noise).
-   Both locking modes. */
+/* Slabs: a 32^3 cube (sigma 0.2 per voxel) under a sun straight above it (+y), seen from
+   inside (the camera 8 voxels from the centre, looking at it with a 90-degree field of
+   view, so that few scatter events lie near a face).  The irradiance falls exactly
+   exponentially with height, so with delta = 0.05 voxels and epsilon = 0.01 each
+   entry's radius along y is delta + ln(1.01) / sigma = 0.1 voxels (Eq. 9, 10), and
+   radius_max along x and z, where the field is flat: every entry is a slab.  The
+   scatter events, 5 voxels ahead on average, span 10 voxels and more in y: hundreds of
+   slabs.  The entries are exact here (ray-marched transmittance in a homogeneous medium
+   has no variance, and the field is exactly exponential, so the extrapolation is exact
+   too), so the image mean must match the closed form to within the primary rays'
+   Monte-Carlo noise: 2 % (measured -0.5 % to +0.04 %).  Runs until the hit rate reaches
+   0.95 (at most 40 steps of 8 iterations), then 16 more iterations; prints and returns
+   the stats, and fails unless no walk was cut, the hit rate is at least 0.9 and the
+   image within 2 %. */
+static picvr_stats slab_cache_run(picvr_cache_mode mode, float radius_max_voxels) {
+    picvr_config cfg = cache_config(mode, 5);
+    cfg.cache.radius_max_voxels = radius_max_voxels;
+    cfg.cache.epsilon = 0.01f;
+    cfg.cache.delta_voxels = 0.05f;
+    cfg.cache.superpixel_size = 8;
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_sun_scene s;
+    const double up[3] = {0.0, 1.0, 0.0};
+    tu_sun_cube(ctx, 32, 0.2f, 0.8f, up, 2.0f, 0.0f, &s);
+    const uint32_t W = 32, H = 32;
+    tu_cam cam = tu_set_camera(ctx, 0, 0, 8, 0, 0, 0, 90, W, H);
+    double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+    picvr_stats st;
+    uint32_t steps = 0;
+    do {
+        TU_OK(picvr_step_iterations(ctx, 8));
+        st = tu_stats_finite(ctx);
+    } while (++steps < 40 && !(st.cache_hit_rate >= 0.95));
+    TU_OK(picvr_step_iterations(ctx, 16));
+    st = tu_stats_finite(ctx);
+    float *img = tu_read(ctx, W, H);
+    tu_assert_image_valid(img, W, H, "slabs");
+    double mean = 0, e = 0;
+    for (size_t p = 0; p < (size_t)W * H; p++) { mean += img[4 * p + 1]; e += expv[4 * p + 1]; }
+    double rel = mean / e - 1;
+    print_message("    mode %d, radius_max %g voxels: %u entries, %.2f references each, hit rate %.3f "
+                  "after %u steps, %llu walks cut, image %+.2f %% against the closed form\n", (int)mode,
+                  radius_max_voxels, st.cache_entries, st.cache_refs_per_entry, st.cache_hit_rate, steps,
+                  (unsigned long long)st.cache_lookups_cut, 100 * rel);
+    assert_true(st.cache_lookups_cut == 0);
+    if (!(st.cache_hit_rate >= 0.9)) fail_msg("hit rate %.3f", st.cache_hit_rate);
+    if (!(fabs(rel) < 0.02)) fail_msg("image %+.2f %% off the closed form", 100 * rel);
+    free(img);
+    free(expv);
+    tu_finish(ctx);
+    return st;
+}
+
+/* A lookup sees every reference of a long list: the slabs of slab_cache_run with a
+   maximum radius of 64 voxels, above half the box, so that every entry lands in the
+   root's list (one reference each).  Until 2026-11-29 a lookup visited at most 64
+   references per node, so the slabs past the root list's 64th were never seen; with the
+   bound set back to 64 the object-space run stayed at a hit rate of 0.40 after 40 steps
+   (335 entries, 310,583 walks cut), where it now reaches 0.99.  Both locking modes. */
 void test_cache_lookup_sees_long_lists(void **state) {
     (void)state;
     const picvr_cache_mode modes[2] = {PICVR_CACHE_OBJECT_SPACE, PICVR_CACHE_SCREEN_SPACE};
     for (int m = 0; m < 2; m++) {
-        picvr_config cfg = cache_config(modes[m], 5);
-        cfg.cache.radius_max_voxels = 64.0f;   /* above half the box: the root's list */
-        cfg.cache.epsilon = 0.01f;
-        cfg.cache.delta_voxels = 0.05f;
-        cfg.cache.superpixel_size = 8;
-        picvr_context *ctx = tu_create_config(&cfg);
-        tu_sun_scene s;
-        const double up[3] = {0.0, 1.0, 0.0};
-        tu_sun_cube(ctx, 32, 0.2f, 0.8f, up, 2.0f, 0.0f, &s);
-        const uint32_t W = 32, H = 32;
-        tu_cam cam = tu_set_camera(ctx, 0, 0, 8, 0, 0, 0, 90, W, H);
-        double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
-        picvr_stats st;
-        uint32_t steps = 0;
-        do {
-            TU_OK(picvr_step_iterations(ctx, 8));
-            st = tu_stats_finite(ctx);
-        } while (++steps < 40 && !(st.cache_hit_rate >= 0.95));
-        TU_OK(picvr_step_iterations(ctx, 16));
-        st = tu_stats_finite(ctx);
-        float *img = tu_read(ctx, W, H);
-        tu_assert_image_valid(img, W, H, "long lists");
-        double mean = 0, e = 0;
-        for (size_t p = 0; p < (size_t)W * H; p++) { mean += img[4 * p + 1]; e += expv[4 * p + 1]; }
-        double rel = mean / e - 1;
-        print_message("    mode %d: %u entries, %u references, hit rate %.3f after %u steps, "
-                      "%llu walks cut, image %+.2f %% against the closed form\n", m, st.cache_entries,
-                      st.cache_refs, st.cache_hit_rate, steps, (unsigned long long)st.cache_lookups_cut,
-                      100 * rel);
+        picvr_stats st = slab_cache_run(modes[m], 64.0f);
         if (!(st.cache_entries > 64)) fail_msg("%u entries: the premise (a list longer than 64) fails",
                                                st.cache_entries);
-        assert_true(st.cache_lookups_cut == 0);
-        if (!(st.cache_hit_rate >= 0.9)) fail_msg("hit rate %.3f", st.cache_hit_rate);
-        if (!(fabs(rel) < 0.02)) fail_msg("image %+.2f %% off the closed form", 100 * rel);
-        free(img);
-        free(expv);
-        tu_finish(ctx);
     }
+}
+
+/* An entry is referenced only from the nodes its oriented bounding box reaches (§4.4),
+   not all those its bounding sphere reaches: the slabs of slab_cache_run with a maximum
+   radius of 12 voxels sit at depth 1 (nodes of 16 voxels, 2 x 2 x 2 in the box).  A
+   slab 0.2 voxels thin reaches the 4 nodes of its own half in y (and the other 4 only
+   within 0.1 voxels of the middle), where its sphere reaches the other half's too
+   unless the slab lies more than 12 voxels from the middle: so about 4 references per
+   entry instead of 6 to 8.  Asserted: at most 5, and the coverage kept (slab_cache_run:
+   hit rate and closed form), which a box test that dropped a node the zone reaches
+   would lose. */
+void test_cache_oriented_box_insertion(void **state) {
+    (void)state;
+    picvr_stats st = slab_cache_run(PICVR_CACHE_OBJECT_SPACE, 12.0f);
+    if (!(st.cache_refs_per_entry <= 5.0))
+        fail_msg("%.2f references per entry: the oriented box did not keep the slabs out of the other half",
+                 st.cache_refs_per_entry);
 }
 
 /* The same with the curvature limit of the radii on (cfg.cache.curvature_limit): the
