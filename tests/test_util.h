@@ -71,6 +71,7 @@
     /* test_scheduler.c */                                          \
     X(test_scheduler_shares_follow_hit_rate)                        \
     X(test_scheduler_measured_shares_track_targets)                 \
+    X(test_scheduler_update_runs_after_cold_compile)                \
     X(test_scheduler_priorities_favour_lit_blocks)                  \
     X(test_scheduler_step_budget)                                   \
     X(test_scheduler_no_deadlock_with_tiny_pools)                   \
