@@ -80,6 +80,25 @@ void test_scheduler_shares_follow_hit_rate(void **state) {
     tu_finish(ctx);
 }
 
+/* The stats after 20 steps of 100 ms on the cube (48x48) with config cfg; with
+   cold_compile the context is created with Mesa's shader cache off, so that lavapipe
+   compiles every pipeline at its first dispatch (other drivers ignore the variable). */
+static picvr_stats cube_shares_after_2s(const picvr_config *cfg, int cold_compile) {
+    if (cold_compile) setenv("MESA_SHADER_CACHE_DISABLE", "true", 1);
+    picvr_context *ctx = tu_create_config(cfg);
+    if (cold_compile) unsetenv("MESA_SHADER_CACHE_DISABLE");
+    tu_vol vol;
+    cube_scene(ctx, &vol, 0, 48, 48);
+    for (int i = 0; i < 20; i++) TU_OK(picvr_step(ctx, 100.0));
+    picvr_stats st = tu_stats_finite(ctx);
+    print_message("    hit rate %.3f, %u entries: create %.3f (target %.3f), update %.4f (target %.4f), render %.3f\n",
+                  st.cache_hit_rate, st.cache_entries, st.fraction_create, st.target_create, st.fraction_update,
+                  st.target_update, st.fraction_render);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+    return st;
+}
+
 /* The update procedure gets its share from the start, also when the driver compiles
    each pipeline at its first dispatch (lavapipe with its shader cache off: the compile
    lands inside the round's timestamps).  That time used to be taken for one update
@@ -91,24 +110,13 @@ void test_scheduler_shares_follow_hit_rate(void **state) {
    entries).  On a GPU (which compiles at pipeline creation) the same must hold. */
 void test_scheduler_update_runs_after_cold_compile(void **state) {
     (void)state;
-    setenv("MESA_SHADER_CACHE_DISABLE", "true", 1);
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = 8;
     cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
-    picvr_context *ctx = tu_create_config(&cfg);
-    unsetenv("MESA_SHADER_CACHE_DISABLE");
-    tu_vol vol;
-    cube_scene(ctx, &vol, 0, 48, 48);
-    for (int i = 0; i < 20; i++) TU_OK(picvr_step(ctx, 100.0));
-    picvr_stats st = tu_stats_finite(ctx);
-    print_message("    hit rate %.3f, %u entries: update %.4f (target %.4f), create %.3f (target %.3f)\n",
-                  st.cache_hit_rate, st.cache_entries, st.fraction_update, st.target_update, st.fraction_create,
-                  st.target_create);
+    picvr_stats st = cube_shares_after_2s(&cfg, 1);
     if (!(st.fraction_update >= 0.5 * st.target_update))
         fail_msg("update share %.4f, target %.4f", st.fraction_update, st.target_update);
-    tu_vol_free(&vol);
-    tu_finish(ctx);
 }
 
 /* The measured device-time share tracks the target.  Entries with a validity radius of
@@ -129,19 +137,10 @@ void test_scheduler_measured_shares_track_targets(void **state) {
     cfg.scheduler.create_max = 0.30f;
     cfg.scheduler.update_min = 0.05f;
     cfg.scheduler.update_max = 0.08f;
-    picvr_context *ctx = tu_create_config(&cfg);
-    tu_vol vol;
-    cube_scene(ctx, &vol, 0, 48, 48);
-    for (int i = 0; i < 20; i++) TU_OK(picvr_step(ctx, 100.0));
-    picvr_stats st = tu_stats_finite(ctx);
-    print_message("    hit rate %.3f, %u entries: create %.3f (target %.3f), update %.3f (target %.3f), render %.3f\n",
-                  st.cache_hit_rate, st.cache_entries, st.fraction_create, st.target_create, st.fraction_update,
-                  st.target_update, st.fraction_render);
+    picvr_stats st = cube_shares_after_2s(&cfg, 0);
     assert_true(st.cache_full == 0);
     assert_true(fabs(st.fraction_create - st.target_create) < 0.05);
     assert_true(fabs(st.fraction_update - st.target_update) < 0.05);
-    tu_vol_free(&vol);
-    tu_finish(ctx);
 }
 
 /* The cube fills the left half of a 128x32 image, the right half is black background.

@@ -34,7 +34,7 @@ picvr_context *tu_create(uint32_t seed) {
     return tu_create_config(&cfg);
 }
 
-picvr_context *tu_create_config(picvr_config *cfg_in) {
+picvr_context *tu_create_config(const picvr_config *cfg_in) {
     picvr_config cfg = *cfg_in;
     cfg.validation = 1;
     picvr_context *ctx = NULL;

@@ -146,7 +146,7 @@ TU_ALL_TESTS(TU_DECLARE)
    registered so that the per-test teardown destroys it if the test fails early. */
 picvr_context *tu_create(uint32_t seed);
 /* Same with the caller's config (validation is forced on). */
-picvr_context *tu_create_config(picvr_config *cfg);
+picvr_context *tu_create_config(const picvr_config *cfg);
 /* Asserts picvr_get_stats().validation_messages == 0, then destroys the context. */
 void tu_finish(picvr_context *ctx);
 /* 1 when picvr picks a CPU device (lavapipe's llvmpipe, SwiftShader), by its name. */
