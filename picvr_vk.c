@@ -2093,7 +2093,7 @@ static picvr_status finish_round(picvr_context *ctx, const round_plan *p, double
            every 1000 ms by Table 1, runs on top (rendering gives way), though the stats
            count it as update time (octree maintenance).  Charged to the update's
            credit, it took most of that share as the cache grew: 30 update packages a
-           second at 9,000-13,000 entries on bonsai against 74 before (2026-11-29). */
+           second at 9,000-13,000 entries on bonsai, 56 with this rule (2026-11-29). */
         if (!first[PROC_UPDATE]) settle_credit(ctx, PROC_UPDATE, device_total, dev[PROC_UPDATE] - rebuild_ms);
     }
     ctx->overhead_ms = ema(ctx->overhead_ms, wall_ms > device_total ? wall_ms - device_total : 1e-3);
