@@ -27,11 +27,17 @@ static void cube_scene(picvr_context *ctx, tu_vol *vol, double cx, uint32_t w, u
     tu_set_camera(ctx, cx, 0, 30, cx, 0, 0, 40, w, h);
 }
 
-static picvr_context *create_sched(picvr_cache_mode mode, picvr_switch prio, uint32_t seed) {
+/* The config of these tests: the seed and the cache mode, the rest at its defaults. */
+static picvr_config sched_config(uint32_t seed, picvr_cache_mode mode) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
     cfg.cache.mode = mode;
+    return cfg;
+}
+
+static picvr_context *create_sched(picvr_cache_mode mode, picvr_switch prio, uint32_t seed) {
+    picvr_config cfg = sched_config(seed, mode);
     cfg.scheduler.priorities = prio;
     return tu_create_config(&cfg);
 }
@@ -42,10 +48,7 @@ static picvr_context *create_sched(picvr_cache_mode mode, picvr_switch prio, uin
    to near t_min.  The measured shares always sum to 1. */
 void test_scheduler_shares_follow_hit_rate(void **state) {
     (void)state;
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 5;
-    cfg.cache.mode = PICVR_CACHE_SCREEN_SPACE;   /* many requests in flight from the start */
+    picvr_config cfg = sched_config(5, PICVR_CACHE_SCREEN_SPACE);   /* many requests in flight from the start */
     cfg.cache.superpixel_size = 8;
     cfg.scheduler.create_min = 0.04f;
     cfg.scheduler.create_max = 0.30f;
@@ -110,10 +113,7 @@ static picvr_stats cube_shares_after_2s(const picvr_config *cfg, int cold_compil
    entries).  On a GPU (which compiles at pipeline creation) the same must hold. */
 void test_scheduler_update_runs_after_cold_compile(void **state) {
     (void)state;
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 8;
-    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    picvr_config cfg = sched_config(8, PICVR_CACHE_OBJECT_SPACE);
     picvr_stats st = cube_shares_after_2s(&cfg, 1);
     if (!(st.fraction_update >= 0.5 * st.target_update))
         fail_msg("update share %.4f, target %.4f", st.fraction_update, st.target_update);
@@ -127,10 +127,7 @@ void test_scheduler_update_runs_after_cold_compile(void **state) {
    entries is small), and rendering gets the rest. */
 void test_scheduler_measured_shares_track_targets(void **state) {
     (void)state;
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 6;
-    cfg.cache.mode = PICVR_CACHE_SCREEN_SPACE;
+    picvr_config cfg = sched_config(6, PICVR_CACHE_SCREEN_SPACE);
     cfg.cache.superpixel_size = 4;
     cfg.cache.radius_max_voxels = 0.5f;
     cfg.scheduler.create_min = 0.20f;
