@@ -406,14 +406,20 @@ bool zone_reaches(vec3 x0, float rmax, mat3 frame, vec3 r_pos, vec3 r_neg, vec3 
     return !any(greaterThan(abs(to_box * frame), h + (0.5 * size) * af));             // frame axes
 }
 
+// The largest of an entry's six radii (r_pos along +t, +b, +n, r_neg along -t, -b, -n):
+// the radius of its bounding sphere, stored in pos_rmax.w for the lookup's sphere test.
+float largest_radius(vec3 r_pos, vec3 r_neg) {
+    vec3 r = max(r_pos, r_neg);
+    return max(r.x, max(r.y, r.z));
+}
+
 // Inserts entry e (centre x0, frame normal n, radii r_pos along +t, +b, +n and r_neg
 // along -t, -b, -n) into cell k (0..26) of the up to 3 x 3 x 3 cells its bounding
 // sphere's box overlaps at the insertion depth, if that cell exists and the zone can
 // reach into it (zone_reaches).  The creation procedure runs the 27 cells on 27 threads,
 // the rebuild on one thread per entry.
 void insert_cell(uint e, vec3 x0, vec3 n, vec3 r_pos, vec3 r_neg, uint k) {
-    vec3 r = max(r_pos, r_neg);
-    float rmax = max(r.x, max(r.y, r.z));
+    float rmax = largest_radius(r_pos, r_neg);
     uint depth = insertion_depth(rmax);
     uvec3 lo = cell_at(x0 - vec3(rmax), depth), hi = cell_at(x0 + vec3(rmax), depth);
     uvec3 cell = lo + uvec3(k % 3u, (k / 3u) % 3u, k / 9u);

@@ -15,8 +15,7 @@ void main() {
     // The radii may have shrunk: recompute the largest, the lookup's sphere test.
     vec3 r_pos = vec3(entry_radius(e, 0u), entry_radius(e, 2u), entry_radius(e, 4u));
     vec3 r_neg = vec3(entry_radius(e, 1u), entry_radius(e, 3u), entry_radius(e, 5u));
-    vec3 r = max(r_pos, r_neg);
-    entries[e].pos_rmax.w = max(r.x, max(r.y, r.z));
+    entries[e].pos_rmax.w = largest_radius(r_pos, r_neg);
     vec3 x0 = entries[e].pos_rmax.xyz, n = entries[e].normal;
     for (uint k = 0u; k < 27u; k++) insert_cell(e, x0, n, r_pos, r_neg, k);
 }
