@@ -405,6 +405,15 @@ typedef enum picvr_debug_view {
                                   Read it with picvr_read_rgba32f; needs the cache on */
 } picvr_debug_view;
 
+/* Replaces the scheduler's settings (NULL: all defaults), validated as in
+   picvr_create; on an error nothing changes.  Keeps the cache, the accumulated image and
+   the measured cost of each procedure; the shares apply from the next round, and credit
+   owed under the old shares is dropped.  For example, fill the cache while a scene
+   loads (create_min = create_max = 0.85, as `picvr-render --warm` does), then switch
+   to the defaults for interaction.  Turning priorities on for the first time creates
+   their pipeline (on a CPU device the driver compiles it at its first use). */
+picvr_status picvr_set_scheduler(picvr_context *ctx, const picvr_scheduler_config *cfg);
+
 /* Selects what picvr_step renders; resets accumulation. */
 picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view);
 

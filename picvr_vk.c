@@ -1069,6 +1069,28 @@ picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view) {
     return clear_accumulation(ctx);
 }
 
+picvr_status picvr_set_scheduler(picvr_context *ctx, const picvr_scheduler_config *cfg) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
+    const picvr_scheduler_config zero = {0};
+    picvr_scheduler_config c;
+    picvr_status s = resolve_scheduler_config(cfg ? cfg : &zero, &c);
+    if (s) return s;
+    if (c.priorities == PICVR_SWITCH_ON && !ctx->priority_pipe) {
+        if (!ctx->priority_module)
+            s = create_shader(ctx, picvr_spv_block_priority, sizeof picvr_spv_block_priority,
+                              &ctx->priority_module);
+        if (!s) s = create_pipeline(ctx, ctx->priority_module, ctx->render_layout, NULL, &ctx->priority_pipe);
+        if (s) return s;   /* a module left behind is destroyed with the context */
+    }
+    ctx->sched = c;
+    ctx->use_priorities = c.priorities == PICVR_SWITCH_ON;
+    /* credit owed under the old shares would be spent under the new ones */
+    ctx->credit_ms[PROC_CREATE] = ctx->credit_ms[PROC_UPDATE] = 0.0;
+    update_targets(ctx);
+    return PICVR_OK;
+}
+
 picvr_status picvr_reset(picvr_context *ctx) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     return clear_accumulation(ctx);

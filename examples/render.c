@@ -53,6 +53,7 @@ typedef struct options {
     picvr_switch medium;
     uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */
     float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
+    double warm_ms;           /* --warm: fill the cache first at WARM_CREATE_SHARE; 0: no */
     const char *debug_view;
     float exposure;
     float azimuth, elevation, distance, fov;
@@ -139,6 +140,9 @@ static void print_help(FILE *f)
         "  --shares CMIN,CMAX,UMIN,UMAX  device-time shares of cache-entry creation and\n"
         "                         update at hit rate 1 and 0 (paper §6; default\n"
         "                         0.05,0.15,0.01,0.02)\n"
+        "  --warm MS              fill the cache for MS milliseconds first, creation at a\n"
+        "                         0.85 share (as while a scene loads), then restart the\n"
+        "                         image at the --shares (needs --cache object|screen)\n"
         "  --curvature on|off     shrink cache entries where the field bends within Delta\n"
         "                         (lit faces, shadow edges): less bias, far lower hit rate\n"
         "                         (default off: the paper's Eq. 9, 10 radii alone)\n"
@@ -314,6 +318,8 @@ static int apply_option(options *o, const char *name, const char *value)
         else if (!strcmp(value, "object")) o->cache = PICVR_CACHE_OBJECT_SPACE;
         else if (!strcmp(value, "screen")) o->cache = PICVR_CACHE_SCREEN_SPACE;
         else ok = 0;
+    } else if (!strcmp(name, "warm")) {
+        ok = parse_double(value, &o->warm_ms) && o->warm_ms > 0.0;
     } else if (!strcmp(name, "shares")) {
         char tail;
         ok = sscanf(value, "%f,%f,%f,%f%c", &o->shares[0], &o->shares[1], &o->shares[2], &o->shares[3],
@@ -352,7 +358,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "samples", "shares", "debug-view", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "samples", "shares", "warm", "debug-view", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -419,6 +425,10 @@ static int parse_options(int argc, char **argv, options *o)
     }
     if (o->have_time && o->iterations) {
         fail("give --time or --iterations, not both");
+        return EXIT_USAGE;
+    }
+    if (o->warm_ms > 0.0 && o->cache != PICVR_CACHE_OBJECT_SPACE && o->cache != PICVR_CACHE_SCREEN_SPACE) {
+        fail("--warm fills the cache: give --cache object or --cache screen");
         return EXIT_USAGE;
     }
     return -1;
@@ -547,6 +557,35 @@ static int render_for_time(render_state *r, double time_ms, double round_ms)
         if (!finish_round(r, rendered >= time_ms ? 1.0 : rendered / time_ms)) return 0;
     }
     return 1;
+}
+
+/* --warm: creation's share while the cache fills (the bench's --bias-warm uses the
+   same), update at Table 1's largest share, 0.02: together under picvr's limit of 0.9. */
+#define WARM_CREATE_SHARE 0.85f
+
+/* Fills the cache for o->warm_ms at WARM_CREATE_SHARE, then switches to the shares of
+   `run` and restarts the image: picvr_set_scheduler and picvr_reset keep the cache. */
+static int warm_up(render_state *r, const options *o, const picvr_scheduler_config *run)
+{
+    picvr_scheduler_config warm = *run;
+    warm.create_min = warm.create_max = WARM_CREATE_SHARE;
+    warm.update_min = warm.update_max = 0.02f;
+    if (!check(picvr_set_scheduler(r->ctx, &warm), "picvr_set_scheduler")) return 0;
+    double done = 0.0;
+    while (done < o->warm_ms && !interrupted) {
+        double want = o->warm_ms - done < o->round_ms ? o->warm_ms - done : o->round_ms;
+        double t0 = now_ms();
+        if (!check(picvr_step(r->ctx, want), "picvr_step")) return 0;
+        done += now_ms() - t0;
+    }
+    picvr_stats st;
+    if (!check(picvr_get_stats(r->ctx, &st), "picvr_get_stats")) return 0;
+    end_progress_line(r->progress);
+    if (!o->quiet)
+        fprintf(stderr, "picvr-render: warm-up %.1f s: %u cache entries, hit rate %.3f\n", done / 1e3,
+                st.cache_entries, st.cache_hit_rate);
+    return check(picvr_set_scheduler(r->ctx, run), "picvr_set_scheduler") &&
+           check(picvr_reset(r->ctx), "picvr_reset");
 }
 
 /* Exactly `total` iterations, in chunks sized to take about round_ms each (the same
@@ -886,8 +925,9 @@ static int render(const options *o, const pvio_layout *layout)
     ok = ok && set_up_scene(r.ctx, o);
     if (ok) {
         install_interrupt_handler();
+        if (o->warm_ms > 0.0) ok = warm_up(&r, o, &cfg.scheduler);
         prog.start_ms = prog.next_line_ms = now_ms();
-        ok = o->iterations ? render_iterations(&r, o->iterations, o->round_ms)
+        ok = ok && o->iterations ? render_iterations(&r, o->iterations, o->round_ms)
                            : render_for_time(&r, o->time_ms, o->round_ms);
         end_progress_line(&prog);
     }

@@ -1,5 +1,5 @@
 /* soak.c - `make soak`: SOAK_SECONDS (default 120) of picvr_step with random camera
- * moves, image-size changes, transfer-function, light and volume changes, image reads
+ * moves, image-size changes, transfer-function, light, scheduler and volume changes, image reads
  * and stats, then checks that memory is flat.
  *
  * Three measures, each taken in the same scene configuration (the same volume and
@@ -213,6 +213,19 @@ static void set_camera(picvr_context *ctx, int size) {
     CHECK(picvr_set_camera(ctx, &c));
 }
 
+/* Random valid scheduler settings (picvr_set_scheduler on a running context). */
+static void random_scheduler(picvr_context *ctx) {
+    picvr_scheduler_config c;
+    memset(&c, 0, sizeof c);
+    c.priorities = rnd() < 0.5 ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
+    c.create_min = (float)(rnd() * 0.3);
+    c.create_max = c.create_min + (float)(rnd() * 0.3);
+    c.update_min = (float)(rnd() * 0.05);
+    c.update_max = c.update_min + (float)(rnd() * 0.05);
+    c.rounds_per_second = (float)(5 + rnd() * 35);
+    CHECK(picvr_set_scheduler(ctx, rnd() < 0.2 ? NULL : &c));
+}
+
 typedef struct { long long rss, host; unsigned long long dev; } sample;
 
 static sample measure(void) {
@@ -298,6 +311,7 @@ int main(int argc, char **argv) {
             if (cur_vol) upload(ctx, vb, 48, 64, 32); else upload(ctx, va, 64, 64, 64);
             uploads++;
         } else if (a < 0.69) { CHECK(picvr_reset(ctx)); }
+        else if (a < 0.71) { random_scheduler(ctx); changes++; }
         CHECK(picvr_step(ctx, 20 + rnd() * 60));
         steps++;
         picvr_stats st;

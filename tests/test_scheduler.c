@@ -252,11 +252,63 @@ void test_scheduler_no_deadlock_with_tiny_pools(void **state) {
     sigaction(SIGALRM, &old, NULL);
 }
 
-/* Bad scheduler configurations are refused with a status, and nothing leaks. */
+/* picvr_set_scheduler switches the shares of a running context, as an application
+   that fills the cache while a scene loads and then renders at the defaults: the
+   config of the test above for 2 s, then creation at 0.5, update at 0.02 and
+   priorities on (their pipeline created by the call) for 2 s.  Over the last second
+   the measured shares must be within 0.05 of the new targets, while the cache and the
+   accumulated image are kept (entries and iterations only grow). */
+void test_scheduler_set_scheduler_switches_shares(void **state) {
+    (void)state;
+    picvr_config cfg = sched_config(6, PICVR_CACHE_SCREEN_SPACE);
+    cfg.cache.superpixel_size = 4;
+    cfg.cache.radius_max_voxels = 0.5f;
+    cfg.scheduler.priorities = PICVR_SWITCH_OFF;
+    cfg.scheduler.create_min = 0.20f;
+    cfg.scheduler.create_max = 0.30f;
+    cfg.scheduler.update_min = 0.05f;
+    cfg.scheduler.update_max = 0.08f;
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_vol vol;
+    cube_scene(ctx, &vol, 0, 48, 48);
+    for (int i = 0; i < 20; i++) TU_OK(picvr_step(ctx, 100.0));
+    picvr_stats before = tu_stats_finite(ctx);
+    picvr_scheduler_config sc;
+    memset(&sc, 0, sizeof sc);
+    sc.priorities = PICVR_SWITCH_ON;
+    sc.create_min = sc.create_max = 0.5f;
+    sc.update_min = sc.update_max = 0.02f;
+    TU_OK(picvr_set_scheduler(ctx, &sc));
+    for (int i = 0; i < 20; i++) TU_OK(picvr_step(ctx, 100.0));
+    picvr_stats st = tu_stats_finite(ctx);
+    print_message("    before: create %.3f (target %.3f), %u entries, %u iterations; after: create %.3f "
+                  "(target %.3f), update %.4f (target %.4f), %u entries, %u iterations\n",
+                  before.fraction_create, before.target_create, before.cache_entries, before.iterations_min,
+                  st.fraction_create, st.target_create, st.fraction_update, st.target_update, st.cache_entries,
+                  st.iterations_min);
+    assert_true(fabs(st.target_create - 0.5) < 1e-6 && fabs(st.target_update - 0.02) < 1e-6);
+    assert_true(fabs(st.fraction_create - 0.5) < 0.05);
+    assert_true(fabs(st.fraction_update - 0.02) < 0.05);
+    assert_true(st.cache_entries >= before.cache_entries);
+    assert_true(st.iterations_min > before.iterations_min);
+    /* NULL: back to the defaults of Table 1 */
+    TU_OK(picvr_set_scheduler(ctx, NULL));
+    TU_OK(picvr_step(ctx, 50.0));
+    st = tu_stats_finite(ctx);
+    double f = 1.0 - pow(st.cache_hit_rate, 3.0);
+    assert_true(fabs(st.target_create - (0.05 + f * 0.10)) < 1e-6);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+}
+
+/* Bad scheduler configurations are refused with a status, by picvr_create (nothing
+   leaks) and by picvr_set_scheduler (the context keeps its settings). */
 void test_scheduler_config_errors(void **state) {
     (void)state;
     picvr_config cfg;
     picvr_context *ctx = NULL;
+    picvr_context *live = create_sched(PICVR_CACHE_OBJECT_SPACE, PICVR_SWITCH_DEFAULT, 1);
+    picvr_stats st0 = tu_stats_finite(live);
     const struct { float cmin, cmax, umin, umax, e, rps; picvr_status want; } rows[] = {
         {0.2f, 0.1f, 0, 0, 0, 0, PICVR_ERROR_INVALID_ARGUMENT},      /* min > max */
         {-0.1f, 0, 0, 0, 0, 0, PICVR_ERROR_INVALID_ARGUMENT},
@@ -275,9 +327,15 @@ void test_scheduler_config_errors(void **state) {
         cfg.scheduler.rounds_per_second = rows[i].rps;
         TU_EXPECT(picvr_create(&cfg, &ctx), rows[i].want);
         assert_null(ctx);
+        TU_EXPECT(picvr_set_scheduler(live, &cfg.scheduler), rows[i].want);
     }
     memset(&cfg, 0, sizeof cfg);
     cfg.scheduler.priorities = (picvr_switch)7;
     TU_EXPECT(picvr_create(&cfg, &ctx), PICVR_ERROR_INVALID_ARGUMENT);
     assert_null(ctx);
+    TU_EXPECT(picvr_set_scheduler(live, &cfg.scheduler), PICVR_ERROR_INVALID_ARGUMENT);
+    TU_EXPECT(picvr_set_scheduler(NULL, NULL), PICVR_ERROR_NULL_POINTER);
+    picvr_stats st = tu_stats_finite(live);
+    assert_true(st.target_create == st0.target_create && st.target_update == st0.target_update);
+    tu_finish(live);
 }

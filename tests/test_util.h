@@ -75,6 +75,7 @@
     X(test_scheduler_priorities_favour_lit_blocks)                  \
     X(test_scheduler_step_budget)                                   \
     X(test_scheduler_no_deadlock_with_tiny_pools)                   \
+    X(test_scheduler_set_scheduler_switches_shares)                 \
     X(test_scheduler_config_errors)                                 \
     /* test_api_errors.c */                                         \
     X(test_status_strings_non_null_and_distinct)                    \
