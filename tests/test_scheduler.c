@@ -119,6 +119,20 @@ void test_scheduler_update_runs_after_cold_compile(void **state) {
         fail_msg("update share %.4f, target %.4f", st.fraction_update, st.target_update);
 }
 
+/* Requests always plentiful: entries with a validity radius of at most 0.5 voxels cover
+   almost nothing, screen-space locking with 4x4 superpixels; creation 0.20-0.30 and
+   update 0.05-0.08 of the device time. */
+static picvr_config plentiful_requests_config(void) {
+    picvr_config cfg = sched_config(6, PICVR_CACHE_SCREEN_SPACE);
+    cfg.cache.superpixel_size = 4;
+    cfg.cache.radius_max_voxels = 0.5f;
+    cfg.scheduler.create_min = 0.20f;
+    cfg.scheduler.create_max = 0.30f;
+    cfg.scheduler.update_min = 0.05f;
+    cfg.scheduler.update_max = 0.08f;
+    return cfg;
+}
+
 /* The measured device-time share tracks the target.  Entries with a validity radius of
    at most 0.5 voxels cover almost nothing, so the hit rate stays low and requests are
    always plentiful (screen-space locking, 4x4 superpixels): over the last second the
@@ -127,13 +141,7 @@ void test_scheduler_update_runs_after_cold_compile(void **state) {
    entries is small), and rendering gets the rest. */
 void test_scheduler_measured_shares_track_targets(void **state) {
     (void)state;
-    picvr_config cfg = sched_config(6, PICVR_CACHE_SCREEN_SPACE);
-    cfg.cache.superpixel_size = 4;
-    cfg.cache.radius_max_voxels = 0.5f;
-    cfg.scheduler.create_min = 0.20f;
-    cfg.scheduler.create_max = 0.30f;
-    cfg.scheduler.update_min = 0.05f;
-    cfg.scheduler.update_max = 0.08f;
+    picvr_config cfg = plentiful_requests_config();
     picvr_stats st = cube_shares_after_2s(&cfg, 0);
     assert_true(st.cache_full == 0);
     assert_true(fabs(st.fraction_create - st.target_create) < 0.05);
@@ -253,21 +261,15 @@ void test_scheduler_no_deadlock_with_tiny_pools(void **state) {
 }
 
 /* picvr_set_scheduler switches the shares of a running context, as an application
-   that fills the cache while a scene loads and then renders at the defaults: the
-   config of the test above for 2 s, then creation at 0.5, update at 0.02 and
+   that fills the cache while a scene loads and then renders at the defaults:
+   plentiful_requests_config with priorities off for 2 s, then creation at 0.5, update at 0.02 and
    priorities on (their pipeline created by the call) for 2 s.  Over the last second
    the measured shares must be within 0.05 of the new targets, while the cache and the
    accumulated image are kept (entries and iterations only grow). */
 void test_scheduler_set_scheduler_switches_shares(void **state) {
     (void)state;
-    picvr_config cfg = sched_config(6, PICVR_CACHE_SCREEN_SPACE);
-    cfg.cache.superpixel_size = 4;
-    cfg.cache.radius_max_voxels = 0.5f;
+    picvr_config cfg = plentiful_requests_config();
     cfg.scheduler.priorities = PICVR_SWITCH_OFF;
-    cfg.scheduler.create_min = 0.20f;
-    cfg.scheduler.create_max = 0.30f;
-    cfg.scheduler.update_min = 0.05f;
-    cfg.scheduler.update_max = 0.08f;
     picvr_context *ctx = tu_create_config(&cfg);
     tu_vol vol;
     cube_scene(ctx, &vol, 0, 48, 48);
