@@ -265,6 +265,17 @@ void test_bad_inputs_rejected_and_state_kept(void **state) {
         picvr_read_rgba32f(ctx, NULL, sizeof rgba32));
     ROW(t, "get_stats(NULL ctx)", PICVR_ERROR_NULL_POINTER, picvr_get_stats(NULL, &st));
     ROW(t, "get_stats(NULL stats)", PICVR_ERROR_NULL_POINTER, picvr_get_stats(ctx, NULL));
+    ROW(t, "set_scheduler(NULL ctx)", PICVR_ERROR_NULL_POINTER, picvr_set_scheduler(NULL, NULL));
+
+    /* -- scheduler (the full list of bad settings: test_scheduler_config_errors) -- */
+    picvr_scheduler_config sc;
+    memset(&sc, 0, sizeof sc);
+    sc.create_min = NAN;
+    ROW(t, "set_scheduler(create_min NaN)", PICVR_ERROR_NON_FINITE, picvr_set_scheduler(ctx, &sc));
+    memset(&sc, 0, sizeof sc);
+    sc.create_max = 0.8f;
+    sc.update_max = 0.2f;
+    ROW(t, "set_scheduler(rendering under 10 %)", PICVR_ERROR_INVALID_ARGUMENT, picvr_set_scheduler(ctx, &sc));
 
     /* -- volume -- */
     for (int a = 0; a < 3; a++) {
