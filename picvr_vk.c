@@ -115,6 +115,7 @@ struct picvr_context {
     VkPipeline render_pipe[4];       /* [USE_PHASE_MIS + 2 * USE_FINE] */
     VkPipeline stats_pipe;
     VkPipeline render_cache_pipe[4], create_pipe[4], update_pipe[4];  /* the cache's variants */
+    VkPipeline render_view_pipe[4];  /* render_cache with the debug views; made by picvr_set_view */
     VkPipeline rebuild_pipe;
     VkSampler linear_sampler;
     VkFormat float_volume_format;    /* R32_SFLOAT, or R16_UNORM where it cannot filter */
@@ -642,6 +643,17 @@ static VkDescriptorType binding_type(uint32_t i) {
          : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
+/* Pipeline variant v of a procedure.  One set of constants for all: 0 USE_PHASE_MIS
+   (v & 1), 1 USE_FINE (v >> 1), 2 the creation procedure's rounds (CREATE_MAX_ROUNDS),
+   3 USE_DEBUG_VIEW; a shader ignores the ones it lacks. */
+static picvr_status create_variant(picvr_context *ctx, VkShaderModule mod, uint32_t v, uint32_t debug_view,
+                                   VkPipeline *out) {
+    uint32_t value[4] = {v & 1, v >> 1, ctx->cache.max_samples / CACHE_CREATE_GROUP, debug_view};
+    VkSpecializationMapEntry entry[4] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}, {3, 12, 4}};
+    VkSpecializationInfo spec = {4, entry, sizeof value, value};
+    return create_pipeline(ctx, mod, ctx->render_layout, &spec, out);
+}
+
 static picvr_status create_pipelines(picvr_context *ctx) {
     VkDescriptorSetLayoutBinding b[NUM_BINDINGS];
     memset(b, 0, sizeof b);
@@ -704,22 +716,25 @@ static picvr_status create_pipelines(picvr_context *ctx) {
     /* Four variants of the rendering procedure: with and without phase-sampled MIS rays
        (left out for scenes lit only by delta lights), with and without voxel-level
        majorants (left out unless the medium is dense). */
-    /* One set of constants for all: 0 USE_PHASE_MIS, 1 USE_FINE, 2 the creation
-       procedure's rounds (CREATE_MAX_ROUNDS); a shader ignores the ones it lacks. */
     for (uint32_t v = 0; v < 4; v++) {
-        uint32_t value[3] = {v & 1, v >> 1, ctx->cache.max_samples / CACHE_CREATE_GROUP};
-        VkSpecializationMapEntry entry[3] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}};
-        VkSpecializationInfo spec = {3, entry, sizeof value, value};
-        s = create_pipeline(ctx, ctx->render_module, ctx->render_layout, &spec, &ctx->render_pipe[v]);
-        if (!s && ctx->cache_on)
-            s = create_pipeline(ctx, ctx->render_cache_module, ctx->render_layout, &spec, &ctx->render_cache_pipe[v]);
-        if (!s && ctx->cache_on)
-            s = create_pipeline(ctx, ctx->create_module, ctx->render_layout, &spec, &ctx->create_pipe[v]);
-        if (!s && ctx->cache_on)
-            s = create_pipeline(ctx, ctx->update_module, ctx->render_layout, &spec, &ctx->update_pipe[v]);
+        s = create_variant(ctx, ctx->render_module, v, 0, &ctx->render_pipe[v]);
+        if (!s && ctx->cache_on) s = create_variant(ctx, ctx->render_cache_module, v, 0, &ctx->render_cache_pipe[v]);
+        if (!s && ctx->cache_on) s = create_variant(ctx, ctx->create_module, v, 0, &ctx->create_pipe[v]);
+        if (!s && ctx->cache_on) s = create_variant(ctx, ctx->update_module, v, 0, &ctx->update_pipe[v]);
         if (s) return s;
     }
     return create_pipeline(ctx, ctx->stats_module, ctx->stats_layout, NULL, &ctx->stats_pipe);
+}
+
+/* The debug views' variants of the cached rendering procedure, made on the first
+   picvr_set_view that needs them (those made before a failure stay for the next call;
+   the context destroys them). */
+static picvr_status create_view_pipelines(picvr_context *ctx) {
+    picvr_status s = PICVR_OK;
+    for (uint32_t v = 0; v < 4 && !s; v++)
+        if (!ctx->render_view_pipe[v])
+            s = create_variant(ctx, ctx->render_cache_module, v, 1, &ctx->render_view_pipe[v]);
+    return s;
 }
 
 static picvr_status create_sampler(picvr_context *ctx) {
@@ -855,6 +870,7 @@ void picvr_destroy(picvr_context *ctx) {
         for (int i = 0; i < 4; i++) {
             if (ctx->render_pipe[i]) vkDestroyPipeline(d, ctx->render_pipe[i], NULL);
             if (ctx->render_cache_pipe[i]) vkDestroyPipeline(d, ctx->render_cache_pipe[i], NULL);
+            if (ctx->render_view_pipe[i]) vkDestroyPipeline(d, ctx->render_view_pipe[i], NULL);
             if (ctx->create_pipe[i]) vkDestroyPipeline(d, ctx->create_pipe[i], NULL);
             if (ctx->update_pipe[i]) vkDestroyPipeline(d, ctx->update_pipe[i], NULL);
         }
@@ -1065,6 +1081,11 @@ picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     if ((unsigned)view > PICVR_VIEW_CACHE_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
     if (view != PICVR_VIEW_IMAGE && !ctx->cache_on) return PICVR_ERROR_NOT_READY;
+    if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
+    if (view != PICVR_VIEW_IMAGE) {
+        picvr_status s = create_view_pipelines(ctx);
+        if (s) return s;
+    }
     ctx->scene.view[0] = (uint32_t)view;
     return clear_accumulation(ctx);
 }
@@ -1946,7 +1967,9 @@ static void record_rebuild(picvr_context *ctx, uint32_t created) {
 static void record_render(picvr_context *ctx, const round_plan *p, uint32_t variant) {
     uint32_t B = ctx->block_total, cap = B < MAX_QUEUE ? B : MAX_QUEUE;
     int prio = ctx->use_priorities && !p->whole_passes;
-    VkPipeline render = ctx->cache_on ? ctx->render_cache_pipe[variant] : ctx->render_pipe[variant];
+    VkPipeline render = !ctx->cache_on ? ctx->render_pipe[variant]
+                      : ctx->scene.view[0] != PICVR_VIEW_IMAGE ? ctx->render_view_pipe[variant]
+                      : ctx->render_cache_pipe[variant];
     for (uint32_t left = p->render_blocks; left > 0;) {
         uint32_t want = left < cap ? left : cap;
         if (prio) {
@@ -1976,9 +1999,11 @@ static void record_render(picvr_context *ctx, const round_plan *p, uint32_t vari
 static void note_dispatches(picvr_context *ctx, const round_plan *p, uint32_t variant) {
     int runs[3] = {ctx->cache_on && ctx->requests_pending > 0, ctx->cache_on && p->update_groups > 0,
                    p->render_blocks > 0};
+    /* the rendering procedure's debug-view variants count as variants 4 to 7 */
+    uint32_t bit[3] = {variant, variant, variant + (ctx->cache_on && ctx->scene.view[0] != PICVR_VIEW_IMAGE ? 4u : 0u)};
     for (int i = 0; i < 3; i++) {
-        ctx->first_dispatch[i] = runs[i] && !(ctx->dispatched[i] & (1u << variant));
-        if (runs[i]) ctx->dispatched[i] |= 1u << variant;
+        ctx->first_dispatch[i] = runs[i] && !(ctx->dispatched[i] & (1u << bit[i]));
+        if (runs[i]) ctx->dispatched[i] |= 1u << bit[i];
     }
 }
 

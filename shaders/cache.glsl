@@ -246,7 +246,7 @@ bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
     uint e;
     while (walk_next(w, x, e)) {
         eval_entry(e, x, sum_w, sum_wlog);
-        if (scene.view.x == VIEW_CACHE) {   // is x within a voxel of a centre?
+        if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE) {   // is x within a voxel of a centre?
             vec3 d = x - entries[e].pos_rmax.xyz;
             near_centre = near_centre || dot(d, d) < scene.cell_size.w * scene.cell_size.w;
         }

@@ -101,12 +101,13 @@ void main() {
         radiance = albedo_at(x) * Ls;
         coverage = 1.0;
 #ifdef PICVR_CACHE
-        if (scene.view.x == VIEW_CACHE)
+        if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE)
             radiance = near_centre ? vec3(1.0) : hit ? vec3(0.1, 0.8, 0.2) : vec3(0.8, 0.1, 0.1);
-        if (scene.view.x == VIEW_CACHE_ERROR) radiance = hit ? cache_error_sample(x, radiance, rng, truncated) : vec3(0.0);
+        if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE_ERROR)
+            radiance = hit ? cache_error_sample(x, radiance, rng, truncated) : vec3(0.0);
 #endif
 #ifdef PICVR_CACHE
-    } else if (scene.view.x != VIEW_IMAGE) {
+    } else if (USE_DEBUG_VIEW && scene.view.x != VIEW_IMAGE) {
         radiance = vec3(0.0);
 #endif
     } else if (light_hit >= 0) {
