@@ -643,6 +643,23 @@ static VkDescriptorType binding_type(uint32_t i) {
          : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
+/* The Eq. 12 priority pipeline, made once (at creation with priorities on, or by the
+   first picvr_set_scheduler that turns them on); a module left by a failure is reused
+   next time and destroyed with the context. */
+static picvr_status create_priority_pipeline(picvr_context *ctx) {
+    picvr_status s = PICVR_OK;
+    if (!ctx->priority_module)
+        s = create_shader(ctx, picvr_spv_block_priority, sizeof picvr_spv_block_priority, &ctx->priority_module);
+    if (!s && !ctx->priority_pipe)
+        s = create_pipeline(ctx, ctx->priority_module, ctx->render_layout, NULL, &ctx->priority_pipe);
+    return s;
+}
+
+/* True when the cached rendering procedure runs its debug-view variant. */
+static int debug_view_on(const picvr_context *ctx) {
+    return ctx->cache_on && ctx->scene.view[0] != PICVR_VIEW_IMAGE;
+}
+
 /* Pipeline variant v of a procedure.  One set of constants for all: 0 USE_PHASE_MIS
    (v & 1), 1 USE_FINE (v >> 1), 2 the creation procedure's rounds (CREATE_MAX_ROUNDS),
    3 USE_DEBUG_VIEW; a shader ignores the ones it lacks. */
@@ -695,10 +712,7 @@ static picvr_status create_pipelines(picvr_context *ctx) {
     if (!s) s = create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->stats_module);
     if (!s) s = create_shader(ctx, picvr_spv_block_select, sizeof picvr_spv_block_select, &ctx->select_module);
     if (!s) s = create_pipeline(ctx, ctx->select_module, ctx->render_layout, NULL, &ctx->select_pipe);
-    if (!s && ctx->use_priorities) {
-        s = create_shader(ctx, picvr_spv_block_priority, sizeof picvr_spv_block_priority, &ctx->priority_module);
-        if (!s) s = create_pipeline(ctx, ctx->priority_module, ctx->render_layout, NULL, &ctx->priority_pipe);
-    }
+    if (!s && ctx->use_priorities) s = create_priority_pipeline(ctx);
     if (!s && ctx->cache_on && on_cpu_device(ctx) &&
         ctx->cache.max_samples > PICVR_CACHE_MAX_SAMPLES_CPU) {
         logf_(ctx, PICVR_LOG_ERROR, "cache.max_samples %u: at most %u on a CPU device (loop bound)",
@@ -1097,13 +1111,7 @@ picvr_status picvr_set_scheduler(picvr_context *ctx, const picvr_scheduler_confi
     picvr_scheduler_config c;
     picvr_status s = resolve_scheduler_config(cfg ? cfg : &zero, &c);
     if (s) return s;
-    if (c.priorities == PICVR_SWITCH_ON && !ctx->priority_pipe) {
-        if (!ctx->priority_module)
-            s = create_shader(ctx, picvr_spv_block_priority, sizeof picvr_spv_block_priority,
-                              &ctx->priority_module);
-        if (!s) s = create_pipeline(ctx, ctx->priority_module, ctx->render_layout, NULL, &ctx->priority_pipe);
-        if (s) return s;   /* a module left behind is destroyed with the context */
-    }
+    if (c.priorities == PICVR_SWITCH_ON && (s = create_priority_pipeline(ctx))) return s;
     ctx->sched = c;
     ctx->use_priorities = c.priorities == PICVR_SWITCH_ON;
     /* credit owed under the old shares would be spent under the new ones */
@@ -1968,8 +1976,7 @@ static void record_render(picvr_context *ctx, const round_plan *p, uint32_t vari
     uint32_t B = ctx->block_total, cap = B < MAX_QUEUE ? B : MAX_QUEUE;
     int prio = ctx->use_priorities && !p->whole_passes;
     VkPipeline render = !ctx->cache_on ? ctx->render_pipe[variant]
-                      : ctx->scene.view[0] != PICVR_VIEW_IMAGE ? ctx->render_view_pipe[variant]
-                      : ctx->render_cache_pipe[variant];
+                      : debug_view_on(ctx) ? ctx->render_view_pipe[variant] : ctx->render_cache_pipe[variant];
     for (uint32_t left = p->render_blocks; left > 0;) {
         uint32_t want = left < cap ? left : cap;
         if (prio) {
@@ -2000,7 +2007,7 @@ static void note_dispatches(picvr_context *ctx, const round_plan *p, uint32_t va
     int runs[3] = {ctx->cache_on && ctx->requests_pending > 0, ctx->cache_on && p->update_groups > 0,
                    p->render_blocks > 0};
     /* the rendering procedure's debug-view variants count as variants 4 to 7 */
-    uint32_t bit[3] = {variant, variant, variant + (ctx->cache_on && ctx->scene.view[0] != PICVR_VIEW_IMAGE ? 4u : 0u)};
+    uint32_t bit[3] = {variant, variant, variant + (debug_view_on(ctx) ? 4u : 0u)};
     for (int i = 0; i < 3; i++) {
         ctx->first_dispatch[i] = runs[i] && !(ctx->dispatched[i] & (1u << bit[i]));
         if (runs[i]) ctx->dispatched[i] |= 1u << bit[i];

@@ -927,8 +927,8 @@ static int render(const options *o, const pvio_layout *layout)
         install_interrupt_handler();
         if (o->warm_ms > 0.0) ok = warm_up(&r, o, &cfg.scheduler);
         prog.start_ms = prog.next_line_ms = now_ms();
-        ok = ok && o->iterations ? render_iterations(&r, o->iterations, o->round_ms)
-                           : render_for_time(&r, o->time_ms, o->round_ms);
+        ok = ok && (o->iterations ? render_iterations(&r, o->iterations, o->round_ms)
+                                 : render_for_time(&r, o->time_ms, o->round_ms));
         end_progress_line(&prog);
     }
     ok = ok && (!o->out_png || write_png(r.ctx, o));
