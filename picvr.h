@@ -374,7 +374,10 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera);
 /* ---- rendering ------------------------------------------------------------------- */
 
 /* Renders for about `milliseconds` of wall time, then returns; needs a volume and a
-   camera.  Frameless: the time is split into rounds (scheduler.rounds_per_second), each
+   camera.  The kernels are specialized to the scene (delta lights only, lights of one
+   colour, dense media, the debug view): a step that meets a combination no earlier
+   step had makes its pipelines first (outside the time budget; a context keeps 8 per
+   procedure).  Frameless: the time is split into rounds (scheduler.rounds_per_second), each
    one submission in which the three procedures get the §6 shares of device time (with
    the cache) and rendering adds one sample to some 16x8-pixel blocks - chosen by the
    Eq. 12 priorities, or round robin with priorities off - so pixels may hold different
@@ -415,8 +418,8 @@ typedef enum picvr_debug_view {
 picvr_status picvr_set_scheduler(picvr_context *ctx, const picvr_scheduler_config *cfg);
 
 /* Selects what picvr_step renders; resets accumulation.  The debug views are a
-   pipeline variant of their own, created by the first call that selects one (the
-   image's variant leaves their code out: about 8 % faster on lavapipe). */
+   pipeline variant of their own, made by the next step (the image's variant leaves
+   their code out: about 8 % faster on lavapipe). */
 picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view);
 
 /* Discards the accumulated image (iterations back to 0). */

@@ -10,6 +10,12 @@
 #define CACHE_NIL 0u               // index 0 of the ref pool, and as a child index, means "none"
 #define CACHE_NO_NODE 0xffffffffu  // descend_create failed (node 0 is the root)
 
+// Specialization (picvr_vk.c, variant_key): the lights' channel when they share one
+// chromaticity (scene.light_mono; 3: colours differ, every channel is extrapolated),
+// and the locking mode, fixed per context (true: screen space, §5.2).
+layout(constant_id = 4) const uint MONO_CHANNEL = 3u;
+layout(constant_id = 5) const bool SCREEN_LOCKING = false;
+
 // One entry: centre, irradiance E_0 at the centre (RGB), virtual extinction per
 // half-axis and channel (Eq. 6) and validity radius per half-axis (Eq. 9, 10).
 // Half-axis order: +t, -t, +b, -b, +n, -n of the local frame (see entry_normal).
@@ -131,8 +137,8 @@ Prediction predict(uint e, vec3 x) {
     float d1u = CM_FN(length1)(u.x, u.y, u.z);
     float rmin_e = entry_r_min_of(e), rmax_e = entry_r_max_of(e);
     // Lights of one chromaticity (scene.light_mono): only their channel m is
-    // extrapolated, the others follow below.  Uniform over the dispatch.
-    uint m = uint(scene.light_mono.w);
+    // extrapolated, the others follow below.  A specialization constant.
+    const uint m = MONO_CHANNEL;
     uint c_end = m < 3u ? m + 1u : 3u;
     for (uint c = m < 3u ? m : 0u; c < c_end; c++) {
         float sx = entries[e].sigma_v[half_axis.x * 3u + c];
@@ -307,7 +313,7 @@ void cache_request(vec3 x, uint node, uvec2 px, uint round, float u, uint cap) {
     // Both reads may be stale; the atomics below decide, so this only saves work
     // (measured on lavapipe: the three atomics per miss cost 20 % of the render time).
     if (cache_counters.request_count >= min(cap, scene.cache_caps.w)) return;
-    if (scene.cache_screen.w == 0u) {
+    if (!SCREEN_LOCKING) {
         if (nodes[node].lock != 0u) return;
         if (atomicCompSwap(nodes[node].lock, 0u, 1u) != 0u) return;
         queue_request(x, node, cap);

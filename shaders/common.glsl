@@ -55,11 +55,11 @@ layout(set = 0, binding = 0, std140) uniform Scene {
                        // w 1: medium model on (cache_math.glsl, medium_fraction)
     uvec4 cache_caps;  // pool capacities: entries, nodes, refs, requests
     uvec4 cache_screen;// x superpixel side, y superpixels per row, z superpixel count,
-                       // w locking: 0 object space, 1 screen space
+                       // w locking: 0 object space, 1 screen space (SCREEN_LOCKING)
     uvec4 view;        // x: 0 image, 1 cache debug view
-    vec4 light_mono;   // lights of one chromaticity (picvr_vk.c, light_chromaticity): w the
-                       // channel m that carries their irradiance, xyz ln(k_c / k_m) of their
-                       // colour k (CM_LN_E_MIN - CM_LN_E_MAX where k_c = 0); w = 3: colours differ
+    vec4 light_mono;   // lights of one chromaticity (picvr_vk.c, light_chromaticity): xyz
+                       // ln(k_c / k_m) of their colour k (CM_LN_E_MIN - CM_LN_E_MAX where
+                       // k_c = 0); w the channel m, which the kernels read as MONO_CHANNEL
     Light lights[MAX_LIGHTS];
 } scene;
 
@@ -142,7 +142,7 @@ bool box_interval(vec3 ro, vec3 rd, out float t0, out float t1) {
 #define VIEW_CACHE 1u
 #define VIEW_CACHE_ERROR 2u
 // Specialization: the debug views' code is compiled into the cached rendering procedure
-// only in the variant picvr_set_view asks for.  In every variant it made llvmpipe's
+// only in the variant that renders them (picvr_set_view).  In every variant it made llvmpipe's
 // kernel about 8 % slower (bonsai, 13,000 entries, 2026-11-30): the error view inlines
 // a second copy of the direct-light sampling.
 layout(constant_id = 3) const bool USE_DEBUG_VIEW = false;

@@ -86,7 +86,7 @@ void main() {
         uint node;
         bool near_centre;
         bool hit = cache_lookup(x, E, node, near_centre);
-        if (scene.cache_screen.w != 0u) count_ray(px, !hit, pc.round);
+        if (SCREEN_LOCKING) count_ray(px, !hit, pc.round);
         if (hit) {
             Ls = E * INV_4PI;                 // isotropic phase: L_s = E / (4 pi)
             atomicAdd(cache_counters.hits, 1u);

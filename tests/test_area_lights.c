@@ -121,6 +121,65 @@ void test_point_light_single_scatter_closed_form(void **state) {
     tu_finish(ctx);
 }
 
+/* One context through all 15 combinations of the four light types (one light per type
+   present; each image finite and lit), which switches the rendering procedure between
+   its variants with and without phase-sampled MIS rays (USE_PHASE_MIS: off for the
+   point light alone), then the point light alone again against the closed form of
+   test_point_light_single_scatter_closed_form. */
+void test_light_combinations_in_one_context(void **state) {
+    (void)state;
+    lit_scene s;
+    tu_vol vol;
+    picvr_context *ctx = thin_medium(8, &s, &vol);
+    s.kind = 0;
+    s.c[0] = 28; s.c[1] = 4; s.c[2] = -2;
+    s.I = (double)(float)(200.0 * M_PI);
+    picvr_light all[4];
+    memset(all, 0, sizeof all);
+    for (int k = 0; k < 4; k++) {
+        all[k].type = (picvr_light_type)(PICVR_LIGHT_SPHERE + k);
+        for (int i = 0; i < 3; i++) { all[k].position[i] = (float)s.c[i]; all[k].color[i] = 1; }
+        all[k].intensity = 20.0f;
+    }
+    all[0].radius = 1.0f;
+    all[1].position[0] = 20.0f;                        /* rect: facing the cube from +x */
+    all[1].edge_u[2] = 4.0f;
+    all[1].edge_v[1] = 4.0f;
+    all[2].direction[0] = 1.0f;                        /* sun from +x, 0.5 degrees */
+    all[2].direction[1] = 0.2f;
+    all[2].angular_diameter = 0.0087f;
+    all[3].intensity = (float)s.I;                     /* the point light of the closed form */
+    const uint32_t W = 16, H = 16;
+    tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
+    for (uint32_t mask = 1; mask < 16; mask++) {
+        picvr_light l[4];
+        uint32_t n = 0;
+        for (int k = 0; k < 4; k++)
+            if (mask & (1u << k)) l[n++] = all[k];
+        TU_OK(picvr_set_lights(ctx, l, n, NULL));
+        TU_OK(picvr_step_iterations(ctx, 4));
+        float *img = tu_read(ctx, W, H);
+        tu_assert_finite(img, (size_t)W * H * 4, "light-type combination");
+        double m = tu_region_mean(img, W, 1, 0, 0, W, H);
+        if (!(m > 0.0)) fail_msg("light types 0x%x: image mean %g, not lit", mask, m);
+        free(img);
+    }
+    TU_OK(picvr_set_lights(ctx, &all[3], 1, NULL));
+    const uint32_t W2 = 64, H2 = 64, N = 512;
+    tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W2, H2);
+    double *expv = tu_expected_image(&cam, 2, lit_ray, &s);
+    TU_OK(picvr_step_iterations(ctx, N));
+    float *img = tu_read(ctx, W2, H2);
+    tu_assert_finite(img, (size_t)W2 * H2 * 4, "point light after 15 combinations");
+    int ok = tu_check_mean("point light after 15 combinations", img, expv, W2, 1, 0, 0, W2, H2, N,
+                           s.I / (4 * M_PI * 400.0), 5.0, 1e-4);
+    free(img);
+    free(expv);
+    tu_vol_free(&vol);
+    if (!ok) fail_msg("the point light after the combinations differs from the closed form");
+    tu_finish(ctx);
+}
+
 /* Sphere light of radius r = 1 and radiance 200 at the point light's position (nearest
    medium point at d = 20), against (a) its own closed form and (b) the point light of
    intensity I = L pi r^2 rendered in the same way: the image means agree within

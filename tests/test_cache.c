@@ -114,12 +114,8 @@ void test_cache_homogeneous_sun_matches_closed_form(void **state) {
    col[1] (irradiance 2 col): each channel's cached image mean against its closed form
    (the sum of the two suns' single scattering, by linearity), within that test's bound;
    a channel whose colour is 0 in both must be exactly 0 in every pixel. */
-static void cached_two_suns_match_closed_form(const float col[2][3]) {
-    picvr_context *ctx = create_cached(9, 0, 0.05f, 0.05f);
-    tu_vol vol;
-    tu_sun_scene s[2];
-    setup_cube(ctx, &vol, &s[0]);               /* the cube; its sun is replaced below */
-    s[1] = s[0];
+static void two_suns_check(picvr_context *ctx, const tu_sun_scene *cube, const float col[2][3]) {
+    tu_sun_scene s[2] = {*cube, *cube};
     const double dir[2][3] = {{0.6, 0.45, 0.66}, {-0.7, 0.3, -0.5}};
     picvr_light sun[2];
     memset(sun, 0, sizeof sun);
@@ -162,6 +158,14 @@ static void cached_two_suns_match_closed_form(const float col[2][3]) {
     free(img);
     free(exp0);
     free(exp1);
+}
+
+static void cached_two_suns_match_closed_form(const float col[2][3]) {
+    picvr_context *ctx = create_cached(9, 0, 0.05f, 0.05f);
+    tu_vol vol;
+    tu_sun_scene cube;
+    setup_cube(ctx, &vol, &cube);               /* the cube; its sun is replaced */
+    two_suns_check(ctx, &cube, col);
     tu_vol_free(&vol);
     tu_finish(ctx);
 }
@@ -189,6 +193,57 @@ void test_cache_one_chromaticity_suns_match_closed_form(void **state) {
     (void)state;
     const float col[2][3] = {{0.0f, 0.3f, 1.0f}, {0.0f, 0.6f, 2.0f}};
     cached_two_suns_match_closed_form(col);
+}
+
+/* The pipeline variants (picvr_vk.c, variant_key, select_variant).  The lights'
+   chromaticity is a specialization constant of the lookup (MONO_CHANNEL): one context
+   is lit by suns of one chromaticity (blue carries it), then goes through 16 variants
+   of the cached rendering procedure (each channel, and colours that differ; delta and
+   finite suns, which turn the phase-sampled MIS rays off and on; the image and the
+   cache view), one step each, its image finite; a context keeps 8 variants per
+   procedure, so the first ones are replaced.  Then suns of two colours (every channel
+   extrapolated), of one chromaticity again (the replaced variant, made anew) and of a
+   red-led one, each against the closed form.  A variant left stale would extrapolate
+   one channel for the coloured suns; one destroyed while in use would be a validation
+   message. */
+void test_cache_variants_switch_and_replace(void **state) {
+    (void)state;
+    const float mono[2][3] = {{0.0f, 0.3f, 1.0f}, {0.0f, 0.6f, 2.0f}};
+    const float coloured[2][3] = {{1.0f, 0.3f, 0.0f}, {0.0f, 0.2f, 1.0f}};
+    const float mono_red[2][3] = {{1.0f, 0.5f, 0.25f}, {2.0f, 1.0f, 0.5f}};
+    const float green[2][3] = {{0.5f, 1.0f, 0.25f}, {0.5f, 1.0f, 0.25f}};
+    const float (*sets[4])[3] = {mono_red, green, mono, coloured};
+    picvr_context *ctx = create_cached(9, 0, 0.05f, 0.05f);
+    tu_vol vol;
+    tu_sun_scene cube;
+    setup_cube(ctx, &vol, &cube);
+    two_suns_check(ctx, &cube, mono);
+    const uint32_t W = 48, H = 48;
+    for (int v = 0; v < 16; v++) {
+        picvr_light sun[2];
+        memset(sun, 0, sizeof sun);
+        for (int k = 0; k < 2; k++) {
+            sun[k].type = PICVR_LIGHT_DIRECTIONAL;
+            sun[k].intensity = 2.0f;
+            sun[k].direction[0] = k ? -0.7f : 0.6f;
+            sun[k].direction[1] = 0.4f;
+            sun[k].direction[2] = 0.5f;
+            sun[k].angular_diameter = (v & 4) ? 0.01f : 0.0f;
+            for (int i = 0; i < 3; i++) sun[k].color[i] = sets[v & 3][k][i];
+        }
+        TU_OK(picvr_set_lights(ctx, sun, 2, NULL));
+        TU_OK(picvr_set_view(ctx, (v & 8) ? PICVR_VIEW_CACHE : PICVR_VIEW_IMAGE));
+        TU_OK(picvr_step_iterations(ctx, 2));
+        float *img = tu_read(ctx, W, H);
+        tu_assert_finite(img, (size_t)W * H * 4, "variant");
+        free(img);
+    }
+    TU_OK(picvr_set_view(ctx, PICVR_VIEW_IMAGE));
+    two_suns_check(ctx, &cube, coloured);
+    two_suns_check(ctx, &cube, mono);
+    two_suns_check(ctx, &cube, mono_red);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
 }
 
 /* The octree rebuild (§4.4) re-inserts every entry, also those that the same round's

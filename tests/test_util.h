@@ -59,6 +59,7 @@
     X(test_cache_oriented_box_insertion)                            \
     X(test_cache_coloured_suns_match_closed_form)                   \
     X(test_cache_one_chromaticity_suns_match_closed_form)           \
+    X(test_cache_variants_switch_and_replace)                       \
     X(test_cache_curvature_limit_matches_closed_form )               \
     X(test_cache_screen_space_locking_matches_closed_form)          \
     X(test_cache_invalidation_and_camera_keeps_cache)               \
@@ -112,6 +113,7 @@
     /* test_area_lights.c */                                        \
     X(test_point_light_single_scatter_closed_form)                  \
     X(test_sphere_light_matches_point_light)                        \
+    X(test_light_combinations_in_one_context)                       \
     X(test_rect_light_facing_closed_form_and_back_side_dark)        \
     X(test_sphere_light_seen_directly_near_and_far)                 \
     /* test_extreme.c */                                            \
