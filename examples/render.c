@@ -54,6 +54,8 @@ typedef struct options {
     uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */
     float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
     double warm_ms;           /* --warm: fill the cache first at WARM_CREATE_SHARE; 0: no */
+    char turns_path[1024];    /* --turns FILE,ID: take turns with a second process; "": no */
+    unsigned turns_id;
     const char *debug_view;
     float exposure;
     float azimuth, elevation, distance, fov;
@@ -143,6 +145,10 @@ static void print_help(FILE *f)
         "  --warm MS              fill the cache for MS milliseconds first, creation at a\n"
         "                         0.85 share (as while a scene loads), then restart the\n"
         "                         image at the --shares (needs --cache object|screen)\n"
+        "  --turns FILE,ID        take turns round by round with a second picvr-render\n"
+        "                         given the same FILE and the other ID (0 or 1), so that\n"
+        "                         two builds compared side by side share the machine's\n"
+        "                         drift; FILE must hold 0 before either starts\n"
         "  --curvature on|off     shrink cache entries where the field bends within Delta\n"
         "                         (lit faces, shadow edges): less bias, far lower hit rate\n"
         "                         (default off: the paper's Eq. 9, 10 radii alone)\n"
@@ -320,6 +326,15 @@ static int apply_option(options *o, const char *name, const char *value)
         else ok = 0;
     } else if (!strcmp(name, "warm")) {
         ok = parse_double(value, &o->warm_ms) && o->warm_ms > 0.0;
+    } else if (!strcmp(name, "turns")) {
+        const char *comma = strrchr(value, ',');
+        size_t len = comma ? (size_t)(comma - value) : 0;
+        ok = len > 0 && len < sizeof o->turns_path && (!strcmp(comma + 1, "0") || !strcmp(comma + 1, "1"));
+        if (ok) {
+            memcpy(o->turns_path, value, len);
+            o->turns_path[len] = '\0';
+            o->turns_id = (unsigned)(comma[1] - '0');
+        }
     } else if (!strcmp(name, "shares")) {
         char tail;
         ok = sscanf(value, "%f,%f,%f,%f%c", &o->shares[0], &o->shares[1], &o->shares[2], &o->shares[3],
@@ -358,7 +373,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "samples", "shares", "warm", "debug-view", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "samples", "shares", "warm", "turns", "debug-view", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -524,12 +539,67 @@ static int check(picvr_status st, const char *what)
 
 /* ---- rendering ------------------------------------------------------------------------ */
 
+/* --turns FILE,ID: two picvr-render processes (two builds, say) render in turns, one
+   round each, so that the drift of a shared machine falls on both alike and their
+   iterations per second of rendering time make a paired ratio.  FILE holds a counter:
+   ID 0 renders while it is even, ID 1 while it is odd; only the process whose turn it
+   is writes it (a new file renamed over it, which is atomic).  A partner that has not
+   passed the turn for 30 s has finished (or died): the process goes on alone. */
+typedef struct turns {
+    const char *path;        /* NULL: no turns */
+    unsigned id;
+    int alone;
+} turns;
+
+static long read_turn(const char *path)
+{
+    long v = -1;
+    FILE *f = fopen(path, "r");
+    if (f) {
+        if (fscanf(f, "%ld", &v) != 1) v = -1;
+        fclose(f);
+    }
+    return v;
+}
+
+static void turn_wait(turns *t)
+{
+    if (!t->path || t->alone) return;
+    double start = now_ms();
+    for (;;) {
+        long v = read_turn(t->path);
+        if (v >= 0 && (unsigned long)v % 2 == t->id) return;
+        if (now_ms() - start > 30000.0) {
+            fprintf(stderr, "picvr-render: --turns: no turn for 30 s, going on alone\n");
+            t->alone = 1;
+            return;
+        }
+        struct timespec ms = {0, 1000000};
+        nanosleep(&ms, NULL);
+    }
+}
+
+static void turn_pass(turns *t)
+{
+    if (!t->path || t->alone) return;
+    char tmp[4096];
+    snprintf(tmp, sizeof tmp, "%s.%u", t->path, t->id);
+    FILE *f = fopen(tmp, "w");
+    int ok = f && fprintf(f, "%ld\n", read_turn(t->path) + 1) > 0;
+    if (f && fclose(f) != 0) ok = 0;
+    if (!ok || rename(tmp, t->path) != 0) {
+        fprintf(stderr, "picvr-render: --turns: cannot write %s (%s), going on alone\n", t->path, strerror(errno));
+        t->alone = 1;
+    }
+}
+
 typedef struct render_state {
     picvr_context *ctx;
     FILE *log;
     progress *progress;
     unsigned round;
     picvr_stats stats;
+    turns turns;
 } render_state;
 
 /* Statistics, the CSV row and the progress display after one round. */
@@ -551,10 +621,12 @@ static int render_for_time(render_state *r, double time_ms, double round_ms)
     double rendered = 0.0;
     while (rendered < time_ms && !interrupted) {
         double want = time_ms - rendered < round_ms ? time_ms - rendered : round_ms;
+        turn_wait(&r->turns);
         double t0 = now_ms();
         if (!check(picvr_step(r->ctx, want), "picvr_step")) return 0;
         rendered += now_ms() - t0;
         if (!finish_round(r, rendered >= time_ms ? 1.0 : rendered / time_ms)) return 0;
+        turn_pass(&r->turns);
     }
     return 1;
 }
@@ -574,9 +646,11 @@ static int warm_up(render_state *r, const options *o, const picvr_scheduler_conf
     double done = 0.0;
     while (done < o->warm_ms && !interrupted) {
         double want = o->warm_ms - done < o->round_ms ? o->warm_ms - done : o->round_ms;
+        turn_wait(&r->turns);
         double t0 = now_ms();
         if (!check(picvr_step(r->ctx, want), "picvr_step")) return 0;
         done += now_ms() - t0;
+        turn_pass(&r->turns);
     }
     picvr_stats st;
     if (!check(picvr_get_stats(r->ctx, &st), "picvr_get_stats")) return 0;
@@ -906,6 +980,8 @@ static int render(const options *o, const pvio_layout *layout)
     render_state r;
     memset(&r, 0, sizeof r);
     r.progress = &prog;
+    r.turns.path = o->turns_path[0] ? o->turns_path : NULL;
+    r.turns.id = o->turns_id;
     int ok = 1;
     if (o->log_path) {
         r.log = fopen(o->log_path, "w");
