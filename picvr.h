@@ -385,6 +385,13 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera);
    Budgets of 50 ms and more are kept to within about 10% (one round's misestimate). */
 picvr_status picvr_step(picvr_context *ctx, double milliseconds);
 
+/* Makes the pipelines that the current volume, transfer function, lights, cache mode
+   and view need, which the next picvr_step would otherwise make first: call it while a
+   scene loads to keep that pause out of interaction.  Needs a volume; renders nothing.
+   (On lavapipe it takes 0.2 s for a cached context, 0.05 s for a plain one; lavapipe
+   compiles the machine code at a pipeline's first dispatch, which this cannot move.) */
+picvr_status picvr_prepare(picvr_context *ctx);
+
 /* Renders exactly `iterations` samples per pixel, whole passes over the image
    (priorities do not apply; deterministic without the cache; for tests and offline
    rendering).  With the cache, each pass is a round with a fixed split instead of the
@@ -501,6 +508,9 @@ typedef struct picvr_stats {
     double fraction_render, fraction_create, fraction_update;
     double target_create, target_update;
     uint32_t validation_messages;/* Khronos validation messages seen by this context */
+    uint32_t pipeline_variants;  /* pipelines the context holds for its procedures: one
+                                    per procedure it runs and scene it met (plain: 1,
+                                    cached: 3), at most 8 per procedure */
     uint32_t validation_enabled; /* 1 when the validation layer is active */
     uint32_t width, height;
     char device_name[256];

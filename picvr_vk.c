@@ -1900,18 +1900,35 @@ static void update_descriptors(picvr_context *ctx) {
     ctx->descriptors_dirty = 0;
 }
 
-static picvr_status prepare_render(picvr_context *ctx) {
-    if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
-    if (!ctx->has_volume || !ctx->has_camera) return PICVR_ERROR_NOT_READY;
+/* The pipeline variants of every procedure the context runs, for the current scene. */
+static picvr_status select_variants(picvr_context *ctx) {
     ctx->variant_clock++;
     picvr_status s = select_variant(ctx, PROC_RENDER);
     if (!s && ctx->cache_on) s = select_variant(ctx, PROC_CREATE);
     if (!s && ctx->cache_on) s = select_variant(ctx, PROC_UPDATE);
-    if (s) return s;
+    return s;
+}
+
+/* The scene's uniform block and the descriptors, as the next dispatches read them. */
+static picvr_status upload_scene(picvr_context *ctx) {
+    if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
+    if (!ctx->has_volume || !ctx->has_camera) return PICVR_ERROR_NOT_READY;
     memcpy(ctx->scene_ubo.mapped, &ctx->scene, sizeof ctx->scene);
     buffer_flush(ctx, &ctx->scene_ubo);
     update_descriptors(ctx);
     return PICVR_OK;
+}
+
+static picvr_status prepare_render(picvr_context *ctx) {
+    picvr_status s = upload_scene(ctx);   /* first: it checks that the scene is ready */
+    return s ? s : select_variants(ctx);
+}
+
+picvr_status picvr_prepare(picvr_context *ctx) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (ctx->device_lost) return PICVR_ERROR_DEVICE_LOST;
+    if (!ctx->has_volume) return PICVR_ERROR_NOT_READY;   /* dense media choose USE_FINE */
+    return select_variants(ctx);
 }
 
 /* ---------------------------------------------------------------------------------- */
@@ -2488,7 +2505,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
         picvr_stats st;
         memset(&st, 0, sizeof st);
         if (ctx->has_volume && ctx->has_camera && ctx->block_samples > 0) {
-            picvr_status s = prepare_render(ctx);
+            picvr_status s = upload_scene(ctx);
             double sums[4];
             uint64_t counts[4];
             if (!s) s = stats_pass(ctx, 0.0f, sums, counts);
@@ -2534,6 +2551,9 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
     }
     *out = ctx->stats;
     out->validation_messages = ctx->validation_messages;
+    out->pipeline_variants = 0;
+    for (int p = 0; p < 3; p++)
+        for (uint32_t i = 0; i < VARIANT_SLOTS; i++) out->pipeline_variants += ctx->variants[p][i].pipe != VK_NULL_HANDLE;
     out->validation_enabled = (uint32_t)ctx->validation_enabled;
     out->width = ctx->has_camera ? ctx->camera.width : 0;
     out->height = ctx->has_camera ? ctx->camera.height : 0;

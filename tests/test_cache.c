@@ -238,12 +238,52 @@ void test_cache_variants_switch_and_replace(void **state) {
         tu_assert_finite(img, (size_t)W * H * 4, "variant");
         free(img);
     }
+    /* rendering: 16 keys in 8 slots; creation: with and without MIS rays; update: the
+       four chromaticity channels (creation and update ignore what they do not read) */
+    picvr_stats st = tu_stats_finite(ctx);
+    print_message("    after 16 rendering variants: %u pipelines held\n", st.pipeline_variants);
+    assert_int_equal(st.pipeline_variants, 8 + 2 + 4);
     TU_OK(picvr_set_view(ctx, PICVR_VIEW_IMAGE));
     two_suns_check(ctx, &cube, coloured);
     two_suns_check(ctx, &cube, mono);
     two_suns_check(ctx, &cube, mono_red);
     tu_vol_free(&vol);
     tu_finish(ctx);
+}
+
+/* Leave out what a scene does not need: a context makes no pipeline until a scene
+   needs one; picvr_prepare makes those of the current scene ahead of the first step
+   (plain Monte Carlo: 1, the cache: rendering, creation, update), a debug view adds its
+   rendering variant, and a step then makes none. */
+void test_pipelines_made_for_the_scene(void **state) {
+    (void)state;
+    assert_int_equal(picvr_prepare(NULL), PICVR_ERROR_NULL_POINTER);
+    for (int cached = 0; cached < 2; cached++) {
+        picvr_context *ctx = cached ? create_cached(9, 0, 0.05f, 0.05f) : tu_create(9);
+        picvr_stats st = tu_stats_finite(ctx);
+        assert_int_equal(st.pipeline_variants, 0);
+        assert_int_equal(picvr_prepare(ctx), PICVR_ERROR_NOT_READY);   /* no volume yet */
+        tu_vol vol;
+        tu_sun_scene cube;
+        setup_cube(ctx, &vol, &cube);
+        TU_OK(picvr_prepare(ctx));
+        const uint32_t want = cached ? 3u : 1u;
+        assert_int_equal(tu_stats_finite(ctx).pipeline_variants, want);
+        tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, 16, 16);
+        TU_OK(picvr_step_iterations(ctx, 2));
+        assert_int_equal(tu_stats_finite(ctx).pipeline_variants, want);
+        if (cached) {
+            TU_OK(picvr_set_view(ctx, PICVR_VIEW_CACHE));
+            TU_OK(picvr_prepare(ctx));
+            assert_int_equal(tu_stats_finite(ctx).pipeline_variants, want + 1);
+            TU_OK(picvr_set_view(ctx, PICVR_VIEW_IMAGE));
+            TU_OK(picvr_step_iterations(ctx, 2));
+            assert_int_equal(tu_stats_finite(ctx).pipeline_variants, want + 1);
+        }
+        print_message("    %s: %u pipelines\n", cached ? "cached" : "plain", tu_stats_finite(ctx).pipeline_variants);
+        tu_vol_free(&vol);
+        tu_finish(ctx);
+    }
 }
 
 /* The octree rebuild (§4.4) re-inserts every entry, also those that the same round's
