@@ -73,7 +73,6 @@
 #define FLOOR_FRACTION 1e-2    /* relative error floor, fraction of the mean */
 #define GRID_POINTS 200        /* equal-time grid of the ratio average */
 #define REF_ROUNDS 3           /* grow-the-reference attempts per scene */
-#define WARM_CREATE_SHARE 0.85f /* --bias-warm: creation's share while the cache fills */
 /* The library's sources this binary was built from (the Makefile passes a checksum of
    picvr.h, picvr_vk.c and shaders/): part of every run file's signature, so that a
    finished run is never reused by a build whose cache or scheduler behaves otherwise. */
@@ -941,7 +940,7 @@ static void note_run_time(const char *path)
     if (st.st_mtime > last_run_time) last_run_time = st.st_mtime;
 }
 
-/* --bias-warm: fills the cache for rs->warm_ms with creation at WARM_CREATE_SHARE, then
+/* --bias-warm: fills the cache for rs->warm_ms with creation at PVP_WARM_CREATE_SHARE, then
    restarts the image at the library's default shares (Table 1); picvr_set_scheduler and
    picvr_reset keep the cache.  The run that follows measures the image of a full cache -
    the state a GPU reaches within seconds (the paper's §8), which on lavapipe takes
@@ -987,7 +986,7 @@ static int do_run(const options *o, const run_spec *rs, run *out)
     run_free(out);
     session ss;
     if (!session_open(rs->s, rs->vol, rs->c, RUN_SEED0 + (uint32_t)rs->repeat,
-                      rs->warm_ms > 0 ? WARM_CREATE_SHARE : 0.0f, o->curvature, o->medium, &ss))
+                      rs->warm_ms > 0 ? PVP_WARM_CREATE_SHARE : 0.0f, o->curvature, o->medium, &ss))
         return 0;
     if (rs->warm_ms > 0 && !warm_up(rs, &ss)) { session_close(&ss); return 0; }
     char tmp[PATH_LEN], sig[512];
@@ -1563,7 +1562,7 @@ static int open_writers(const options *o, writers *w)
     if (o->warm_ms > 0)
         snprintf(warm, sizeof warm, "Rows \"-warm\": the cache was first filled for %.0f s "
                  "with creation at a %.2f share of the time, then the image restarted at the default shares (Table 1).\n\n",
-                 o->warm_ms / 1e3, WARM_CREATE_SHARE);
+                 o->warm_ms / 1e3, PVP_WARM_CREATE_SHARE);
     fprintf(w->bmd, "%s%s| dataset | lights | size | condition | run s | seeds | mean hit rate | "
             "mean luminance vs ref (+- s.e.) | RMS bias | RMS total (mean of seeds) | RMS noise "
             "(one seed) | RMSE of ref |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",

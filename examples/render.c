@@ -53,7 +53,7 @@ typedef struct options {
     picvr_switch medium;
     uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */
     float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
-    double warm_ms;           /* --warm: fill the cache first at WARM_CREATE_SHARE; 0: no */
+    double warm_ms;           /* --warm: fill the cache first at PVP_WARM_CREATE_SHARE; 0: no */
     char turns_path[1024];    /* --turns FILE,ID: take turns with a second process; "": no */
     unsigned turns_id;
     const char *debug_view;
@@ -631,16 +631,12 @@ static int render_for_time(render_state *r, double time_ms, double round_ms)
     return 1;
 }
 
-/* --warm: creation's share while the cache fills (the bench's --bias-warm uses the
-   same), update at Table 1's largest share, 0.02: together under picvr's limit of 0.9. */
-#define WARM_CREATE_SHARE 0.85f
-
-/* Fills the cache for o->warm_ms at WARM_CREATE_SHARE, then switches to the shares of
+/* Fills the cache for o->warm_ms at PVP_WARM_CREATE_SHARE, then switches to the shares of
    `run` and restarts the image: picvr_set_scheduler and picvr_reset keep the cache. */
 static int warm_up(render_state *r, const options *o, const picvr_scheduler_config *run)
 {
     picvr_scheduler_config warm = *run;
-    warm.create_min = warm.create_max = WARM_CREATE_SHARE;
+    warm.create_min = warm.create_max = PVP_WARM_CREATE_SHARE;
     warm.update_min = warm.update_max = 0.02f;
     if (!check(picvr_set_scheduler(r->ctx, &warm), "picvr_set_scheduler")) return 0;
     double done = 0.0;
