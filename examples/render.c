@@ -549,6 +549,7 @@ typedef struct turns {
     const char *path;        /* NULL: no turns */
     unsigned id;
     int alone;
+    long seen;               /* the counter turn_wait last read: turn_pass writes seen + 1 */
 } turns;
 
 static long read_turn(const char *path)
@@ -568,7 +569,10 @@ static void turn_wait(turns *t)
     double start = now_ms();
     for (;;) {
         long v = read_turn(t->path);
-        if (v >= 0 && (unsigned long)v % 2 == t->id) return;
+        if (v >= 0 && (unsigned long)v % 2 == t->id) {
+            t->seen = v;
+            return;
+        }
         if (now_ms() - start > 30000.0) {
             fprintf(stderr, "picvr-render: --turns: no turn for 30 s, going on alone\n");
             t->alone = 1;
@@ -585,7 +589,7 @@ static void turn_pass(turns *t)
     char tmp[4096];
     snprintf(tmp, sizeof tmp, "%s.%u", t->path, t->id);
     FILE *f = fopen(tmp, "w");
-    int ok = f && fprintf(f, "%ld\n", read_turn(t->path) + 1) > 0;
+    int ok = f && fprintf(f, "%ld\n", t->seen + 1) > 0;
     if (f && fclose(f) != 0) ok = 0;
     if (!ok || rename(tmp, t->path) != 0) {
         fprintf(stderr, "picvr-render: --turns: cannot write %s (%s), going on alone\n", t->path, strerror(errno));
