@@ -43,6 +43,12 @@
 #define CACHE_CREATE_GROUP 128u
 #define CACHE_DEFAULT_SAMPLES 768u
 #define ROUND_READBACK_BYTES (CACHE_COUNTER_WORDS * 4 + 16)
+/* The rendering procedure's event queues (shaders/render.glsl): a header of one uvec4
+   per queue, then per queue one event of EVENT_WORDS words per pixel; the event
+   kernels run EVENT_GROUP threads per workgroup. */
+#define EVENT_HEADER_BYTES 32u
+#define EVENT_WORDS 3u
+#define EVENT_GROUP 128u
 enum { PROC_CREATE, PROC_UPDATE, PROC_RENDER };
 
 /* Pipeline variants.  The kernels' specialization constants (shaders/common.glsl,
@@ -55,9 +61,13 @@ enum { PROC_CREATE, PROC_UPDATE, PROC_RENDER };
 #define KEY_FINE 2u           /* constant 1 USE_FINE */
 #define KEY_DEBUG_VIEW 4u     /* constant 3 USE_DEBUG_VIEW */
 #define KEY_MONO_SHIFT 3u     /* constant 4 MONO_CHANNEL: 2 bits, 3 = colours differ */
+/* The kernels of one variant: creation and update have one (KERNEL_MAIN); rendering
+   has its tracking kernel there, then its shading kernel and, cached, the lookup
+   (shaders/render.glsl). */
+enum { KERNEL_MAIN, KERNEL_SHADE, KERNEL_LOOKUP, KERNELS };
 typedef struct variant_slot {
     uint32_t key;
-    VkPipeline pipe;                 /* VK_NULL_HANDLE: a free slot */
+    VkPipeline pipe[KERNELS];        /* pipe[KERNEL_MAIN] VK_NULL_HANDLE: a free slot */
     uint32_t used;                   /* variant_clock of the last step that chose it */
     int dispatched;                  /* it has run (a first dispatch stays out of the costs) */
 } variant_slot;
@@ -123,7 +133,8 @@ struct picvr_context {
     VkPipelineLayout render_layout, stats_layout;
     VkDescriptorPool desc_pool;
     VkDescriptorSet set;
-    VkShaderModule render_module, stats_module, render_cache_module, create_module, update_module, rebuild_module;
+    VkShaderModule track_module, shade_module, lookup_module; /* the rendering kernels; lookup: cached */
+    VkShaderModule stats_module, create_module, update_module, rebuild_module;
     VkShaderModule select_module, priority_module;
     VkPipeline select_pipe, priority_pipe; /* the rendering queue; priority_pipe only with priorities */
     VkQueryPool timestamps;          /* ROUND_TIMESTAMPS per round; VK_NULL_HANDLE: no timestamps */
@@ -146,6 +157,7 @@ struct picvr_context {
     buffer accum[3];                 /* mean rgba, Kahan terms, (lum mean, M2, n, bad) */
     buffer readback;
     buffer partials;
+    buffer render_events;            /* the rendering procedure's event queues (shaders/render.glsl) */
     /* irradiance cache (allocated only when the cache is on) */
     picvr_cache_config cache;        /* resolved: no zero fields */
     int cache_on;
@@ -650,8 +662,9 @@ static picvr_status create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPi
 /* Binding layout shared by all kernels (see ARCHITECTURE.md): 0 scene UBO, 1 volume,
    2 transfer function, 3 majorant grid, 4-6 accumulation planes, 7 stats partials,
    8 opacity range-max table, 9-13 cache entries, nodes, refs, counters, requests,
-   14 superpixels (screen-space locking), 15 the rendering queue. */
-#define NUM_BINDINGS 16
+   14 superpixels (screen-space locking), 15 the rendering queue, 16 the rendering
+   procedure's event queues. */
+#define NUM_BINDINGS 17
 #define CACHE_BINDINGS_FIRST 9
 #define CACHE_BINDINGS_END 15
 static VkDescriptorType binding_type(uint32_t i) {
@@ -693,24 +706,39 @@ static uint32_t variant_key(const picvr_context *ctx, int proc) {
     return mis | fine | mono | (debug_view_on(ctx) ? KEY_DEBUG_VIEW : 0u);
 }
 
-/* The pipeline of procedure proc for key.  One set of constants for all kernels (a
-   kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the creation procedure's
-   rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING, fixed per context. */
+/* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
+   the procedure has no such kernel; on a failure none is left).  One set of constants
+   for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
+   creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
+   QUEUE_FOR_LOOKUP, fixed per context. */
 static picvr_status create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
-    VkShaderModule mod = proc == PROC_CREATE ? ctx->create_module
-                       : proc == PROC_UPDATE ? ctx->update_module
-                       : ctx->cache_on ? ctx->render_cache_module : ctx->render_module;
-    uint32_t value[6] = {(key & KEY_PHASE_MIS) != 0, (key & KEY_FINE) != 0, ctx->cache.max_samples / CACHE_CREATE_GROUP,
+    VkShaderModule mod[KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
+    if (proc == PROC_CREATE) mod[KERNEL_MAIN] = ctx->create_module;
+    else if (proc == PROC_UPDATE) mod[KERNEL_MAIN] = ctx->update_module;
+    else {
+        mod[KERNEL_MAIN] = ctx->track_module;
+        mod[KERNEL_SHADE] = ctx->shade_module;
+        if (ctx->cache_on) mod[KERNEL_LOOKUP] = ctx->lookup_module;
+    }
+    uint32_t value[7] = {(key & KEY_PHASE_MIS) != 0, (key & KEY_FINE) != 0, ctx->cache.max_samples / CACHE_CREATE_GROUP,
                          (key & KEY_DEBUG_VIEW) != 0, (key >> KEY_MONO_SHIFT) & 3u,
-                         ctx->cache_on && ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE};
-    VkSpecializationMapEntry entry[6];
-    for (uint32_t i = 0; i < 6; i++) {
+                         ctx->cache_on && ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE, (uint32_t)ctx->cache_on};
+    VkSpecializationMapEntry entry[7];
+    for (uint32_t i = 0; i < 7; i++) {
         entry[i].constantID = i;
         entry[i].offset = 4 * i;
         entry[i].size = 4;
     }
-    VkSpecializationInfo spec = {6, entry, sizeof value, value};
-    return create_pipeline(ctx, mod, ctx->render_layout, &spec, out);
+    VkSpecializationInfo spec = {7, entry, sizeof value, value};
+    picvr_status s = PICVR_OK;
+    for (int k = 0; k < KERNELS; k++) {
+        out[k] = VK_NULL_HANDLE;
+        if (!s && mod[k]) s = create_pipeline(ctx, mod[k], ctx->render_layout, &spec, &out[k]);
+    }
+    if (s)
+        for (int k = 0; k < KERNELS; k++)
+            if (out[k]) { vkDestroyPipeline(ctx->device, out[k], NULL); out[k] = VK_NULL_HANDLE; }
+    return s;
 }
 
 /* Chooses this step's variant of procedure proc (ctx->now_slot), making it if no slot
@@ -721,29 +749,32 @@ static picvr_status select_variant(picvr_context *ctx, int proc) {
     uint32_t key = variant_key(ctx, proc), pick = 0;
     variant_slot *t = ctx->variants[proc];
     for (uint32_t i = 0; i < VARIANT_SLOTS; i++)
-        if (t[i].pipe && t[i].key == key) {
+        if (t[i].pipe[KERNEL_MAIN] && t[i].key == key) {
             t[i].used = ctx->variant_clock;
             ctx->now_slot[proc] = i;
             return PICVR_OK;
         }
-    for (uint32_t i = 1; i < VARIANT_SLOTS && t[pick].pipe; i++)
-        if (!t[i].pipe || t[i].used < t[pick].used) pick = i;
-    VkPipeline pipe = VK_NULL_HANDLE;
-    picvr_status s = create_variant(ctx, proc, key, &pipe);
+    for (uint32_t i = 1; i < VARIANT_SLOTS && t[pick].pipe[KERNEL_MAIN]; i++)
+        if (!t[i].pipe[KERNEL_MAIN] || t[i].used < t[pick].used) pick = i;
+    VkPipeline pipe[KERNELS];
+    picvr_status s = create_variant(ctx, proc, key, pipe);
     if (s) return s;
-    if (t[pick].pipe) vkDestroyPipeline(ctx->device, t[pick].pipe, NULL);
+    for (int k = 0; k < KERNELS; k++) {
+        if (t[pick].pipe[k]) vkDestroyPipeline(ctx->device, t[pick].pipe[k], NULL);
+        t[pick].pipe[k] = pipe[k];
+    }
     t[pick].key = key;
-    t[pick].pipe = pipe;
     t[pick].used = ctx->variant_clock;
     t[pick].dispatched = 0;
     ctx->now_slot[proc] = pick;
     return PICVR_OK;
 }
 
-/* The pipeline this step dispatches for procedure proc. */
-static VkPipeline now_pipeline(const picvr_context *ctx, int proc) {
-    return ctx->variants[proc][ctx->now_slot[proc]].pipe;
+/* Kernel k of the variant this step dispatches for procedure proc. */
+static VkPipeline now_kernel(const picvr_context *ctx, int proc, int k) {
+    return ctx->variants[proc][ctx->now_slot[proc]].pipe[k];
 }
+static VkPipeline now_pipeline(const picvr_context *ctx, int proc) { return now_kernel(ctx, proc, KERNEL_MAIN); }
 
 static picvr_status create_pipelines(picvr_context *ctx) {
     VkDescriptorSetLayoutBinding b[NUM_BINDINGS];
@@ -782,7 +813,8 @@ static picvr_status create_pipelines(picvr_context *ctx) {
     ai.pSetLayouts = &ctx->set_layout;
     VK_TRY(ctx, vkAllocateDescriptorSets(ctx->device, &ai, &ctx->set));
 
-    picvr_status s = create_shader(ctx, picvr_spv_render, sizeof picvr_spv_render, &ctx->render_module);
+    picvr_status s = create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->track_module);
+    if (!s) s = create_shader(ctx, picvr_spv_render_shade, sizeof picvr_spv_render_shade, &ctx->shade_module);
     if (!s) s = create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->stats_module);
     if (!s) s = create_shader(ctx, picvr_spv_block_select, sizeof picvr_spv_block_select, &ctx->select_module);
     if (!s) s = create_pipeline(ctx, ctx->select_module, ctx->render_layout, NULL, &ctx->select_pipe);
@@ -794,7 +826,7 @@ static picvr_status create_pipelines(picvr_context *ctx) {
         s = PICVR_ERROR_INVALID_ARGUMENT;
     }
     if (!s && ctx->cache_on) {
-        s = create_shader(ctx, picvr_spv_render_cache, sizeof picvr_spv_render_cache, &ctx->render_cache_module);
+        s = create_shader(ctx, picvr_spv_render_lookup, sizeof picvr_spv_render_lookup, &ctx->lookup_module);
         if (!s) s = create_shader(ctx, picvr_spv_cache_create, sizeof picvr_spv_cache_create, &ctx->create_module);
         if (!s) s = create_shader(ctx, picvr_spv_cache_update, sizeof picvr_spv_cache_update, &ctx->update_module);
         if (!s) s = create_shader(ctx, picvr_spv_cache_rebuild, sizeof picvr_spv_cache_rebuild, &ctx->rebuild_module);
@@ -937,7 +969,8 @@ void picvr_destroy(picvr_context *ctx) {
         if (ctx->linear_sampler) vkDestroySampler(d, ctx->linear_sampler, NULL);
         for (int p = 0; p < 3; p++)
             for (uint32_t i = 0; i < VARIANT_SLOTS; i++)
-                if (ctx->variants[p][i].pipe) vkDestroyPipeline(d, ctx->variants[p][i].pipe, NULL);
+                for (int k = 0; k < KERNELS; k++)
+                    if (ctx->variants[p][i].pipe[k]) vkDestroyPipeline(d, ctx->variants[p][i].pipe[k], NULL);
         if (ctx->rebuild_pipe) vkDestroyPipeline(d, ctx->rebuild_pipe, NULL);
         if (ctx->select_pipe) vkDestroyPipeline(d, ctx->select_pipe, NULL);
         if (ctx->priority_pipe) vkDestroyPipeline(d, ctx->priority_pipe, NULL);
@@ -945,12 +978,13 @@ void picvr_destroy(picvr_context *ctx) {
         if (ctx->priority_module) vkDestroyShaderModule(d, ctx->priority_module, NULL);
         if (ctx->timestamps) vkDestroyQueryPool(d, ctx->timestamps, NULL);
         buffer_destroy(ctx, &ctx->render_queue);
+        buffer_destroy(ctx, &ctx->render_events);
         buffer_destroy(ctx, &ctx->round_readback);
         if (ctx->update_module) vkDestroyShaderModule(d, ctx->update_module, NULL);
         if (ctx->rebuild_module) vkDestroyShaderModule(d, ctx->rebuild_module, NULL);
         buffer_destroy(ctx, &ctx->cache_prebuilt_nodes);
         buffer_destroy(ctx, &ctx->cache_superpixels);
-        if (ctx->render_cache_module) vkDestroyShaderModule(d, ctx->render_cache_module, NULL);
+        if (ctx->lookup_module) vkDestroyShaderModule(d, ctx->lookup_module, NULL);
         if (ctx->create_module) vkDestroyShaderModule(d, ctx->create_module, NULL);
         buffer_destroy(ctx, &ctx->cache_entries);
         buffer_destroy(ctx, &ctx->cache_nodes);
@@ -959,7 +993,8 @@ void picvr_destroy(picvr_context *ctx) {
         buffer_destroy(ctx, &ctx->cache_requests);
         buffer_destroy(ctx, &ctx->cache_readback);
         if (ctx->stats_pipe) vkDestroyPipeline(d, ctx->stats_pipe, NULL);
-        if (ctx->render_module) vkDestroyShaderModule(d, ctx->render_module, NULL);
+        if (ctx->track_module) vkDestroyShaderModule(d, ctx->track_module, NULL);
+        if (ctx->shade_module) vkDestroyShaderModule(d, ctx->shade_module, NULL);
         if (ctx->stats_module) vkDestroyShaderModule(d, ctx->stats_module, NULL);
         if (ctx->desc_pool) vkDestroyDescriptorPool(d, ctx->desc_pool, NULL);
         if (ctx->render_layout) vkDestroyPipelineLayout(d, ctx->render_layout, NULL);
@@ -1751,13 +1786,20 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
         logf_(ctx, PICVR_LOG_WARNING, "image of %ux%u exceeds maxStorageBufferRange", w, h);
         return PICVR_ERROR_SIZE_OVERFLOW;
     }
+    /* the event queues: shading, and with the cache the lookup */
+    VkDeviceSize event_bytes = EVENT_HEADER_BYTES + (ctx->cache_on ? 2 : 1) * pixels * EVENT_WORDS * 4;
+    if (event_bytes > ctx->props.limits.maxStorageBufferRange) {
+        logf_(ctx, PICVR_LOG_WARNING, "image of %ux%u: its event queues exceed maxStorageBufferRange", w, h);
+        return PICVR_ERROR_SIZE_OVERFLOW;
+    }
     VkDeviceSize groups = (pixels + 255) / 256;
     uint32_t blocks = ((w + 15) / 16) * ((h + 7) / 8);
-    buffer acc[3], rb, part, queue;
+    buffer acc[3], rb, part, queue, events;
     memset(acc, 0, sizeof acc);
     memset(&rb, 0, sizeof rb);
     memset(&part, 0, sizeof part);
     memset(&queue, 0, sizeof queue);
+    memset(&events, 0, sizeof events);
     picvr_status s = PICVR_OK;
     for (int i = 0; i < 3 && !s; i++)
         s = buffer_create(ctx, &acc[i], plane, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
@@ -1768,11 +1810,14 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
     if (!s) s = buffer_create(ctx, &queue, 32 + (VkDeviceSize)blocks * 16,
                               VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
+    if (!s) s = buffer_create(ctx, &events, event_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                              VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
     if (s) {
         for (int i = 0; i < 3; i++) buffer_destroy(ctx, &acc[i]);
         buffer_destroy(ctx, &rb);
         buffer_destroy(ctx, &part);
         buffer_destroy(ctx, &queue);
+        buffer_destroy(ctx, &events);
         return s;
     }
     if (ctx->cache_on) {
@@ -1787,6 +1832,7 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
             buffer_destroy(ctx, &rb);
             buffer_destroy(ctx, &part);
             buffer_destroy(ctx, &queue);
+            buffer_destroy(ctx, &events);
             return s;
         }
         buffer_destroy(ctx, &ctx->cache_superpixels);
@@ -1797,9 +1843,11 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
     buffer_destroy(ctx, &ctx->readback);
     buffer_destroy(ctx, &ctx->partials);
     buffer_destroy(ctx, &ctx->render_queue);
+    buffer_destroy(ctx, &ctx->render_events);
     ctx->readback = rb;
     ctx->partials = part;
     ctx->render_queue = queue;
+    ctx->render_events = events;
     ctx->block_total = blocks;
     ctx->block_stride = spread_stride(blocks);
     ctx->descriptors_dirty = 1;
@@ -1878,7 +1926,7 @@ static void update_descriptors(picvr_context *ctx) {
         {ctx->cache_entries.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE},
         {ctx->cache_refs.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_counters.buf, 0, VK_WHOLE_SIZE},
         {ctx->cache_requests.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_superpixels.buf, 0, VK_WHOLE_SIZE},
-        {ctx->render_queue.buf, 0, VK_WHOLE_SIZE}};
+        {ctx->render_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->render_events.buf, 0, VK_WHOLE_SIZE}};
     VkWriteDescriptorSet w[NUM_BINDINGS];
     memset(w, 0, sizeof w);
     uint32_t n = 0;
@@ -2038,12 +2086,34 @@ static void record_rebuild(picvr_context *ctx, uint32_t created) {
     }
 }
 
+/* One dispatch of the rendering procedure over the queued blocks: tracking, then with
+   the cache the lookup, then shading, each event kernel as many workgroups as the kernel
+   before it queued events for (shaders/render.glsl).  Without a debug view the lookup
+   queues its misses for shading; with one it shades them itself and the shading
+   dispatch has no workgroups. */
+static void record_render_kernels(picvr_context *ctx, const round_plan *p) {
+    static const uint32_t empty_queues[8] = {0, 1, 1, 0, 0, 1, 1, 0};   /* (x, 1, 1, count) each */
+    vkCmdUpdateBuffer(ctx->cmd, ctx->render_events.buf, 0, sizeof empty_queues, empty_queues);
+    barrier_all(ctx);
+    push4(ctx, ctx->round, ctx->seed, p->request_cap, 0);
+    vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, now_kernel(ctx, PROC_RENDER, KERNEL_MAIN));
+    vkCmdDispatchIndirect(ctx->cmd, ctx->render_queue.buf, 0);
+    barrier_all(ctx);
+    if (ctx->cache_on) {
+        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, now_kernel(ctx, PROC_RENDER, KERNEL_LOOKUP));
+        vkCmdDispatchIndirect(ctx->cmd, ctx->render_events.buf, 16);
+        barrier_all(ctx);
+    }
+    vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, now_kernel(ctx, PROC_RENDER, KERNEL_SHADE));
+    vkCmdDispatchIndirect(ctx->cmd, ctx->render_events.buf, 0);
+    barrier_all(ctx);
+}
+
 /* The rendering procedure for `blocks` blocks: dispatches of at most one image's worth
    (a block must not be rendered twice by one dispatch), each fed by block_select. */
 static void record_render(picvr_context *ctx, const round_plan *p) {
     uint32_t B = ctx->block_total, cap = B < MAX_QUEUE ? B : MAX_QUEUE;
     int prio = ctx->use_priorities && !p->whole_passes;
-    VkPipeline render = now_pipeline(ctx, PROC_RENDER);
     for (uint32_t left = p->render_blocks; left > 0;) {
         uint32_t want = left < cap ? left : cap;
         if (prio) {
@@ -2057,10 +2127,7 @@ static void record_render(picvr_context *ctx, const round_plan *p) {
         push4(ctx, want, B, prio ? ctx->block_cursor : base, prio ? 0 : ctx->block_stride);
         vkCmdDispatch(ctx->cmd, 1, 1, 1);
         barrier_all(ctx);
-        vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, render);
-        push4(ctx, ctx->round, ctx->seed, p->request_cap, 0);
-        vkCmdDispatchIndirect(ctx->cmd, ctx->render_queue.buf, 0);
-        barrier_all(ctx);
+        record_render_kernels(ctx, p);
         ctx->block_cursor = (uint32_t)(((uint64_t)ctx->block_cursor + want) % B);
         left -= want;
     }
@@ -2553,7 +2620,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
     out->validation_messages = ctx->validation_messages;
     out->pipeline_variants = 0;
     for (int p = 0; p < 3; p++)
-        for (uint32_t i = 0; i < VARIANT_SLOTS; i++) out->pipeline_variants += ctx->variants[p][i].pipe != VK_NULL_HANDLE;
+        for (uint32_t i = 0; i < VARIANT_SLOTS; i++) out->pipeline_variants += ctx->variants[p][i].pipe[KERNEL_MAIN] != VK_NULL_HANDLE;
     out->validation_enabled = (uint32_t)ctx->validation_enabled;
     out->width = ctx->has_camera ? ctx->camera.width : 0;
     out->height = ctx->has_camera ? ctx->camera.height : 0;

@@ -1,6 +1,6 @@
 // queue.glsl - the device-resident queue of rendering work packages (paper §7: 16x8-pixel
 // blocks, one thread per pixel) and the per-block scheduling state of the §6 priorities.
-// block_select.comp fills the queue, the rendering procedure (render_main.glsl) runs one
+// block_select.comp fills the queue, the rendering procedure (render_track.comp) runs one
 // workgroup per queued block through an indirect dispatch, so the host never touches
 // individual work items.
 layout(set = 0, binding = 15, std430) buffer RenderQueue {

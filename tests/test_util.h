@@ -75,6 +75,7 @@
     X(test_scheduler_measured_shares_track_targets)                 \
     X(test_scheduler_update_runs_after_cold_compile)                \
     X(test_scheduler_priorities_favour_lit_blocks)                  \
+    X(test_render_kernels_finish_every_pixel_once)                  \
     X(test_scheduler_step_budget)                                   \
     X(test_scheduler_no_deadlock_with_tiny_pools)                   \
     X(test_scheduler_set_scheduler_switches_shares)                 \

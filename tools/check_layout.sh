@@ -7,7 +7,8 @@
 #                  the host's sizeof / byte constants;
 #   constants:     the VIEW_* numbers of shaders/common.glsl against picvr.h's
 #                  picvr_debug_view, CACHE_NODE_RADII of shaders/cache.glsl against
-#                  picvr_vk.c's.
+#                  picvr_vk.c's, EVENT_WORDS and EVENT_GROUP of shaders/render.glsl
+#                  (the rendering procedure's event queues) against picvr_vk.c's.
 # usage: tools/check_layout.sh HOST_PRINTER (the built tools/layout_host.c)
 set -eu
 HOST=$1
@@ -23,6 +24,9 @@ for v in VIEW_IMAGE VIEW_CACHE VIEW_CACHE_ERROR; do
 done >> "$tmp/shader"
 sed -n 's/^#define CACHE_NODE_RADII \([0-9.]*\).*/CACHE_NODE_RADII \1/p' shaders/cache.glsl |
     awk '{ printf "%s %g\n", $1, $2 }' >> "$tmp/shader"
+for v in EVENT_WORDS EVENT_GROUP; do
+    sed -n "s/^#define $v \([0-9]*\)u.*/$v \1/p" shaders/render.glsl
+done >> "$tmp/shader"
 fail=0
 while read -r name value; do
     got=$(awk -v n="$name" '$1 == n { print $2 }' "$tmp/shader")

@@ -14,5 +14,6 @@ int main(void)
     printf("VIEW_IMAGE %d\nVIEW_CACHE %d\nVIEW_CACHE_ERROR %d\n", (int)PICVR_VIEW_IMAGE,
            (int)PICVR_VIEW_CACHE, (int)PICVR_VIEW_CACHE_ERROR);
     printf("CACHE_NODE_RADII %g\n", (double)CACHE_NODE_RADII);
+    printf("EVENT_WORDS %u\nEVENT_GROUP %u\n", EVENT_WORDS, EVENT_GROUP);
     return 0;
 }

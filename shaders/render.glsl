@@ -1,0 +1,116 @@
+// render.glsl - the rendering procedure's shared code (paper §4.1), as three kernels so
+// that each runs only the work its invocations share (a wavefront, in GPU terms):
+//   render_track.comp   one thread per pixel of the queued blocks: tracks the primary
+//                       ray; a ray that leaves the volume is finished there, a scatter
+//                       event is queued for the cache lookup (cached) or for shading;
+//   render_lookup.comp  (cached only) one thread per queued event: a hit is shaded from
+//                       the cache, a miss requests an entry and is queued for shading;
+//   render_shade.comp   one thread per queued event: plain Monte Carlo shading.
+// Split, the shading and lookup kernels see only live events (llvmpipe runs 8 lanes
+// under one mask, a GPU 32: one scattering or missing lane made the whole group run
+// the rays), and each kernel is smaller than the one it replaces.  Measured on
+// lavapipe (ARCHITECTURE.md, docs/cache.md "The rendering procedure as three kernels").
+#include "common.glsl"
+#include "queue.glsl"
+
+layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  // rgb, coverage
+layout(set = 0, binding = 5, std430) buffer AccumComp { vec4 accum_comp[]; };  // Kahan terms
+layout(set = 0, binding = 6, std430) buffer AccumStat { vec4 accum_stat[]; };  // lum mean, M2, n, bad
+
+// The event queues of one dispatch of the rendering procedure.  Queue q's events are
+// EVENT_WORDS words each from word q * EVENT_WORDS * pixels: the pixel, the scatter
+// distance t (float bits) and the pixel's random-number counter after tracking, with
+// bit 31 the `truncated` flag.  Rule: a dispatch renders each block at most once
+// (block_select.comp), so a queue never holds more than one event per pixel and the
+// regions cannot overflow.  The shading queue comes first: plain Monte Carlo
+// allocates only it.
+layout(set = 0, binding = 16, std430) buffer RenderEvents {
+    uvec4 queue[2];   // per queue: xyz the indirect dispatch of its kernel (x: workgroups), w: events
+    uint ev[];
+} events;
+#define QUEUE_SHADE 0u
+#define QUEUE_LOOKUP 1u
+#define EVENT_WORDS 3u
+// Threads per workgroup of the event kernels: one dispatch holds at most MAX_QUEUE
+// (65535) blocks of 128 pixels, so 128 keeps its workgroups within the 65535 that
+// every Vulkan device allows.
+#define EVENT_GROUP 128u
+
+// Specialization (picvr_vk.c): true in a cached context, whose scatter events go to
+// the lookup first.
+layout(constant_id = 6) const bool QUEUE_FOR_LOOKUP = false;
+
+// round: the scheduler's round (keys the screen-space locking counters); request_cap:
+// creation requests this round may issue (the creation budget of the next round).
+layout(push_constant) uniform Push { uint round; uint seed; uint request_cap; uint pad; } pc;
+
+// Kahan-compensated running mean (precise: no reassociation by the compiler), so
+// that after millions of samples an update of relative size 1e-7 is not lost.
+void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
+    vec4 s = accum_stat[idx];
+    uint n = floatBitsToUint(s.z) + 1u;
+    precise vec4 m = accum_mean[idx];
+    precise vec4 c = accum_comp[idx];
+    precise vec4 y = (vec4(radiance, coverage) - m) / float(n) - c;
+    precise vec4 t = m + y;
+    c = (t - m) - y;
+    accum_mean[idx] = t;
+    accum_comp[idx] = c;
+    // Welford update of the luminance mean and M2 (Eq. 5 and Eq. 12 need S^2).
+    float lum = luminance(radiance);
+    precise float delta = lum - s.x;
+    precise float mean = s.x + delta / float(n);
+    precise float m2 = s.y + delta * (lum - mean);
+    uint nbad = floatBitsToUint(s.w) + (bad ? 1u : 0u);
+    accum_stat[idx] = vec4(mean, m2, uintBitsToFloat(n), uintBitsToFloat(nbad));
+}
+
+// Rule: a non-finite sample (only possible from extreme user input overflowing float)
+// is replaced by 0 and counted with the truncated ones; it never reaches the image.
+void accumulate_sample(uint idx, vec3 radiance, float coverage, bool truncated) {
+    bool bad = truncated;
+    if (any(isnan(radiance)) || any(isinf(radiance))) { radiance = vec3(0.0); bad = true; }
+    accumulate(idx, radiance, coverage, bad);
+}
+
+// Random numbers keyed by (pixel, sample index): every pixel's n-th sample is the same
+// whichever round, block order or kernel produced it.
+Rng pixel_rng(uint idx) { return rng_init(idx, floatBitsToUint(accum_stat[idx].z), pc.seed); }
+
+// In-scattered radiance at x by plain Monte Carlo: one light and one phase sample (MIS).
+vec3 direct_light(vec3 x, inout Rng rng, inout bool truncated) {
+    vec3 L = sample_one_light(x, rng, truncated);
+    if (USE_PHASE_MIS) L += sample_phase(x, rng, truncated);
+    return L;
+}
+
+// A scatter event, as the event kernels take it up again.
+struct ScatterEvent { uint idx; uvec2 px; float t; vec3 x; Rng rng; bool truncated; };
+
+void queue_event(uint q, uint idx, float t, Rng rng, bool truncated) {
+    uint slot = atomicAdd(events.queue[q].w, 1u);
+    if (slot % EVENT_GROUP == 0u) atomicAdd(events.queue[q].x, 1u);
+    uint base = (q * scene.image.x * scene.image.y + slot) * EVENT_WORDS;
+    events.ev[base] = idx;
+    events.ev[base + 1u] = floatBitsToUint(t);
+    events.ev[base + 2u] = (rng.counter & 0x7fffffffu) | (truncated ? 0x80000000u : 0u);
+}
+
+// This invocation's event of queue q; false past the queue's end.  The camera ray is
+// drawn again from the pixel's random numbers (the same draws, so the same ray), then
+// the numbers go on where tracking left them.
+bool load_event(uint q, out ScatterEvent e) {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= events.queue[q].w) return false;
+    uint base = (q * scene.image.x * scene.image.y + i) * EVENT_WORDS;
+    e.idx = events.ev[base];
+    e.px = uvec2(e.idx % scene.image.x, e.idx / scene.image.x);
+    e.rng = pixel_rng(e.idx);
+    vec3 rd = camera_ray(e.px, e.rng);
+    e.t = uintBitsToFloat(events.ev[base + 1u]);
+    e.x = scene.cam_pos.xyz + rd * e.t;
+    uint w = events.ev[base + 2u];
+    e.rng.counter = w & 0x7fffffffu;
+    e.truncated = (w & 0x80000000u) != 0u;
+    return true;
+}

@@ -1,0 +1,47 @@
+#version 450
+// render_lookup.comp - the rendering procedure's cache lookup (paper §4.1, §5; see
+// render.glsl): one thread per queued scatter event.  A covered event is shaded from
+// the extrapolated irradiance (Eq. 7, 8, 11) with the isotropic phase function; a miss
+// requests a new entry under the context's locking (§5.1, §5.2) and is queued for
+// plain Monte-Carlo shading (render_shade.comp).  The debug views shade here, misses
+// too, in their own variant (USE_DEBUG_VIEW).
+#extension GL_GOOGLE_include_directive : require
+#include "render.glsl"
+#include "cache.glsl"
+layout(local_size_x = EVENT_GROUP, local_size_y = 1) in;
+
+// PICVR_VIEW_CACHE_ERROR at a hit: (luminance of the cached shading, luminance of a plain
+// estimate at the same point, 1).  The plain sample uses the numbers after the hit's, so
+// it is independent of the choice of x and unbiased.
+vec3 cache_error_sample(vec3 x, vec3 cached, inout Rng rng, inout bool truncated) {
+    return vec3(luminance(cached), luminance(albedo_at(x) * direct_light(x, rng, truncated)), 1.0);
+}
+
+void main() {
+    ScatterEvent e;
+    if (!load_event(QUEUE_LOOKUP, e)) return;
+    vec3 E;
+    uint node;
+    bool near_centre;
+    bool hit = cache_lookup(e.x, E, node, near_centre);
+    if (SCREEN_LOCKING) count_ray(e.px, !hit, pc.round);
+    vec3 Ls;
+    if (hit) {
+        Ls = E * INV_4PI;                 // isotropic phase: L_s = E / (4 pi)
+        atomicAdd(cache_counters.hits, 1u);
+    } else {
+        cache_request(e.x, node, e.px, pc.round, rnd(e.rng), pc.request_cap);
+        atomicAdd(cache_counters.misses, 1u);
+        if (!USE_DEBUG_VIEW) {
+            queue_event(QUEUE_SHADE, e.idx, e.t, e.rng, e.truncated);
+            return;
+        }
+        Ls = direct_light(e.x, e.rng, e.truncated);
+    }
+    vec3 radiance = albedo_at(e.x) * Ls;
+    if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE)
+        radiance = near_centre ? vec3(1.0) : hit ? vec3(0.1, 0.8, 0.2) : vec3(0.8, 0.1, 0.1);
+    if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE_ERROR)
+        radiance = hit ? cache_error_sample(e.x, radiance, e.rng, e.truncated) : vec3(0.0);
+    accumulate_sample(e.idx, radiance, 1.0, e.truncated);
+}
