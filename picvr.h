@@ -508,9 +508,11 @@ typedef struct picvr_stats {
     double fraction_render, fraction_create, fraction_update;
     double target_create, target_update;
     uint32_t validation_messages;/* Khronos validation messages seen by this context */
-    uint32_t pipeline_variants;  /* pipelines the context holds for its procedures: one
-                                    per procedure it runs and scene it met (plain: 1,
-                                    cached: 3), at most 8 per procedure */
+    uint32_t pipeline_variants;  /* pipeline variants the context holds for its
+                                    procedures: one per procedure it runs and scene it
+                                    met (plain: 1, cached: 3), at most 8 per procedure;
+                                    a rendering variant is 2 pipelines (tracking,
+                                    shading), 3 with the cache (and its lookup) */
     uint32_t validation_enabled; /* 1 when the validation layer is active */
     uint32_t width, height;
     char device_name[256];

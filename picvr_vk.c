@@ -43,10 +43,10 @@
 #define CACHE_CREATE_GROUP 128u
 #define CACHE_DEFAULT_SAMPLES 768u
 #define ROUND_READBACK_BYTES (CACHE_COUNTER_WORDS * 4 + 16)
-/* The rendering procedure's event queues (shaders/render.glsl): a header of one uvec4
-   per queue, then per queue one event of EVENT_WORDS words per pixel; the event
-   kernels run EVENT_GROUP threads per workgroup. */
-#define EVENT_HEADER_BYTES 32u
+/* The rendering procedure's event queues (shaders/render.glsl), one buffer each: a
+   head (one uvec4: indirect dispatch, count), then one event of EVENT_WORDS words per
+   pixel; the event kernels run EVENT_GROUP threads per workgroup. */
+#define EVENT_HEAD_BYTES 16u
 #define EVENT_WORDS 3u
 #define EVENT_GROUP 128u
 enum { PROC_CREATE, PROC_UPDATE, PROC_RENDER };
@@ -157,7 +157,8 @@ struct picvr_context {
     buffer accum[3];                 /* mean rgba, Kahan terms, (lum mean, M2, n, bad) */
     buffer readback;
     buffer partials;
-    buffer render_events;            /* the rendering procedure's event queues (shaders/render.glsl) */
+    buffer shade_queue;              /* the rendering procedure's event queues (shaders/render.glsl): */
+    buffer lookup_queue;             /* for shading, and with the cache for the lookup */
     /* irradiance cache (allocated only when the cache is on) */
     picvr_cache_config cache;        /* resolved: no zero fields */
     int cache_on;
@@ -662,11 +663,11 @@ static picvr_status create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPi
 /* Binding layout shared by all kernels (see ARCHITECTURE.md): 0 scene UBO, 1 volume,
    2 transfer function, 3 majorant grid, 4-6 accumulation planes, 7 stats partials,
    8 opacity range-max table, 9-13 cache entries, nodes, refs, counters, requests,
-   14 superpixels (screen-space locking), 15 the rendering queue, 16 the rendering
-   procedure's event queues. */
-#define NUM_BINDINGS 17
-#define CACHE_BINDINGS_FIRST 9
-#define CACHE_BINDINGS_END 15
+   14 superpixels (screen-space locking), 15 the rendering queue, 16 and 17 the rendering
+   procedure's event queues for shading and for the cache lookup. */
+#define NUM_BINDINGS 18
+/* The bindings only cached contexts write: 9-14 and 17. */
+static int cache_binding(uint32_t i) { return (i >= 9 && i < 15) || i == 17; }
 static VkDescriptorType binding_type(uint32_t i) {
     return i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
          : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
@@ -709,8 +710,8 @@ static uint32_t variant_key(const picvr_context *ctx, int proc) {
 /* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
    the procedure has no such kernel; on a failure none is left).  One set of constants
    for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
-   creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
-   QUEUE_FOR_LOOKUP, fixed per context. */
+   creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING, fixed per
+   context. */
 static picvr_status create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PROC_CREATE) mod[KERNEL_MAIN] = ctx->create_module;
@@ -720,16 +721,16 @@ static picvr_status create_variant(picvr_context *ctx, int proc, uint32_t key, V
         mod[KERNEL_SHADE] = ctx->shade_module;
         if (ctx->cache_on) mod[KERNEL_LOOKUP] = ctx->lookup_module;
     }
-    uint32_t value[7] = {(key & KEY_PHASE_MIS) != 0, (key & KEY_FINE) != 0, ctx->cache.max_samples / CACHE_CREATE_GROUP,
+    uint32_t value[6] = {(key & KEY_PHASE_MIS) != 0, (key & KEY_FINE) != 0, ctx->cache.max_samples / CACHE_CREATE_GROUP,
                          (key & KEY_DEBUG_VIEW) != 0, (key >> KEY_MONO_SHIFT) & 3u,
-                         ctx->cache_on && ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE, (uint32_t)ctx->cache_on};
-    VkSpecializationMapEntry entry[7];
-    for (uint32_t i = 0; i < 7; i++) {
+                         ctx->cache_on && ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE};
+    VkSpecializationMapEntry entry[6];
+    for (uint32_t i = 0; i < 6; i++) {
         entry[i].constantID = i;
         entry[i].offset = 4 * i;
         entry[i].size = 4;
     }
-    VkSpecializationInfo spec = {7, entry, sizeof value, value};
+    VkSpecializationInfo spec = {6, entry, sizeof value, value};
     picvr_status s = PICVR_OK;
     for (int k = 0; k < KERNELS; k++) {
         out[k] = VK_NULL_HANDLE;
@@ -813,7 +814,9 @@ static picvr_status create_pipelines(picvr_context *ctx) {
     ai.pSetLayouts = &ctx->set_layout;
     VK_TRY(ctx, vkAllocateDescriptorSets(ctx->device, &ai, &ctx->set));
 
-    picvr_status s = create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->track_module);
+    picvr_status s = ctx->cache_on
+        ? create_shader(ctx, picvr_spv_render_track_cache, sizeof picvr_spv_render_track_cache, &ctx->track_module)
+        : create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->track_module);
     if (!s) s = create_shader(ctx, picvr_spv_render_shade, sizeof picvr_spv_render_shade, &ctx->shade_module);
     if (!s) s = create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->stats_module);
     if (!s) s = create_shader(ctx, picvr_spv_block_select, sizeof picvr_spv_block_select, &ctx->select_module);
@@ -978,7 +981,8 @@ void picvr_destroy(picvr_context *ctx) {
         if (ctx->priority_module) vkDestroyShaderModule(d, ctx->priority_module, NULL);
         if (ctx->timestamps) vkDestroyQueryPool(d, ctx->timestamps, NULL);
         buffer_destroy(ctx, &ctx->render_queue);
-        buffer_destroy(ctx, &ctx->render_events);
+        buffer_destroy(ctx, &ctx->shade_queue);
+        buffer_destroy(ctx, &ctx->lookup_queue);
         buffer_destroy(ctx, &ctx->round_readback);
         if (ctx->update_module) vkDestroyShaderModule(d, ctx->update_module, NULL);
         if (ctx->rebuild_module) vkDestroyShaderModule(d, ctx->rebuild_module, NULL);
@@ -1786,20 +1790,21 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
         logf_(ctx, PICVR_LOG_WARNING, "image of %ux%u exceeds maxStorageBufferRange", w, h);
         return PICVR_ERROR_SIZE_OVERFLOW;
     }
-    /* the event queues: shading, and with the cache the lookup */
-    VkDeviceSize event_bytes = EVENT_HEADER_BYTES + (ctx->cache_on ? 2 : 1) * pixels * EVENT_WORDS * 4;
-    if (event_bytes > ctx->props.limits.maxStorageBufferRange) {
-        logf_(ctx, PICVR_LOG_WARNING, "image of %ux%u: its event queues exceed maxStorageBufferRange", w, h);
+    /* an event queue (shading; with the cache also the lookup): smaller than a plane */
+    VkDeviceSize queue_bytes = EVENT_HEAD_BYTES + pixels * EVENT_WORDS * 4;
+    if (queue_bytes > ctx->props.limits.maxStorageBufferRange) {
+        logf_(ctx, PICVR_LOG_WARNING, "image of %ux%u: its event queue exceeds maxStorageBufferRange", w, h);
         return PICVR_ERROR_SIZE_OVERFLOW;
     }
     VkDeviceSize groups = (pixels + 255) / 256;
     uint32_t blocks = ((w + 15) / 16) * ((h + 7) / 8);
-    buffer acc[3], rb, part, queue, events;
+    buffer acc[3], rb, part, queue, shade, lookup;
     memset(acc, 0, sizeof acc);
     memset(&rb, 0, sizeof rb);
     memset(&part, 0, sizeof part);
     memset(&queue, 0, sizeof queue);
-    memset(&events, 0, sizeof events);
+    memset(&shade, 0, sizeof shade);
+    memset(&lookup, 0, sizeof lookup);
     picvr_status s = PICVR_OK;
     for (int i = 0; i < 3 && !s; i++)
         s = buffer_create(ctx, &acc[i], plane, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
@@ -1810,14 +1815,17 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
     if (!s) s = buffer_create(ctx, &queue, 32 + (VkDeviceSize)blocks * 16,
                               VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
-    if (!s) s = buffer_create(ctx, &events, event_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                              VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
+    VkBufferUsageFlags queue_usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    if (!s) s = buffer_create(ctx, &shade, queue_bytes, queue_usage, 0);
+    if (!s && ctx->cache_on) s = buffer_create(ctx, &lookup, queue_bytes, queue_usage, 0);
     if (s) {
         for (int i = 0; i < 3; i++) buffer_destroy(ctx, &acc[i]);
         buffer_destroy(ctx, &rb);
         buffer_destroy(ctx, &part);
         buffer_destroy(ctx, &queue);
-        buffer_destroy(ctx, &events);
+        buffer_destroy(ctx, &shade);
+        buffer_destroy(ctx, &lookup);
         return s;
     }
     if (ctx->cache_on) {
@@ -1832,7 +1840,8 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
             buffer_destroy(ctx, &rb);
             buffer_destroy(ctx, &part);
             buffer_destroy(ctx, &queue);
-            buffer_destroy(ctx, &events);
+            buffer_destroy(ctx, &shade);
+            buffer_destroy(ctx, &lookup);
             return s;
         }
         buffer_destroy(ctx, &ctx->cache_superpixels);
@@ -1843,11 +1852,13 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
     buffer_destroy(ctx, &ctx->readback);
     buffer_destroy(ctx, &ctx->partials);
     buffer_destroy(ctx, &ctx->render_queue);
-    buffer_destroy(ctx, &ctx->render_events);
+    buffer_destroy(ctx, &ctx->shade_queue);
+    buffer_destroy(ctx, &ctx->lookup_queue);
     ctx->readback = rb;
     ctx->partials = part;
     ctx->render_queue = queue;
-    ctx->render_events = events;
+    ctx->shade_queue = shade;
+    ctx->lookup_queue = lookup;
     ctx->block_total = blocks;
     ctx->block_stride = spread_stride(blocks);
     ctx->descriptors_dirty = 1;
@@ -1926,13 +1937,14 @@ static void update_descriptors(picvr_context *ctx) {
         {ctx->cache_entries.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_nodes.buf, 0, VK_WHOLE_SIZE},
         {ctx->cache_refs.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_counters.buf, 0, VK_WHOLE_SIZE},
         {ctx->cache_requests.buf, 0, VK_WHOLE_SIZE}, {ctx->cache_superpixels.buf, 0, VK_WHOLE_SIZE},
-        {ctx->render_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->render_events.buf, 0, VK_WHOLE_SIZE}};
+        {ctx->render_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->shade_queue.buf, 0, VK_WHOLE_SIZE},
+        {ctx->lookup_queue.buf, 0, VK_WHOLE_SIZE}};
     VkWriteDescriptorSet w[NUM_BINDINGS];
     memset(w, 0, sizeof w);
     uint32_t n = 0;
     for (uint32_t i = 0; i < NUM_BINDINGS; i++) {
         /* The cache bindings stay unwritten when the cache is off: no pipeline then uses them. */
-        if (!ctx->cache_on && i >= CACHE_BINDINGS_FIRST && i < CACHE_BINDINGS_END) continue;
+        if (!ctx->cache_on && cache_binding(i)) continue;
         w[n].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
         w[n].dstSet = ctx->set;
         w[n].dstBinding = i;
@@ -2092,8 +2104,9 @@ static void record_rebuild(picvr_context *ctx, uint32_t created) {
    queues its misses for shading; with one it shades them itself and the shading
    dispatch has no workgroups. */
 static void record_render_kernels(picvr_context *ctx, const round_plan *p) {
-    static const uint32_t empty_queues[8] = {0, 1, 1, 0, 0, 1, 1, 0};   /* (x, 1, 1, count) each */
-    vkCmdUpdateBuffer(ctx->cmd, ctx->render_events.buf, 0, sizeof empty_queues, empty_queues);
+    static const uint32_t empty_head[4] = {0, 1, 1, 0};   /* dispatch (x, 1, 1), count */
+    vkCmdUpdateBuffer(ctx->cmd, ctx->shade_queue.buf, 0, sizeof empty_head, empty_head);
+    if (ctx->cache_on) vkCmdUpdateBuffer(ctx->cmd, ctx->lookup_queue.buf, 0, sizeof empty_head, empty_head);
     barrier_all(ctx);
     push4(ctx, ctx->round, ctx->seed, p->request_cap, 0);
     vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, now_kernel(ctx, PROC_RENDER, KERNEL_MAIN));
@@ -2101,11 +2114,11 @@ static void record_render_kernels(picvr_context *ctx, const round_plan *p) {
     barrier_all(ctx);
     if (ctx->cache_on) {
         vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, now_kernel(ctx, PROC_RENDER, KERNEL_LOOKUP));
-        vkCmdDispatchIndirect(ctx->cmd, ctx->render_events.buf, 16);
+        vkCmdDispatchIndirect(ctx->cmd, ctx->lookup_queue.buf, 0);
         barrier_all(ctx);
     }
     vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, now_kernel(ctx, PROC_RENDER, KERNEL_SHADE));
-    vkCmdDispatchIndirect(ctx->cmd, ctx->render_events.buf, 0);
+    vkCmdDispatchIndirect(ctx->cmd, ctx->shade_queue.buf, 0);
     barrier_all(ctx);
 }
 

@@ -17,28 +17,24 @@ layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  /
 layout(set = 0, binding = 5, std430) buffer AccumComp { vec4 accum_comp[]; };  // Kahan terms
 layout(set = 0, binding = 6, std430) buffer AccumStat { vec4 accum_stat[]; };  // lum mean, M2, n, bad
 
-// The event queues of one dispatch of the rendering procedure.  Queue q's events are
-// EVENT_WORDS words each from word q * EVENT_WORDS * pixels: the pixel, the scatter
-// distance t (float bits) and the pixel's random-number counter after tracking, with
-// bit 31 the `truncated` flag.  Rule: a dispatch renders each block at most once
-// (block_select.comp), so a queue never holds more than one event per pixel and the
-// regions cannot overflow.  The shading queue comes first: plain Monte Carlo
-// allocates only it.
-layout(set = 0, binding = 16, std430) buffer RenderEvents {
-    uvec4 queue[2];   // per queue: xyz the indirect dispatch of its kernel (x: workgroups), w: events
-    uint ev[];
-} events;
-#define QUEUE_SHADE 0u
-#define QUEUE_LOOKUP 1u
+// The event queues of one dispatch of the rendering procedure, one buffer each so that
+// each stays within maxStorageBufferRange as the image does: for shading (binding 16),
+// and with the cache for the lookup (binding 17, declared by the kernels that use it,
+// PICVR_CACHE).  A queue's head: xyz the indirect dispatch of its kernel (x counts
+// workgroups), w the events queued; then EVENT_WORDS words per event: the pixel, the
+// scatter distance t (float bits) and the pixel's random-number counter after tracking,
+// with bit 31 the `truncated` flag.  Rule: a dispatch renders each block at most once
+// (block_select.comp), so a queue never holds more than one event per pixel and cannot
+// overflow.
+layout(set = 0, binding = 16, std430) buffer ShadeQueue { uvec4 head; uint ev[]; } shade_queue;
+#ifdef PICVR_CACHE
+layout(set = 0, binding = 17, std430) buffer LookupQueue { uvec4 head; uint ev[]; } lookup_queue;
+#endif
 #define EVENT_WORDS 3u
 // Threads per workgroup of the event kernels: one dispatch holds at most MAX_QUEUE
 // (65535) blocks of 128 pixels, so 128 keeps its workgroups within the 65535 that
 // every Vulkan device allows.
 #define EVENT_GROUP 128u
-
-// Specialization (picvr_vk.c): true in a cached context, whose scatter events go to
-// the lookup first.
-layout(constant_id = 6) const bool QUEUE_FOR_LOOKUP = false;
 
 // round: the scheduler's round (keys the screen-space locking counters); request_cap:
 // creation requests this round may issue (the creation budget of the next round).
@@ -87,30 +83,33 @@ vec3 direct_light(vec3 x, inout Rng rng, inout bool truncated) {
 // A scatter event, as the event kernels take it up again.
 struct ScatterEvent { uint idx; uvec2 px; float t; vec3 x; Rng rng; bool truncated; };
 
-void queue_event(uint q, uint idx, float t, Rng rng, bool truncated) {
-    uint slot = atomicAdd(events.queue[q].w, 1u);
-    if (slot % EVENT_GROUP == 0u) atomicAdd(events.queue[q].x, 1u);
-    uint base = (q * scene.image.x * scene.image.y + slot) * EVENT_WORDS;
-    events.ev[base] = idx;
-    events.ev[base + 1u] = floatBitsToUint(t);
-    events.ev[base + 2u] = (rng.counter & 0x7fffffffu) | (truncated ? 0x80000000u : 0u);
-}
+// Queue Q (shade_queue or lookup_queue) gains the event (idx, t, rng, truncated): a
+// macro, as GLSL passes no buffers to functions.
+#define QUEUE_EVENT(Q, idx, t, rng, truncated) {                                        \
+    uint slot_ = atomicAdd(Q.head.w, 1u);                                               \
+    if (slot_ % EVENT_GROUP == 0u) atomicAdd(Q.head.x, 1u);                             \
+    Q.ev[slot_ * EVENT_WORDS] = (idx);                                                  \
+    Q.ev[slot_ * EVENT_WORDS + 1u] = floatBitsToUint(t);                                \
+    Q.ev[slot_ * EVENT_WORDS + 2u] = ((rng).counter & 0x7fffffffu) | ((truncated) ? 0x80000000u : 0u); }
 
-// This invocation's event of queue q; false past the queue's end.  The camera ray is
-// drawn again from the pixel's random numbers (the same draws, so the same ray), then
-// the numbers go on where tracking left them.
-bool load_event(uint q, out ScatterEvent e) {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= events.queue[q].w) return false;
-    uint base = (q * scene.image.x * scene.image.y + i) * EVENT_WORDS;
-    e.idx = events.ev[base];
-    e.px = uvec2(e.idx % scene.image.x, e.idx / scene.image.x);
-    e.rng = pixel_rng(e.idx);
+// The event of words (idx, t, w) taken up again.  The camera ray is drawn again from
+// the pixel's random numbers (the same draws, so the same ray), then the numbers go on
+// where tracking left them.
+ScatterEvent unpack_event(uint idx, uint t_bits, uint w) {
+    ScatterEvent e;
+    e.idx = idx;
+    e.px = uvec2(idx % scene.image.x, idx / scene.image.x);
+    e.rng = pixel_rng(idx);
     vec3 rd = camera_ray(e.px, e.rng);
-    e.t = uintBitsToFloat(events.ev[base + 1u]);
+    e.t = uintBitsToFloat(t_bits);
     e.x = scene.cam_pos.xyz + rd * e.t;
-    uint w = events.ev[base + 2u];
     e.rng.counter = w & 0x7fffffffu;
     e.truncated = (w & 0x80000000u) != 0u;
-    return true;
+    return e;
 }
+
+// This invocation's event of queue Q into e; returns from main past the queue's end.
+#define LOAD_EVENT(Q, e) {                                                              \
+    uint i_ = gl_GlobalInvocationID.x;                                                  \
+    if (i_ >= Q.head.w) return;                                                         \
+    e = unpack_event(Q.ev[i_ * EVENT_WORDS], Q.ev[i_ * EVENT_WORDS + 1u], Q.ev[i_ * EVENT_WORDS + 2u]); }

@@ -6,6 +6,7 @@
 // plain Monte-Carlo shading (render_shade.comp).  The debug views shade here, misses
 // too, in their own variant (USE_DEBUG_VIEW).
 #extension GL_GOOGLE_include_directive : require
+#define PICVR_CACHE 1
 #include "render.glsl"
 #include "cache.glsl"
 layout(local_size_x = EVENT_GROUP, local_size_y = 1) in;
@@ -19,7 +20,7 @@ vec3 cache_error_sample(vec3 x, vec3 cached, inout Rng rng, inout bool truncated
 
 void main() {
     ScatterEvent e;
-    if (!load_event(QUEUE_LOOKUP, e)) return;
+    LOAD_EVENT(lookup_queue, e)
     vec3 E;
     uint node;
     bool near_centre;
@@ -33,7 +34,7 @@ void main() {
         cache_request(e.x, node, e.px, pc.round, rnd(e.rng), pc.request_cap);
         atomicAdd(cache_counters.misses, 1u);
         if (!USE_DEBUG_VIEW) {
-            queue_event(QUEUE_SHADE, e.idx, e.t, e.rng, e.truncated);
+            QUEUE_EVENT(shade_queue, e.idx, e.t, e.rng, e.truncated)
             return;
         }
         Ls = direct_light(e.x, e.rng, e.truncated);

@@ -8,7 +8,7 @@ layout(local_size_x = EVENT_GROUP, local_size_y = 1) in;
 
 void main() {
     ScatterEvent e;
-    if (!load_event(QUEUE_SHADE, e)) return;
+    LOAD_EVENT(shade_queue, e)
     vec3 Ls = direct_light(e.x, e.rng, e.truncated);
     accumulate_sample(e.idx, albedo_at(e.x) * Ls, 1.0, e.truncated);
 }

@@ -1,0 +1,40 @@
+// render_track.glsl - the rendering procedure's first kernel (paper §3, §4.1; see
+// render.glsl): one workgroup per queued block (block_select.comp), one thread per
+// pixel.  Tracks the primary ray by delta tracking: a ray that leaves the volume adds
+// the area light or background it sees, a scatter event is queued for the cache
+// lookup (PICVR_CACHE: render_track_cache.comp) or for shading (render_track.comp).
+// Two SPIR-V modules rather than a specialization constant, so that the plain kernel
+// declares no lookup queue.
+#include "render.glsl"
+layout(local_size_x = BLOCK_W, local_size_y = BLOCK_H) in;
+
+void main() {
+    uvec2 px = block_origin(render_queue.blocks[gl_WorkGroupID.x].x, scene.image.xy) + gl_LocalInvocationID.xy;
+    if (px.x >= scene.image.x || px.y >= scene.image.y) return;
+    uint idx = px.y * scene.image.x + px.x;
+    Rng rng = pixel_rng(idx);
+    vec3 ro = scene.cam_pos.xyz;
+    vec3 rd = camera_ray(px, rng);
+    bool truncated = false;
+
+    float t_light;
+    int light_hit = nearest_area_light(ro, rd, 1e30, t_light);
+    float t = -1.0, t0, t1;
+    if (box_interval(ro, rd, t0, t1)) {
+        t1 = min(t1, t_light);
+        if (t1 > t0) t = delta_track(ro, rd, t0, t1, rng, truncated);
+    }
+    if (t >= 0.0) {
+#ifdef PICVR_CACHE
+        QUEUE_EVENT(lookup_queue, idx, t, rng, truncated)
+#else
+        QUEUE_EVENT(shade_queue, idx, t, rng, truncated)
+#endif
+        return;
+    }
+    vec3 radiance;
+    if (USE_DEBUG_VIEW && scene.view.x != VIEW_IMAGE) radiance = vec3(0.0);   // the debug views show scatter events only
+    else if (light_hit >= 0) radiance = area_light_radiance(uint(light_hit), rd);
+    else radiance = scene.background.rgb;
+    accumulate_sample(idx, radiance, 0.0, truncated);
+}
