@@ -150,9 +150,10 @@ typedef struct picvr_allocator {
     void *user;
 } picvr_allocator;
 
-/* The limits of cache.max_samples (below). */
+/* The limits of cache.max_samples and cache.max_lookup_refs (below). */
 #define PICVR_CACHE_MAX_SAMPLES 8192u
 #define PICVR_CACHE_MAX_SAMPLES_CPU 768u
+#define PICVR_CACHE_MAX_LOOKUP_REFS 8192u
 
 /* The irradiance cache (paper §4-5).  Zero fields mean the Table 1 values. */
 typedef enum picvr_cache_mode {
@@ -229,6 +230,15 @@ typedef struct picvr_cache_config {
                                   9.75 % too dark without the model at a hit rate of
                                   0.89, -0.57 % +- 0.04 % with it at 0.86 and -1.99 % at
                                   0.97 (README "The irradiance cache") */
+    uint32_t max_lookup_refs;  /* the references one octree walk (a lookup of rendering or
+                                  of the update procedure) visits at most; those beyond
+                                  are ignored and the walk counted in
+                                  stats.cache_lookups_cut.  0: PICVR_CACHE_MAX_LOOKUP_REFS
+                                  (8192), also the largest allowed (llvmpipe's loop
+                                  bound; PICVR_ERROR_INVALID_ARGUMENT beyond).  A lower
+                                  bound caps a lookup's cost where lists grow long, at the
+                                  price of the entries it ignores (bonsai's longest lists
+                                  hold about 200 references) */
 } picvr_cache_config;
 
 /* The scheduler (paper §6, §7): how picvr_step splits device time between rendering,
@@ -493,9 +503,10 @@ typedef struct picvr_stats {
                                     share above ~1e-4 says the rays are too long for the
                                     creation procedure's budget) */
     uint64_t cache_lookups_cut;  /* scatter events whose octree walk (rendering or update)
-                                    stopped at its bound of 8192 references and ignored
-                                    the entries beyond; 0 unless a node's list is
-                                    pathologically long (bonsai: at most ~200) */
+                                    stopped at its bound (cache.max_lookup_refs, 8192 by
+                                    default) and ignored the entries beyond; 0 unless a
+                                    node's list is pathologically long (bonsai: at most
+                                    ~200) */
     uint32_t cache_max_samples;  /* that cap in force: cache.max_samples after its default
                                     and the rounding to a multiple of 128 */
     uint32_t cache_requests;     /* creation requests issued in the last step */

@@ -710,8 +710,8 @@ static uint32_t variant_key(const picvr_context *ctx, int proc) {
 /* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
    the procedure has no such kernel; on a failure none is left).  One set of constants
    for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
-   creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING, fixed per
-   context. */
+   creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
+   MAX_LOOKUP_REFS, fixed per context. */
 static picvr_status create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PROC_CREATE) mod[KERNEL_MAIN] = ctx->create_module;
@@ -721,16 +721,17 @@ static picvr_status create_variant(picvr_context *ctx, int proc, uint32_t key, V
         mod[KERNEL_SHADE] = ctx->shade_module;
         if (ctx->cache_on) mod[KERNEL_LOOKUP] = ctx->lookup_module;
     }
-    uint32_t value[6] = {(key & KEY_PHASE_MIS) != 0, (key & KEY_FINE) != 0, ctx->cache.max_samples / CACHE_CREATE_GROUP,
+    uint32_t value[7] = {(key & KEY_PHASE_MIS) != 0, (key & KEY_FINE) != 0, ctx->cache.max_samples / CACHE_CREATE_GROUP,
                          (key & KEY_DEBUG_VIEW) != 0, (key >> KEY_MONO_SHIFT) & 3u,
-                         ctx->cache_on && ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE};
-    VkSpecializationMapEntry entry[6];
-    for (uint32_t i = 0; i < 6; i++) {
+                         ctx->cache_on && ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE,
+                         ctx->cache_on ? ctx->cache.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS};
+    VkSpecializationMapEntry entry[7];
+    for (uint32_t i = 0; i < 7; i++) {
         entry[i].constantID = i;
         entry[i].offset = 4 * i;
         entry[i].size = 4;
     }
-    VkSpecializationInfo spec = {6, entry, sizeof value, value};
+    VkSpecializationInfo spec = {7, entry, sizeof value, value};
     picvr_status s = PICVR_OK;
     for (int k = 0; k < KERNELS; k++) {
         out[k] = VK_NULL_HANDLE;
@@ -1062,6 +1063,8 @@ static picvr_status resolve_cache_config(picvr_context *ctx, const picvr_cache_c
     if (!c->max_samples) c->max_samples = CACHE_DEFAULT_SAMPLES;
     if (c->max_samples > PICVR_CACHE_MAX_SAMPLES) return PICVR_ERROR_INVALID_ARGUMENT;
     c->max_samples = (c->max_samples + CACHE_CREATE_GROUP - 1) / CACHE_CREATE_GROUP * CACHE_CREATE_GROUP;
+    if (!c->max_lookup_refs) c->max_lookup_refs = PICVR_CACHE_MAX_LOOKUP_REFS;
+    if (c->max_lookup_refs > PICVR_CACHE_MAX_LOOKUP_REFS) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->max_nodes < 4681 || c->max_refs < 2 || c->max_nodes > (1u << 28) || c->max_refs > (1u << 28))
         return PICVR_ERROR_INVALID_ARGUMENT;
     return PICVR_OK;

@@ -190,12 +190,13 @@ uint child_containing(uint ch, vec3 x, inout vec3 lo, inout vec3 size) {
 // (at most 5 x MAX_TRACK_STEPS with the error view) leave room for 8192 references
 // (two loop iterations each, with walk_next's descent loop) and the 11 levels.  A walk
 // that reaches the bound with references left says so in cache_counters.lookups_cut
-// (stats.cache_lookups_cut) and ignores the rest.  The bound was 64 per node until
+// (stats.cache_lookups_cut) and ignores the rest.  The bound is cache.max_lookup_refs
+// (a specialization constant, at most the default; picvr.h).  The bound was 64 per node until
 // 2026-11-29, cut silently: on bonsai lists grew to 205 references at 13,000 entries
 // (entries flat along n but wide along t, b sit high in the tree), lookups missed the
 // entries beyond the 64th, and their misses created redundant ones (docs/cache.md,
 // "Long lists").
-#define CACHE_MAX_LOOKUP_REFS 8192u
+layout(constant_id = 6) const uint CACHE_MAX_LOOKUP_REFS = 8192u;
 struct CacheWalk { uint node; uint ref; uint visited; vec3 lo; vec3 size; };
 
 CacheWalk walk_start() {

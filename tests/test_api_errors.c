@@ -678,6 +678,7 @@ void test_create_config_errors(void **state) {
     CFG_ROW("cache.superpixel_size 5000", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.superpixel_size = 5000);
     CFG_ROW("cache.curvature_limit 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.curvature_limit = (picvr_switch)7);
     CFG_ROW("cache.medium_model 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.medium_model = (picvr_switch)7);
+    CFG_ROW("cache.max_lookup_refs 8193", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_lookup_refs = 8193);
     CFG_ROW("cache.max_entries 2^25", PICVR_ERROR_SIZE_OVERFLOW, cfg.cache.max_entries = 1u << 25);
     CFG_ROW("cache.max_nodes 100 (< pre-built top)", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_nodes = 100);
     CFG_ROW("cache.max_refs 1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_refs = 1);

@@ -338,11 +338,12 @@ void test_cache_rebuild_keeps_new_entries(void **state) {
    too), so the image mean must match the closed form to within the primary rays'
    Monte-Carlo noise: 2 % (measured -0.5 % to +0.04 %).  Runs until the hit rate reaches
    0.95 (at most 40 steps of 8 iterations), then 16 more iterations; prints and returns
-   the stats, and fails unless no walk was cut, the hit rate is at least 0.9 and the
-   image within 2 %. */
-static picvr_stats slab_cache_run(picvr_cache_mode mode, float radius_max_voxels) {
+   the stats, and fails unless the image is within 2 % and, with the default bound of
+   the walk (max_lookup_refs 0), no walk was cut and the hit rate is at least 0.9. */
+static picvr_stats slab_cache_run(picvr_cache_mode mode, float radius_max_voxels, uint32_t max_lookup_refs) {
     picvr_config cfg = cache_config(mode, 5);
     cfg.cache.radius_max_voxels = radius_max_voxels;
+    cfg.cache.max_lookup_refs = max_lookup_refs;
     cfg.cache.epsilon = 0.01f;
     cfg.cache.delta_voxels = 0.05f;
     cfg.cache.superpixel_size = 8;
@@ -370,8 +371,10 @@ static picvr_stats slab_cache_run(picvr_cache_mode mode, float radius_max_voxels
                   "after %u steps, %llu walks cut, image %+.2f %% against the closed form\n", (int)mode,
                   radius_max_voxels, st.cache_entries, st.cache_refs_per_entry, st.cache_hit_rate, steps,
                   (unsigned long long)st.cache_lookups_cut, 100 * rel);
-    assert_true(st.cache_lookups_cut == 0);
-    if (!(st.cache_hit_rate >= 0.9)) fail_msg("hit rate %.3f", st.cache_hit_rate);
+    if (!max_lookup_refs) {
+        assert_true(st.cache_lookups_cut == 0);
+        if (!(st.cache_hit_rate >= 0.9)) fail_msg("hit rate %.3f", st.cache_hit_rate);
+    }
     if (!(fabs(rel) < 0.02)) fail_msg("image %+.2f %% off the closed form", 100 * rel);
     free(img);
     free(expv);
@@ -389,10 +392,24 @@ void test_cache_lookup_sees_long_lists(void **state) {
     (void)state;
     const picvr_cache_mode modes[2] = {PICVR_CACHE_OBJECT_SPACE, PICVR_CACHE_SCREEN_SPACE};
     for (int m = 0; m < 2; m++) {
-        picvr_stats st = slab_cache_run(modes[m], 64.0f);
+        picvr_stats st = slab_cache_run(modes[m], 64.0f, 0);
         if (!(st.cache_entries > 64)) fail_msg("%u entries: the premise (a list longer than 64) fails",
                                                st.cache_entries);
     }
+}
+
+/* The walk's bound (cache.max_lookup_refs) set to 64 on the long lists above: walks are
+   cut and counted, and a cut walk only ignores entries, so every hit is still an exact
+   extrapolation and the image stays within slab_cache_run's 2 % of the closed form,
+   with no NaN; the locking still finds the deepest node after a cut walk, so requests
+   keep being made (more entries than uncut; measured 2026-11-29 with the bound built
+   in: a hit rate of 0.40 after 40 steps, 335 entries, 310,583 walks cut). */
+void test_cache_lookup_bound_cuts_walks(void **state) {
+    (void)state;
+    picvr_stats st = slab_cache_run(PICVR_CACHE_OBJECT_SPACE, 64.0f, 64);
+    if (!(st.cache_lookups_cut > 0)) fail_msg("no walk cut at a bound of 64 references");
+    if (!(st.cache_entries > 64)) fail_msg("%u entries: the premise (a list longer than 64) fails", st.cache_entries);
+    if (!(st.cache_hit_rate > 0.0)) fail_msg("hit rate %.3f: cut walks must still serve hits", st.cache_hit_rate);
 }
 
 /* An entry is referenced only from the nodes its oriented bounding box reaches (§4.4),
@@ -406,7 +423,7 @@ void test_cache_lookup_sees_long_lists(void **state) {
    would lose. */
 void test_cache_oriented_box_insertion(void **state) {
     (void)state;
-    picvr_stats st = slab_cache_run(PICVR_CACHE_OBJECT_SPACE, 12.0f);
+    picvr_stats st = slab_cache_run(PICVR_CACHE_OBJECT_SPACE, 12.0f, 0);
     if (!(st.cache_refs_per_entry <= 5.0))
         fail_msg("%.2f references per entry: the oriented box did not keep the slabs out of the other half",
                  st.cache_refs_per_entry);

@@ -56,6 +56,7 @@
     X(test_cache_homogeneous_sun_matches_closed_form)               \
     X(test_cache_rebuild_keeps_new_entries)                         \
     X(test_cache_lookup_sees_long_lists)                            \
+    X(test_cache_lookup_bound_cuts_walks)                           \
     X(test_cache_oriented_box_insertion)                            \
     X(test_cache_coloured_suns_match_closed_form)                   \
     X(test_cache_one_chromaticity_suns_match_closed_form)           \
