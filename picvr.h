@@ -512,7 +512,8 @@ typedef struct picvr_stats {
     uint32_t cache_requests;     /* creation requests issued in the last step */
     uint32_t cache_pending;      /* requests and locks outstanding when the step ended
                                     (0 today: each iteration completes its requests) */
-    uint64_t cache_bytes;        /* device memory of the cache pools */
+    uint64_t cache_bytes;        /* device memory of the cache: its pools, locks and the
+                                    rendering procedure's lookup queue (12 bytes a pixel) */
     double cache_hit_rate;       /* fraction of scatter events served by the cache in
                                     the last step */
     /* scheduler: measured shares of device time over the last second, and the §6 targets */

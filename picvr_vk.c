@@ -2609,7 +2609,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_pending = ctx->requests_pending;
             st.cache_bytes = ctx->cache_entries.size + ctx->cache_nodes.size + ctx->cache_refs.size +
                              ctx->cache_counters.size + ctx->cache_requests.size + ctx->cache_prebuilt_nodes.size +
-                             ctx->cache_superpixels.size;
+                             ctx->cache_superpixels.size + ctx->lookup_queue.size;
             st.cache_entries = c[4] < ctx->cache.max_entries ? c[4] : ctx->cache.max_entries;
             st.cache_nodes = c[5] < ctx->cache.max_nodes ? c[5] : ctx->cache.max_nodes;
             st.cache_refs = c[6] < ctx->cache.max_refs ? c[6] : ctx->cache.max_refs;
