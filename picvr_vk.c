@@ -2101,16 +2101,20 @@ static void record_rebuild(picvr_context *ctx, uint32_t created) {
     }
 }
 
+/* Empties the event queues for the next dispatch of the rendering procedure; the
+   barrier after block_select (record_render) orders it before the kernels. */
+static void record_empty_queues(picvr_context *ctx) {
+    static const uint32_t empty_head[4] = {0, 1, 1, 0};   /* dispatch (x, 1, 1), count */
+    vkCmdUpdateBuffer(ctx->cmd, ctx->shade_queue.buf, 0, sizeof empty_head, empty_head);
+    if (ctx->cache_on) vkCmdUpdateBuffer(ctx->cmd, ctx->lookup_queue.buf, 0, sizeof empty_head, empty_head);
+}
+
 /* One dispatch of the rendering procedure over the queued blocks: tracking, then with
    the cache the lookup, then shading, each event kernel as many workgroups as the kernel
    before it queued events for (shaders/render.glsl).  Without a debug view the lookup
    queues its misses for shading; with one it shades them itself and the shading
    dispatch has no workgroups. */
 static void record_render_kernels(picvr_context *ctx, const round_plan *p) {
-    static const uint32_t empty_head[4] = {0, 1, 1, 0};   /* dispatch (x, 1, 1), count */
-    vkCmdUpdateBuffer(ctx->cmd, ctx->shade_queue.buf, 0, sizeof empty_head, empty_head);
-    if (ctx->cache_on) vkCmdUpdateBuffer(ctx->cmd, ctx->lookup_queue.buf, 0, sizeof empty_head, empty_head);
-    barrier_all(ctx);
     push4(ctx, ctx->round, ctx->seed, p->request_cap, 0);
     vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, now_kernel(ctx, PROC_RENDER, KERNEL_MAIN));
     vkCmdDispatchIndirect(ctx->cmd, ctx->render_queue.buf, 0);
@@ -2138,6 +2142,7 @@ static void record_render(picvr_context *ctx, const round_plan *p) {
             vkCmdDispatch(ctx->cmd, (B + 63) / 64, 1, 1);
             barrier_all(ctx);
         }
+        record_empty_queues(ctx);
         vkCmdBindPipeline(ctx->cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->select_pipe);
         uint32_t base = (uint32_t)((uint64_t)ctx->block_cursor * ctx->block_stride % B);
         push4(ctx, want, B, prio ? ctx->block_cursor : base, prio ? 0 : ctx->block_stride);
