@@ -507,6 +507,13 @@ typedef struct picvr_stats {
                                     default) and ignored the entries beyond; 0 unless a
                                     node's list is pathologically long (bonsai: at most
                                     ~200) */
+    uint64_t cache_lookups_spilled; /* scatter events whose lookup found more than 64
+                                    entries whose bounding sphere holds the point; it
+                                    evaluated those past the 64th one at a time (the same
+                                    result, slower on SIMD hardware).  Rare: at most
+                                    0.7 % of the lookups on the cloud of ../shared/data,
+                                    0.02 % on bonsai, 1.7 % on bonsai with screen-space
+                                    locking (2026-11-30) */
     uint32_t cache_max_samples;  /* that cap in force: cache.max_samples after its default
                                     and the rounding to a multiple of 128 */
     uint32_t cache_requests;     /* creation requests issued in the last step */

@@ -29,7 +29,7 @@
 #define MAX_QUEUE 65535u           /* blocks per dispatch (shaders/block_select.comp) */
 /* Sizes of the shaders' buffer elements (std430), mirrored here; `make check-layout`
    (part of `make test`) compares them with glslang's reflection of the shaders. */
-#define CACHE_COUNTER_WORDS 15u    /* the CacheCounters block of shaders/cache.glsl */
+#define CACHE_COUNTER_WORDS 16u    /* the CacheCounters block of shaders/cache.glsl */
 #define CACHE_NODE_BYTES 16u       /* struct Node */
 #define CACHE_REF_BYTES 8u         /* struct Ref */
 #define CACHE_REQUEST_BYTES 32u    /* struct Request */
@@ -176,6 +176,7 @@ struct picvr_context {
                                         which wrap at 2^32 on the device (16.7M entries of
                                         7 x 64 rounds would), summed here round by round */
     uint64_t cache_lookups_cut;      /* octree walks cut at their bound: word 14, likewise */
+    uint64_t cache_lookups_spilled;  /* lookups past the candidate buffer: word 15, likewise */
     int descriptors_dirty;
 
     /* scheduler (§6, §7; see "The scheduler" in ARCHITECTURE.md) */
@@ -1147,11 +1148,11 @@ static picvr_status cache_clear(picvr_context *ctx) {
     if (!s) s = upload_buffer(ctx, &ctx->cache_nodes, nodes, (size_t)count * CACHE_NODE_BYTES);
     if (!s) s = upload_buffer(ctx, &ctx->cache_prebuilt_nodes, nodes, (size_t)count * CACHE_NODE_BYTES);
     mem_free(&ctx->alloc, nodes);
-    uint32_t counters[CACHE_COUNTER_WORDS] = {0, 1, 1, 0, 0, count, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    uint32_t counters[CACHE_COUNTER_WORDS] = {0, 1, 1, 0, 0, count, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
     if (!s) s = upload_buffer(ctx, &ctx->cache_counters, counters, sizeof counters);
     ctx->cache_prebuilt = count;
     memcpy(ctx->cache_counts, counters, sizeof counters);
-    ctx->cache_point_rounds = ctx->cache_truncated = ctx->cache_lookups_cut = 0;
+    ctx->cache_point_rounds = ctx->cache_truncated = ctx->cache_lookups_cut = ctx->cache_lookups_spilled = 0;
     ctx->requests_pending = 0;
     ctx->cache_since_rebuild_ms = 0.0;
     /* the hit rate restarts from an empty cache */
@@ -2323,6 +2324,7 @@ static picvr_status finish_round(picvr_context *ctx, const round_plan *p, double
         ctx->cache_point_rounds += (uint32_t)(rb[12] - ctx->cache_counts[12]);
         ctx->cache_truncated += (uint32_t)(rb[13] - ctx->cache_counts[13]);
         ctx->cache_lookups_cut += (uint32_t)(rb[14] - ctx->cache_counts[14]);
+        ctx->cache_lookups_spilled += (uint32_t)(rb[15] - ctx->cache_counts[15]);
         memcpy(ctx->cache_counts, rb, CACHE_COUNTER_WORDS * 4);
         r->hits = rb[8];
         r->misses = rb[9];
@@ -2626,6 +2628,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_samples_truncated =
                 ctx->cache_truncated < st.cache_samples ? ctx->cache_truncated : st.cache_samples;
             st.cache_lookups_cut = ctx->cache_lookups_cut;
+            st.cache_lookups_spilled = ctx->cache_lookups_spilled;
             st.cache_hit_rate = ctx->hit_rate;
         }
         st.cache_max_samples = ctx->cache.max_samples;

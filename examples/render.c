@@ -834,11 +834,12 @@ static int write_json(const options *o, const picvr_stats *s)
             "\"cache_references\": %u, \"cache_full\": %u, \"cache_requests\": %u, "
             "\"pending_requests\": %u, \"cache_bytes\": %llu, \"cache_entries_capped\": %u, "
             "\"cache_samples\": %llu, \"cache_samples_truncated\": %llu, \"cache_lookups_cut\": %llu, "
-            "\"cache_refs_per_entry\": ",
+            "\"cache_lookups_spilled\": %llu, \"cache_refs_per_entry\": ",
             s->cache_entries, s->cache_nodes, s->cache_refs, s->cache_refs, s->cache_full,
             s->cache_requests, s->cache_pending, (unsigned long long)s->cache_bytes,
             s->cache_entries_capped, (unsigned long long)s->cache_samples,
-            (unsigned long long)s->cache_samples_truncated, (unsigned long long)s->cache_lookups_cut);
+            (unsigned long long)s->cache_samples_truncated, (unsigned long long)s->cache_lookups_cut,
+            (unsigned long long)s->cache_lookups_spilled);
     json_number(f, s->cache_refs_per_entry);
     fputs(", \"cache_hit_rate\": ", f);
     json_number(f, s->cache_hit_rate);
