@@ -507,10 +507,11 @@ typedef struct picvr_stats {
                                     default) and ignored the entries beyond; 0 unless a
                                     node's list is pathologically long (bonsai: at most
                                     ~200) */
-    uint64_t cache_lookups_spilled; /* scatter events whose lookup found more than 64
-                                    entries whose bounding sphere holds the point; it
-                                    evaluated those past the 64th one at a time (the same
-                                    result, slower on SIMD hardware).  Rare: at most
+    uint64_t cache_lookups_spilled; /* scatter events whose octree walk (rendering or
+                                    update) found more than 64 entries whose bounding
+                                    sphere holds the point; those past the 64th were
+                                    evaluated one at a time (the same result, slower on
+                                    SIMD hardware).  Rare: at most
                                     0.7 % of the lookups on the cloud of ../shared/data,
                                     0.02 % on bonsai, 1.7 % on bonsai with screen-space
                                     locking (2026-11-30) */

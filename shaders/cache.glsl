@@ -276,44 +276,55 @@ bool near_entry_centre(uint e, vec3 x) {
     return dot(d, d) < scene.cell_size.w * scene.cell_size.w;
 }
 
+// The entries on x's walk whose zone holds x, in walk order: candidate[0, n).  In
+// passes, so that the lanes of a SIMD unit (llvmpipe's 8, a GPU's warp) run each
+// pass's work together: the walk keeps the entries whose bounding sphere holds x (up
+// to LOOKUP_CANDIDATES), a second pass those whose zone holds it, and the caller
+// extrapolates only those.  Done per reference, the lanes waited for any one lane's
+// prediction at most steps: timed in one process on one cache, the passes made the
+// lookup 1.78x faster on the cloud (hit rate 0.93, 8,000-8,600 entries), 1.18-1.24x on
+// bonsai and 1.06-1.10x on the engine (0.31; 1,300 entries, short lists), 2026-11-30
+// (docs/cache.md, "The lookup in three passes").  Returns true when more entries'
+// spheres hold x than the buffer takes: then `next` is the first of them past the
+// buffer and w goes on after it, for the caller to take one at a time, after the
+// buffer's, so that it sees them in walk order either way (stats.cache_lookups_spilled).
+// near_centre (VIEW_CACHE) looks at every visited entry up to `next`.  Loop bound: the
+// second pass adds LOOKUP_CANDIDATES iterations to the walk's (walk_next).
+#define LOOKUP_CANDIDATES 64u
+bool zone_candidates(vec3 x, inout CacheWalk w, out uint candidate[LOOKUP_CANDIDATES], out uint n,
+                     out uint next, inout bool near_centre) {
+    n = 0u;
+    bool spilled = false;
+    while (walk_next(w, x, next)) {
+        if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE) near_centre = near_centre || near_entry_centre(next, x);
+        if (!sphere_holds(next, x)) continue;
+        if (n == LOOKUP_CANDIDATES) { spilled = true; break; }
+        candidate[n++] = next;
+    }
+    uint m = 0u;
+    for (uint i = 0u; i < n; i++)
+        if (zone_holds(candidate[i], x)) candidate[m++] = candidate[i];
+    n = m;
+    if (spilled) atomicAdd(cache_counters.lookups_spilled, 1u);
+    return spilled;
+}
+
 // Looks x up in the octree: true and the extrapolated irradiance when entries cover
 // it (Eq. 11); always returns the deepest existing node enclosing x (for locking).
-// In three passes, so that the lanes of a SIMD unit (llvmpipe's 8, a GPU's warp) run
-// each pass's work together: the walk keeps the entries whose bounding sphere holds
-// x, a second pass those whose zone holds it, and only those are extrapolated.  Done
-// per reference, the lanes waited for any one lane's extrapolation at most steps:
-// timed in one process on one cache, the three passes made the lookup 1.79x faster on
-// the cloud (hit rate 0.93, 8,500 entries), 1.19x on bonsai (0.79) and 1.04x on the
-// engine (0.31; 1,300 entries, short lists), 2026-11-30 (docs/cache.md).  A lookup with
-// more candidates than the buffer holds evaluates the rest one at a time, after the
-// buffer's, so the sum of Eq. 11 runs in walk order either way.  Loop bound: the two
-// extra passes add 2 x LOOKUP_CANDIDATES iterations to the walk's (walk_next).
-#define LOOKUP_CANDIDATES 64u
 bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
     near_centre = false;
     float sum_w = 0.0;
     vec3 sum_wlog = vec3(0.0);
     CacheWalk w = walk_start();
     uint candidate[LOOKUP_CANDIDATES];
-    uint n = 0u, e;
-    bool spilled = false;
-    while (walk_next(w, x, e)) {
-        if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE) near_centre = near_centre || near_entry_centre(e, x);
-        if (!sphere_holds(e, x)) continue;
-        if (n == LOOKUP_CANDIDATES) { spilled = true; break; }
-        candidate[n++] = e;
-    }
-    uint m = 0u;
-    for (uint i = 0u; i < n; i++)
-        if (zone_holds(candidate[i], x)) candidate[m++] = candidate[i];
-    for (uint i = 0u; i < m; i++) eval_entry(candidate[i], x, sum_w, sum_wlog);
-    if (spilled) {                          // e is the first candidate past the buffer
-        atomicAdd(cache_counters.lookups_spilled, 1u);
+    uint n, e;
+    bool spilled = zone_candidates(x, w, candidate, n, e, near_centre);
+    for (uint i = 0u; i < n; i++) eval_entry(candidate[i], x, sum_w, sum_wlog);
+    if (spilled)
         do {
             if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE) near_centre = near_centre || near_entry_centre(e, x);
             eval_entry(e, x, sum_w, sum_wlog);
         } while (walk_next(w, x, e));
-    }
     deepest = walk_deepest(w, x);
     E = vec3(0.0);
     if (!CM_FN(log_average_valid)(sum_w)) return false;

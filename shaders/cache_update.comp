@@ -43,14 +43,23 @@ void main() {
     if (t < 0.0) return;
     vec3 x = ro + rd * t;
 
-    // Candidates: every entry whose zone contains x (the lookup's walk, walk_next).
+    // Candidates: the first UPDATE_MAX_CANDIDATES entries whose zone contains x, in walk
+    // order: those the lookup's passes find (zone_candidates), then, after a spilled
+    // walk, the rest of it one at a time (`next`: the first past the buffer).
     uint cand[UPDATE_MAX_CANDIDATES];
     float weight[UPDATE_MAX_CANDIDATES], lnE[UPDATE_MAX_CANDIDATES];
     vec3 local[UPDATE_MAX_CANDIDATES];
     uint count = 0u;
     CacheWalk w = walk_start();
-    uint entry;
-    while (count < UPDATE_MAX_CANDIDATES && walk_next(w, x, entry)) {
+    uint found[LOOKUP_CANDIDATES];
+    uint n, next, i = 0u;
+    bool near_centre = false, more = true;
+    bool spilled = zone_candidates(x, w, found, n, next, near_centre);
+    while (count < UPDATE_MAX_CANDIDATES && more) {
+        uint entry;
+        if (i < n) entry = found[i++];
+        else if (spilled) { entry = next; more = walk_next(w, x, next); }
+        else break;
         Prediction p = predict(entry, x);
         if (p.w > 0.0) {
             cand[count] = entry;
