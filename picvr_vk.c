@@ -1802,13 +1802,9 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
     }
     VkDeviceSize groups = (pixels + 255) / 256;
     uint32_t blocks = ((w + 15) / 16) * ((h + 7) / 8);
-    buffer acc[3], rb, part, queue, shade, lookup;
-    memset(acc, 0, sizeof acc);
-    memset(&rb, 0, sizeof rb);
-    memset(&part, 0, sizeof part);
-    memset(&queue, 0, sizeof queue);
-    memset(&shade, 0, sizeof shade);
-    memset(&lookup, 0, sizeof lookup);
+    buffer acc[3], rb, part, queue, shade, lookup, sp;
+    buffer *made[] = {&acc[0], &acc[1], &acc[2], &rb, &part, &queue, &shade, &lookup, &sp};
+    for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) memset(made[i], 0, sizeof *made[i]);
     picvr_status s = PICVR_OK;
     for (int i = 0; i < 3 && !s; i++)
         s = buffer_create(ctx, &acc[i], plane, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
@@ -1823,34 +1819,22 @@ static picvr_status create_image_buffers(picvr_context *ctx, uint32_t w, uint32_
                                      VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     if (!s) s = buffer_create(ctx, &shade, queue_bytes, queue_usage, 0);
     if (!s && ctx->cache_on) s = buffer_create(ctx, &lookup, queue_bytes, queue_usage, 0);
-    if (s) {
-        for (int i = 0; i < 3; i++) buffer_destroy(ctx, &acc[i]);
-        buffer_destroy(ctx, &rb);
-        buffer_destroy(ctx, &part);
-        buffer_destroy(ctx, &queue);
-        buffer_destroy(ctx, &shade);
-        buffer_destroy(ctx, &lookup);
+    /* superpixel locks and counters: the real thing in screen-space mode, a stub (the
+       shader module declares the binding) in object-space mode */
+    uint32_t side = ctx->cache.superpixel_size, superpixels = 0;
+    if (!s && ctx->cache_on) {
+        superpixels = ((w + side - 1) / side) * ((h + side - 1) / side);
+        uint64_t bytes = ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE ? (uint64_t)superpixels * 5 * 4 : 16;
+        s = buffer_create(ctx, &sp, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
+    }
+    if (s) {   /* nothing replaced yet: free what was made (a zeroed buffer is a no-op) */
+        for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) buffer_destroy(ctx, made[i]);
         return s;
     }
     if (ctx->cache_on) {
-        /* superpixel locks and counters: the real thing in screen-space mode, a stub
-           (the shader module declares the binding) in object-space mode */
-        uint32_t side = ctx->cache.superpixel_size;
-        uint32_t n = ((w + side - 1) / side) * ((h + side - 1) / side);
-        buffer sp;
-        uint64_t bytes = ctx->cache.mode == PICVR_CACHE_SCREEN_SPACE ? (uint64_t)n * 5 * 4 : 16;
-        if ((s = buffer_create(ctx, &sp, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) {
-            for (int i = 0; i < 3; i++) buffer_destroy(ctx, &acc[i]);
-            buffer_destroy(ctx, &rb);
-            buffer_destroy(ctx, &part);
-            buffer_destroy(ctx, &queue);
-            buffer_destroy(ctx, &shade);
-            buffer_destroy(ctx, &lookup);
-            return s;
-        }
         buffer_destroy(ctx, &ctx->cache_superpixels);
         ctx->cache_superpixels = sp;
-        ctx->superpixel_count = n;
+        ctx->superpixel_count = superpixels;
     }
     for (int i = 0; i < 3; i++) { buffer_destroy(ctx, &ctx->accum[i]); ctx->accum[i] = acc[i]; }
     buffer_destroy(ctx, &ctx->readback);

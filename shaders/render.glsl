@@ -23,7 +23,9 @@ layout(set = 0, binding = 6, std430) buffer AccumStat { vec4 accum_stat[]; };  /
 // PICVR_CACHE).  A queue's head: xyz the indirect dispatch of its kernel (x counts
 // workgroups), w the events queued; then EVENT_WORDS words per event: the pixel, the
 // scatter distance t (float bits) and the pixel's random-number counter after tracking,
-// with bit 31 the `truncated` flag.  Rule: a dispatch renders each block at most once
+// with bit 31 the `truncated` flag (the counter fits in 31 bits: tracking draws a few
+// numbers per step of at most MAX_TRACK_STEPS, far below 2^31).  Rule: a dispatch
+// renders each block at most once
 // (block_select.comp), so a queue never holds more than one event per pixel and cannot
 // overflow.
 layout(set = 0, binding = 16, std430) buffer ShadeQueue { uvec4 head; uint ev[]; } shade_queue;
