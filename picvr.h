@@ -176,7 +176,10 @@ typedef struct picvr_cache_config {
     float gamma;               /* Eq. 5 estimation accuracy; 0: 0.1 */
     float epsilon;             /* Eq. 10 validity radius threshold; 0: 0.1 */
     float delta_voxels;        /* position offset Delta in voxels (of the smallest
-                                  spacing); 0: 2 */
+                                  spacing); 0: 2.  It sets a full cache's error floor
+                                  (the zones are about Delta wide): on the cloud 1, with
+                                  radius_max_voxels 4, cut it 3x (docs/cache.md, "A full
+                                  cache's error floor") */
     float radius_min_voxels;   /* 0: 0.01 */
     float radius_max_voxels;   /* 0: 16.  Where the medium is denser than 2 / delta_voxels
                                   extinction per voxel, an entry's offset is two mean free

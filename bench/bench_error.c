@@ -164,13 +164,19 @@ typedef struct options {
     double run_ms, slice_ms, rotate_ms, after_ms, ref_chunk_ms;
     double bias_ms;            /* > 0: separate long runs for the bias split */
     double warm_ms;            /* > 0: also the bias of a warm cache (--bias-warm) */
-    picvr_switch curvature;    /* --curvature: cfg.cache.curvature_limit of every run */
-    picvr_switch medium;       /* --medium: cfg.cache.medium_model of every run */
+    picvr_cache_config cache;  /* of every cached run: curvature_limit (--curvature),
+                                  medium_model (--medium) and the numbers of
+                                  --cache-param (presets.h); zero: the library's
+                                  defaults.  The mode comes from the condition */
     int repeats, ref_max_chunks;
     int list;                  /* --list: print the scenes and their reference folders */
 } options;
 
 static int self_test(void);
+
+/* The cache's options as text, e.g. "medium default; curvature on; gamma 0.05" (the
+   --cache-param numbers that are set, in table order): part of run signatures. */
+static void cache_options_text(const picvr_cache_config *c, char *out, size_t size);
 
 static void print_help(FILE *f)
 {
@@ -202,6 +208,10 @@ static void print_help(FILE *f)
         "                       library's, off)\n"
         "  --medium on|off      the cache's medium model along the normal axis (default:\n"
         "                       the library's, on)\n"
+        "  --cache-param N=V    a number of picvr_cache_config for every cached run, by\n"
+        "                       its field name: gamma, epsilon, delta_voxels,\n"
+        "                       radius_min_voxels, radius_max_voxels, update_threshold\n"
+        "                       (repeatable; default: the library's, picvr.h)\n"
         "  --ref-chunk MS       time per reference chunk (default 60000)\n"
         "  --ref-max-chunks N   refuse a reference that needs more (default 200)\n"
         "  --out DIR            results (default bench/results)\n"
@@ -222,8 +232,8 @@ static int parse_args(int argc, char **argv, options *o)
                    .conditions = "plain,object,object-noprio,screen,screen-noprio",
                    .bias = "bonsai", .fig10 = "bonsai", .width = 128, .height = 128,
                    .run_ms = 10000, .slice_ms = 200, .rotate_ms = 4000, .after_ms = 6000,
-                   .ref_chunk_ms = 60000, .curvature = PICVR_SWITCH_DEFAULT,
-                   .medium = PICVR_SWITCH_DEFAULT, .repeats = 2, .ref_max_chunks = 200};
+                   .ref_chunk_ms = 60000, .cache = {0}, .repeats = 2,
+                   .ref_max_chunks = 200};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--help")) { print_help(stdout); exit(0); }
@@ -253,14 +263,21 @@ static int parse_args(int argc, char **argv, options *o)
         else if (!strcmp(a, "--bias-time")) o->bias_ms = atof(v);
         else if (!strcmp(a, "--bias-warm")) o->warm_ms = atof(v);
         else if (!strcmp(a, "--curvature")) {
-            if (!strcmp(v, "on")) o->curvature = PICVR_SWITCH_ON;
-            else if (!strcmp(v, "off")) o->curvature = PICVR_SWITCH_OFF;
+            if (!strcmp(v, "on")) o->cache.curvature_limit = PICVR_SWITCH_ON;
+            else if (!strcmp(v, "off")) o->cache.curvature_limit = PICVR_SWITCH_OFF;
             else { fail("bad --curvature %s", v); return 0; }
         }
         else if (!strcmp(a, "--medium")) {
-            if (!strcmp(v, "on")) o->medium = PICVR_SWITCH_ON;
-            else if (!strcmp(v, "off")) o->medium = PICVR_SWITCH_OFF;
+            if (!strcmp(v, "on")) o->cache.medium_model = PICVR_SWITCH_ON;
+            else if (!strcmp(v, "off")) o->cache.medium_model = PICVR_SWITCH_OFF;
             else { fail("bad --medium %s", v); return 0; }
+        }
+        else if (!strcmp(a, "--cache-param")) {
+            pvp_status ps = pvp_cache_param_set(&o->cache, v);
+            if (ps != PVP_OK) {
+                fail("--cache-param %s: %s", v, pvp_status_string(ps));
+                return 0;
+            }
         }
         else if (!strcmp(a, "--repeats")) o->repeats = atoi(v);
         else if (!strcmp(a, "--ref-max-chunks")) o->ref_max_chunks = atoi(v);
@@ -459,22 +476,20 @@ static int set_look(const scene *s, session *ss)
 /* A fresh context (empty cache) with the scene set up for condition c and a seed.
    create_share > 0: the creation procedure's share of the time, at every hit rate
    (t_c,min = t_c,max; the warm-up of --bias-warm); 0: the defaults of Table 1.
-   curvature, medium: cfg.cache.curvature_limit and medium_model (--curvature, --medium;
-   ignored without the cache). */
+   cache: the cache's options (options.cache; NULL: the library's defaults); its mode
+   is the condition's. */
 static int session_open(const scene *s, const pvio_volume *vol, const condition *c,
-                        uint32_t seed, float create_share, picvr_switch curvature,
-                        picvr_switch medium,
+                        uint32_t seed, float create_share, const picvr_cache_config *cache,
                         session *ss)
 {
     memset(ss, 0, sizeof *ss);
     picvr_config cfg = {0};
     cfg.seed = seed;
     cfg.log = log_message;
+    if (cache) cfg.cache = *cache;
     cfg.cache.mode = c->mode;
     cfg.scheduler.priorities = c->priorities;
     cfg.scheduler.create_min = cfg.scheduler.create_max = create_share;
-    cfg.cache.curvature_limit = curvature;
-    cfg.cache.medium_model = medium;
     if (!check(picvr_create(&cfg, &ss->ctx), "picvr_create")) return 0;
     picvr_volume_desc desc;
     pvio_to_desc(vol, &desc);
@@ -512,8 +527,7 @@ static int read_luminance(picvr_context *ctx, uint32_t w, uint32_t h, float *rgb
 static int plain_fingerprint(const scene *s, const pvio_volume *vol, uint64_t *out)
 {
     session ss;
-    if (!session_open(s, vol, find_condition("plain"), FINGERPRINT_SEED, 0.0f,
-                      PICVR_SWITCH_DEFAULT, PICVR_SWITCH_DEFAULT, &ss)) return 0;
+    if (!session_open(s, vol, find_condition("plain"), FINGERPRINT_SEED, 0.0f, NULL, &ss)) return 0;
     size_t n = (size_t)s->width * s->height;
     float *rgba = malloc(n * 16);
     int ok = rgba != NULL &&
@@ -685,8 +699,7 @@ static int ref_render_chunk(const options *o, const scene *s, const pvio_volume 
                             const reference *r, uint32_t k)
 {
     session ss;
-    if (!session_open(s, vol, find_condition("plain"), REF_SEED0 + k, 0.0f,
-                      PICVR_SWITCH_DEFAULT, PICVR_SWITCH_DEFAULT, &ss)) return 0;
+    if (!session_open(s, vol, find_condition("plain"), REF_SEED0 + k, 0.0f, NULL, &ss)) return 0;
     double spent = 0, last = 0;
     int ok = 1;
     while (ok && spent < o->ref_chunk_ms) {
@@ -790,13 +803,26 @@ static const char *switch_name(picvr_switch s)
     return s == PICVR_SWITCH_ON ? "on" : s == PICVR_SWITCH_OFF ? "off" : "default";
 }
 
+static void cache_options_text(const picvr_cache_config *c, char *out, size_t size)
+{
+    int n = snprintf(out, size, "medium %s; curvature %s", switch_name(c->medium_model),
+                     switch_name(c->curvature_limit));
+    picvr_cache_config copy = *c;
+    for (size_t i = 0; pvp_cache_param_name(i) && n > 0 && (size_t)n < size; i++)
+        if (*pvp_cache_param(&copy, i) > 0)
+            n += snprintf(out + n, size - (size_t)n, "; %s %g", pvp_cache_param_name(i),
+                          *pvp_cache_param(&copy, i));
+}
+
 /* What a run file was measured with: the reference, the library build and the cache
-   options (--medium, --curvature).  A file whose first line differs is run again. */
+   options (--medium, --curvature, --cache-param).  A file whose first line differs is
+   run again. */
 static void run_signature(const options *o, const reference *r, char *out, size_t size)
 {
-    snprintf(out, size, "# reference %u chunks %llu iterations; library %s; medium %s; "
-             "curvature %s", r->chunks, (unsigned long long)r->iterations, PICVR_BENCH_BUILD,
-             switch_name(o->medium), switch_name(o->curvature));
+    char cache[256];
+    cache_options_text(&o->cache, cache, sizeof cache);
+    snprintf(out, size, "# reference %u chunks %llu iterations; library %s; %s", r->chunks,
+             (unsigned long long)r->iterations, PICVR_BENCH_BUILD, cache);
 }
 
 /* Loads a finished run file measured with this signature; 0 if there is none. */
@@ -873,15 +899,19 @@ static int measure(const run_spec *rs, session *ss, double t, int moving, float 
     return 1;
 }
 
+/* A progress line; a warm-up (no image yet, rmse and est NaN) prints no errors. */
 static void progress(const run_spec *rs, const row *x, double total, int final)
 {
     static double last;
     double t = now_ms();
     if (!final && t - last < 2000) return;
     last = t;
-    fprintf(stderr, "%s t=%5.1f/%.0f s it=%5u rmse=%.4g est=%.4g hit=%.2f entries=%u%s\n",
-            rs->label, x->t_ms / 1e3, total / 1e3, x->iterations, x->rmse, x->est,
-            x->hit_rate, x->entries, x->moving ? " (camera moving)" : "");
+    char errs[64] = "";
+    if (isfinite(x->rmse) && isfinite(x->est))
+        snprintf(errs, sizeof errs, " rmse=%.4g est=%.4g", x->rmse, x->est);
+    fprintf(stderr, "%s t=%5.1f/%.0f s it=%5u%s hit=%.2f entries=%u%s\n", rs->label,
+            x->t_ms / 1e3, total / 1e3, x->iterations, errs, x->hit_rate, x->entries,
+            x->moving ? " (camera moving)" : "");
 }
 
 /* The camera for the slice starting at time t of a Fig. 10 run; *moving = 0 after. */
@@ -986,7 +1016,7 @@ static int do_run(const options *o, const run_spec *rs, run *out)
     run_free(out);
     session ss;
     if (!session_open(rs->s, rs->vol, rs->c, RUN_SEED0 + (uint32_t)rs->repeat,
-                      rs->warm_ms > 0 ? PVP_WARM_CREATE_SHARE : 0.0f, o->curvature, o->medium, &ss))
+                      rs->warm_ms > 0 ? PVP_WARM_CREATE_SHARE : 0.0f, &o->cache, &ss))
         return 0;
     if (rs->warm_ms > 0 && !warm_up(rs, &ss)) { session_close(&ss); return 0; }
     char tmp[PATH_LEN], sig[512];
@@ -1572,7 +1602,8 @@ static int open_writers(const options *o, writers *w)
 
 static void close_writers(writers *w, const char *device)
 {
-    char from[64] = "-", to[64] = "-";
+    char from[64] = "-", to[64] = "-", cache[256];
+    cache_options_text(&w->o->cache, cache, sizeof cache);
     if (first_run_time) strftime(from, sizeof from, "%Y-%m-%d %H:%M", gmtime(&first_run_time));
     if (last_run_time) strftime(to, sizeof to, "%Y-%m-%d %H:%M UTC", gmtime(&last_run_time));
     FILE *md[3] = {w->t2md, w->t3md, w->bmd};
@@ -1580,9 +1611,8 @@ static void close_writers(writers *w, const char *device)
         if (md[i])
             fprintf(md[i], "\nRuns measured %s to %s on %ld CPU(s); device: %s; library "
                     "build %s (checksum of picvr.h, picvr_vk.c, shaders/); cache options: "
-                    "medium model %s, curvature limit %s.\n", from, to,
-                    sysconf(_SC_NPROCESSORS_ONLN), device, PICVR_BENCH_BUILD,
-                    switch_name(w->o->medium), switch_name(w->o->curvature));
+                    "%s (others: the library's defaults).\n", from, to,
+                    sysconf(_SC_NPROCESSORS_ONLN), device, PICVR_BENCH_BUILD, cache);
     FILE *all[6] = {w->t2csv, w->t2md, w->t3csv, w->t3md, w->bcsv, w->bmd};
     for (int i = 0; i < 6; i++)
         if (all[i]) fclose(all[i]);
@@ -1673,9 +1703,22 @@ static int self_test_signature(void)
 {
     char path[PATH_LEN], sig[512];
     snprintf(path, sizeof path, "/tmp/picvr-bench-self-test-%ld.csv", (long)getpid());
-    options on = {0}, off = {0};
-    on.medium = PICVR_SWITCH_ON;
-    off.medium = PICVR_SWITCH_OFF;
+    options on = {0}, off = {0}, finer = {0}, smaller = {0};
+    on.cache.medium_model = PICVR_SWITCH_ON;
+    off.cache.medium_model = PICVR_SWITCH_OFF;
+    finer.cache.medium_model = PICVR_SWITCH_ON;
+    smaller.cache.medium_model = PICVR_SWITCH_ON;
+    int parsed = pvp_cache_param_set(&finer.cache, "gamma=0.05") == PVP_OK &&
+                 pvp_cache_param_set(&smaller.cache, "radius_max_voxels=4") == PVP_OK &&
+                 finer.cache.gamma == 0.05f && smaller.cache.radius_max_voxels == 4.0f &&
+                 pvp_cache_param_set(&finer.cache, "gamma=0") == PVP_ERROR_BAD_ARGUMENT &&
+                 pvp_cache_param_set(&finer.cache, "gamma=") == PVP_ERROR_BAD_ARGUMENT &&
+                 pvp_cache_param_set(&finer.cache, "gamma") == PVP_ERROR_BAD_ARGUMENT &&
+                 pvp_cache_param_set(&finer.cache, "gamma=1e39") == PVP_ERROR_BAD_ARGUMENT &&
+                 pvp_cache_param_set(&finer.cache, "gamma=nan") == PVP_ERROR_BAD_ARGUMENT &&
+                 pvp_cache_param_set(&finer.cache, "gam=0.1") == PVP_ERROR_UNKNOWN_NAME &&
+                 pvp_cache_param_set(&finer.cache, "gamma=0.1x") == PVP_ERROR_BAD_ARGUMENT &&
+                 finer.cache.gamma == 0.05f;
     reference r = {0};
     r.chunks = 3;
     r.iterations = 300;
@@ -1683,6 +1726,8 @@ static int self_test_signature(void)
     int written = write_test_run(path, sig);
     int same = written && test_run_loads(&on, path, &r);
     int other = written && test_run_loads(&off, path, &r);
+    int other_gamma = written && test_run_loads(&finer, path, &r);
+    int other_radius = written && test_run_loads(&smaller, path, &r);
     /* a file from before the build was part of the signature */
     written = written && write_test_run(path, "# reference 3 chunks 300 iterations");
     int older = written && test_run_loads(&on, path, &r);
@@ -1690,6 +1735,9 @@ static int self_test_signature(void)
     return expect(written, "cannot write the self-test's run file") &&
            expect(same, "a run file with the same signature is not reused") &&
            expect(!other, "a run file of other cache options is reused") &&
+           expect(parsed, "--cache-param is parsed wrongly") &&
+           expect(!other_gamma, "a run file of another gamma is reused") &&
+           expect(!other_radius, "a run file of another radius_max_voxels is reused") &&
            expect(!older, "a run file without the library's build is reused");
 }
 
@@ -1721,13 +1769,23 @@ static int self_test_fingerprint(void)
            expect(fa != fb, "two light set-ups have the same plain fingerprint");
 }
 
+/* Whether no --cache-param number is set. */
+static int params_unset(picvr_cache_config *c)
+{
+    for (size_t i = 0; pvp_cache_param_name(i); i++)
+        if (*pvp_cache_param(c, i) != 0) return 0;
+    return 1;
+}
+
 /* Without options every setting is its documented default (--help). */
 static int self_test_defaults(void)
 {
     char *argv[] = {PROGRAM, NULL};
     options o;
     return expect(parse_args(1, argv, &o), "no options are refused") &&
-           expect(o.medium == PICVR_SWITCH_DEFAULT && o.curvature == PICVR_SWITCH_DEFAULT,
+           expect(o.cache.medium_model == PICVR_SWITCH_DEFAULT &&
+                  o.cache.curvature_limit == PICVR_SWITCH_DEFAULT &&
+                  params_unset(&o.cache),
                   "the cache options are not the library's defaults") &&
            expect(o.repeats == 2 && o.ref_max_chunks == 200 && o.run_ms == 10000 &&
                   o.slice_ms == 200 && o.ref_chunk_ms == 60000 && o.warm_ms == 0 &&

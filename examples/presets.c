@@ -11,7 +11,9 @@
  * box radius R, the images look the same for any volume size. */
 #include "presets.h"
 
+#include <float.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define PI_F 3.14159265358979f
@@ -454,6 +456,44 @@ pvp_status pvp_orbit_camera(const float box_min[3], const float box_max[3],
     camera->width = width;
     camera->height = height;
     return PVP_OK;
+}
+
+static const struct { const char *name; size_t offset; } cache_params[] = {
+    {"gamma", offsetof(picvr_cache_config, gamma)},
+    {"epsilon", offsetof(picvr_cache_config, epsilon)},
+    {"delta_voxels", offsetof(picvr_cache_config, delta_voxels)},
+    {"radius_min_voxels", offsetof(picvr_cache_config, radius_min_voxels)},
+    {"radius_max_voxels", offsetof(picvr_cache_config, radius_max_voxels)},
+    {"update_threshold", offsetof(picvr_cache_config, update_threshold)},
+};
+#define CACHE_PARAMS (sizeof cache_params / sizeof cache_params[0])
+
+const char *pvp_cache_param_name(size_t index)
+{
+    return index < CACHE_PARAMS ? cache_params[index].name : NULL;
+}
+
+float *pvp_cache_param(picvr_cache_config *c, size_t index)
+{
+    return c && index < CACHE_PARAMS ? (float *)((char *)c + cache_params[index].offset) : NULL;
+}
+
+pvp_status pvp_cache_param_set(picvr_cache_config *c, const char *name_value)
+{
+    if (!c || !name_value) return PVP_ERROR_NULL_POINTER;
+    const char *eq = strchr(name_value, '=');
+    size_t len = eq ? (size_t)(eq - name_value) : strlen(name_value);
+    for (size_t i = 0; i < CACHE_PARAMS; i++) {
+        if (strlen(cache_params[i].name) != len || strncmp(name_value, cache_params[i].name, len))
+            continue;
+        if (!eq) return PVP_ERROR_BAD_ARGUMENT;
+        char *end;
+        double v = strtod(eq + 1, &end);
+        if (end == eq + 1 || *end || !(v > 0.0) || v > FLT_MAX) return PVP_ERROR_BAD_ARGUMENT;
+        *pvp_cache_param(c, i) = (float)v;
+        return PVP_OK;
+    }
+    return PVP_ERROR_UNKNOWN_NAME;
 }
 
 const char *pvp_status_string(pvp_status status)

@@ -87,6 +87,20 @@ pvp_status pvp_orbit_camera(const float box_min[3], const float box_max[3],
                             float distance_factor, float fov_y_degrees,
                             uint32_t width, uint32_t height, picvr_camera *camera);
 
+/* The numbers of picvr_cache_config by field name (gamma, epsilon, delta_voxels,
+   radius_min_voxels, radius_max_voxels, update_threshold), for --cache-param
+   NAME=VALUE of picvr-render and picvr-bench-error: index 0, 1, ... until NULL. */
+const char *pvp_cache_param_name(size_t index);
+
+/* The field of c at that index; NULL past the end. */
+float *pvp_cache_param(picvr_cache_config *c, size_t index);
+
+/* Sets one field from "NAME=VALUE": PVP_ERROR_UNKNOWN_NAME for another name,
+   PVP_ERROR_BAD_ARGUMENT unless VALUE is a positive finite float (c unchanged then).
+   The library checks the rest (epsilon < 1, radius_min <= radius_max) at picvr_create:
+   PICVR_ERROR_INVALID_ARGUMENT. */
+pvp_status pvp_cache_param_set(picvr_cache_config *c, const char *name_value);
+
 #ifdef __cplusplus
 }
 #endif

@@ -52,6 +52,7 @@ typedef struct options {
     picvr_switch curvature;
     picvr_switch medium;
     uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */
+    picvr_cache_config params; /* --cache-param: its numbers (presets.h); 0: defaults */
     float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
     double warm_ms;           /* --warm: fill the cache first at PVP_WARM_CREATE_SHARE; 0: no */
     char turns_path[1024];    /* --turns FILE,ID: take turns with a second process; "": no */
@@ -159,6 +160,11 @@ static void print_help(FILE *f)
         "                         entry, a multiple of 128 (default 768; at most 768 on\n"
         "                         lavapipe, 8192 on a GPU): lower creates entries faster,\n"
         "                         noisier\n"
+        "  --cache-param N=V      a number of picvr_cache_config by its name: gamma,\n"
+        "                         epsilon, delta_voxels, radius_min_voxels,\n"
+        "                         radius_max_voxels, update_threshold (repeatable; default\n"
+        "                         Table 1's).  delta_voxels=1 radius_max_voxels=4 cut a full\n"
+        "                         cache's error 3x on the cloud (docs/cache.md)\n"
         "  --debug-view cache     show where the cache is: hits green, misses red, entry\n"
         "                         centres white (needs --cache object|screen)\n"
         "  --debug-view error     the cache's error where it is used: R the cached, G a\n"
@@ -347,6 +353,8 @@ static int apply_option(options *o, const char *name, const char *value)
         else ok = 0;
     } else if (!strcmp(name, "samples")) {
         ok = parse_u32(value, 1, PICVR_CACHE_MAX_SAMPLES, &o->max_samples);
+    } else if (!strcmp(name, "cache-param")) {
+        ok = pvp_cache_param_set(&o->params, value) == PVP_OK;
     } else if (!strcmp(name, "device")) {
         o->device = value;
     } else if (!strcmp(name, "exposure")) {
@@ -373,7 +381,7 @@ static int apply_option(options *o, const char *name, const char *value)
 static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
 static const char *const value_options[] = {
     "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "samples", "shares", "warm", "turns", "debug-view", "device", "exposure", "camera", "fov", "out",
+    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "samples", "cache-param", "shares", "warm", "turns", "debug-view", "device", "exposure", "camera", "fov", "out",
     "out-float", "log", "json", NULL};
 
 static int in_list(const char *const *list, const char *name, size_t len)
@@ -855,6 +863,10 @@ static int write_json(const options *o, const picvr_stats *s)
     fprintf(f, ", \"curvature_limit\": \"%s\"", o->curvature == PICVR_SWITCH_ON ? "on" : "off");
     fprintf(f, ", \"medium_model\": \"%s\"", o->medium == PICVR_SWITCH_OFF ? "off" : "on");
     fprintf(f, ", \"max_samples\": %u", s->cache_max_samples);
+    picvr_cache_config params = o->params;
+    for (size_t i = 0; pvp_cache_param_name(i); i++)   /* those set by --cache-param */
+        if (*pvp_cache_param(&params, i) > 0)
+            fprintf(f, ", \"%s\": %.9g", pvp_cache_param_name(i), *pvp_cache_param(&params, i));
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
         fail("cannot write %s: %s", o->json_path, strerror(errno));
@@ -970,6 +982,9 @@ static int render(const options *o, const pvio_layout *layout)
     cfg.cache.curvature_limit = o->curvature;
     cfg.cache.medium_model = o->medium;
     cfg.cache.max_samples = o->max_samples;
+    picvr_cache_config params = o->params;
+    for (size_t i = 0; pvp_cache_param_name(i); i++)
+        *pvp_cache_param(&cfg.cache, i) = *pvp_cache_param(&params, i);
     cfg.scheduler.create_min = o->shares[0];   /* 0 (not given): the defaults */
     cfg.scheduler.create_max = o->shares[1];
     cfg.scheduler.update_min = o->shares[2];

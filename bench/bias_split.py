@@ -1,0 +1,84 @@
+#!/usr/bin/env python3
+"""bias_split.py - splits a cached image's error into the part every seed shares and
+the part that changes with the seed, over the pixels that see the volume.
+
+usage: bench/bias_split.py REF_DIR RUN.lum [RUN.lum ...]
+
+REF_DIR: a reference folder of picvr-bench-error (bench/refs/<key>/chunk_*.pfm, RGB,
+rows bottom to top); RUN.lum: the final luminance images of runs of one condition
+with different seeds (bench/results/<out>/runs/*_r?_warm.lum, float32, rows top to
+bottom), at least two.  The reference is the mean of its chunks, reduced to luminance
+with the weights bench_error.c uses.
+
+Pixels: those whose reference differs from the image's most common value (the
+background, which every run renders exactly where no ray meets the volume).
+Printed (RMS over those pixels):
+  error of the mean   the mean of the runs minus the reference
+  between seeds       a pixel's standard deviation over the runs
+  systematic          the error of the mean with the seeds' share (variance / runs)
+                      taken out: the part every seed's cache shares
+Standard library only (docs/cache.md, "A full cache's error floor").
+"""
+import glob
+import math
+import os
+import struct
+import sys
+from collections import Counter
+
+
+def read_pfm_luminance(path):
+    with open(path, 'rb') as f:
+        if f.readline().strip() != b'PF':
+            sys.exit('%s: not an RGB PFM' % path)
+        w, h = map(int, f.readline().split())
+        scale = float(f.readline())
+        data = f.read(w * h * 12)
+    fmt = ('<' if scale < 0 else '>') + '%df' % (w * h * 3)
+    v = struct.unpack(fmt, data)
+    lum = [0.2126 * v[3 * i] + 0.7152 * v[3 * i + 1] + 0.0722 * v[3 * i + 2]
+           for i in range(w * h)]
+    return [lum[(h - 1 - y) * w + x] for y in range(h) for x in range(w)], w, h
+
+
+def read_lum(path, n):
+    with open(path, 'rb') as f:
+        data = f.read()
+    if len(data) != 4 * n:
+        sys.exit('%s: %d bytes, expected %d' % (path, len(data), 4 * n))
+    return struct.unpack('<%df' % n, data)
+
+
+def main():
+    if len(sys.argv) < 4:
+        sys.exit(__doc__)
+    chunks = sorted(glob.glob(os.path.join(sys.argv[1], 'chunk_*.pfm')))
+    if not chunks:
+        sys.exit('%s: no chunk_*.pfm' % sys.argv[1])
+    ref, w, h = None, 0, 0
+    for c in chunks:
+        lum, w, h = read_pfm_luminance(c)
+        ref = lum if ref is None else [a + b for a, b in zip(ref, lum)]
+    ref = [a / len(chunks) for a in ref]
+    n = w * h
+    runs = [read_lum(p, n) for p in sys.argv[2:]]
+    k = len(runs)
+    background = Counter(ref).most_common(1)[0][0]
+    pixels = [i for i in range(n) if ref[i] != background]
+    if not pixels:
+        sys.exit('no pixel sees the volume')
+    se = var = mean_ref = 0.0
+    for i in pixels:
+        m = sum(r[i] for r in runs) / k
+        se += (m - ref[i]) ** 2
+        var += sum((r[i] - m) ** 2 for r in runs) / (k - 1)
+        mean_ref += ref[i]
+    p = len(pixels)
+    print('%d runs, %d of %d pixels see the volume (mean reference %.4f)'
+          % (k, p, n, mean_ref / p))
+    print('error of the mean %.4f  between seeds %.4f  systematic %.4f'
+          % (math.sqrt(se / p), math.sqrt(var / p), math.sqrt(max(se - var / k, 0.0) / p)))
+
+
+if __name__ == '__main__':
+    main()
