@@ -807,11 +807,10 @@ static void cache_options_text(const picvr_cache_config *c, char *out, size_t si
 {
     int n = snprintf(out, size, "medium %s; curvature %s", switch_name(c->medium_model),
                      switch_name(c->curvature_limit));
-    picvr_cache_config copy = *c;
     for (size_t i = 0; pvp_cache_param_name(i) && n > 0 && (size_t)n < size; i++)
-        if (*pvp_cache_param(&copy, i) > 0)
+        if (pvp_cache_param_get(c, i) > 0)
             n += snprintf(out + n, size - (size_t)n, "; %s %g", pvp_cache_param_name(i),
-                          *pvp_cache_param(&copy, i));
+                          pvp_cache_param_get(c, i));
 }
 
 /* What a run file was measured with: the reference, the library build and the cache
@@ -1770,10 +1769,10 @@ static int self_test_fingerprint(void)
 }
 
 /* Whether no --cache-param number is set. */
-static int params_unset(picvr_cache_config *c)
+static int params_unset(const picvr_cache_config *c)
 {
     for (size_t i = 0; pvp_cache_param_name(i); i++)
-        if (*pvp_cache_param(c, i) != 0) return 0;
+        if (pvp_cache_param_get(c, i) != 0) return 0;
     return 1;
 }
 

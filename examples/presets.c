@@ -473,9 +473,12 @@ const char *pvp_cache_param_name(size_t index)
     return index < CACHE_PARAMS ? cache_params[index].name : NULL;
 }
 
-float *pvp_cache_param(picvr_cache_config *c, size_t index)
+float pvp_cache_param_get(const picvr_cache_config *c, size_t index)
 {
-    return c && index < CACHE_PARAMS ? (float *)((char *)c + cache_params[index].offset) : NULL;
+    if (!c || index >= CACHE_PARAMS) return 0.0f;
+    float v;
+    memcpy(&v, (const char *)c + cache_params[index].offset, sizeof v);
+    return v;
 }
 
 pvp_status pvp_cache_param_set(picvr_cache_config *c, const char *name_value)
@@ -490,7 +493,8 @@ pvp_status pvp_cache_param_set(picvr_cache_config *c, const char *name_value)
         char *end;
         double v = strtod(eq + 1, &end);
         if (end == eq + 1 || *end || !(v > 0.0) || v > FLT_MAX) return PVP_ERROR_BAD_ARGUMENT;
-        *pvp_cache_param(c, i) = (float)v;
+        float f = (float)v;
+        memcpy((char *)c + cache_params[i].offset, &f, sizeof f);
         return PVP_OK;
     }
     return PVP_ERROR_UNKNOWN_NAME;

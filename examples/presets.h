@@ -92,8 +92,8 @@ pvp_status pvp_orbit_camera(const float box_min[3], const float box_max[3],
    NAME=VALUE of picvr-render and picvr-bench-error: index 0, 1, ... until NULL. */
 const char *pvp_cache_param_name(size_t index);
 
-/* The field of c at that index; NULL past the end. */
-float *pvp_cache_param(picvr_cache_config *c, size_t index);
+/* The value of the field at that index in c (0: the library's default); 0 past the end. */
+float pvp_cache_param_get(const picvr_cache_config *c, size_t index);
 
 /* Sets one field from "NAME=VALUE": PVP_ERROR_UNKNOWN_NAME for another name,
    PVP_ERROR_BAD_ARGUMENT unless VALUE is a positive finite float (c unchanged then).

@@ -863,10 +863,9 @@ static int write_json(const options *o, const picvr_stats *s)
     fprintf(f, ", \"curvature_limit\": \"%s\"", o->curvature == PICVR_SWITCH_ON ? "on" : "off");
     fprintf(f, ", \"medium_model\": \"%s\"", o->medium == PICVR_SWITCH_OFF ? "off" : "on");
     fprintf(f, ", \"max_samples\": %u", s->cache_max_samples);
-    picvr_cache_config params = o->params;
     for (size_t i = 0; pvp_cache_param_name(i); i++)   /* those set by --cache-param */
-        if (*pvp_cache_param(&params, i) > 0)
-            fprintf(f, ", \"%s\": %.9g", pvp_cache_param_name(i), *pvp_cache_param(&params, i));
+        if (pvp_cache_param_get(&o->params, i) > 0)
+            fprintf(f, ", \"%s\": %.9g", pvp_cache_param_name(i), pvp_cache_param_get(&o->params, i));
     fprintf(f, ", \"seed\": %u}\n", o->seed);
     if (fclose(f) != 0) {
         fail("cannot write %s: %s", o->json_path, strerror(errno));
@@ -977,14 +976,12 @@ static int render(const options *o, const pvio_layout *layout)
     memset(&cfg, 0, sizeof cfg);
     cfg.device_name = o->device;
     cfg.validation = o->validation;
+    cfg.cache = o->params;                     /* --cache-param; the rest below */
     cfg.cache.mode = o->cache;
     cfg.scheduler.priorities = o->priorities;
     cfg.cache.curvature_limit = o->curvature;
     cfg.cache.medium_model = o->medium;
     cfg.cache.max_samples = o->max_samples;
-    picvr_cache_config params = o->params;
-    for (size_t i = 0; pvp_cache_param_name(i); i++)
-        *pvp_cache_param(&cfg.cache, i) = *pvp_cache_param(&params, i);
     cfg.scheduler.create_min = o->shares[0];   /* 0 (not given): the defaults */
     cfg.scheduler.create_max = o->shares[1];
     cfg.scheduler.update_min = o->shares[2];
