@@ -200,7 +200,9 @@ typedef struct picvr_cache_config {
     float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */
     uint32_t superpixel_size;  /* screen-space locking: side of a square superpixel in
                                   pixels; 0: 32 */
-    uint32_t max_entries;      /* entry pool; 0: 65536 */
+    uint32_t max_entries;      /* entry pool; 0: 65536 (144 B each; an H200 fills it in
+                                  5 s on bonsai at 512x512: raise it for large images
+                                  on a GPU) */
     uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries */
     uint32_t max_refs;         /* reference pool; 0: 16 * max_entries */
     uint32_t max_requests;     /* creation requests in flight at most (the request queue;
@@ -285,7 +287,11 @@ typedef struct picvr_config {
 typedef struct picvr_context picvr_context;
 
 /* Creates a context on the chosen device.  cfg may be NULL (all defaults).
-   On failure *out is NULL and nothing leaks. */
+   On failure *out is NULL and nothing leaks.  PICVR_ERROR_NO_DEVICE: no Vulkan driver
+   loaded or no device qualifies (the log says which).  Without cfg->vk_device each
+   context has its own VkInstance; NVIDIA's driver uses up its static TLS after about 30
+   loads in one process, so an application that creates many contexts in turn keeps one
+   VkInstance of its own alive meanwhile (or passes its device). */
 picvr_status picvr_create(const picvr_config *cfg, picvr_context **out);
 
 /* Waits for the device, frees everything.  NULL is allowed. */

@@ -2,12 +2,12 @@
 """bias_split.py - splits a cached image's error into the part every seed shares and
 the part that changes with the seed, over the pixels that see the volume.
 
-usage: bench/bias_split.py REF_DIR RUN.lum [RUN.lum ...]
+usage: bench/bias_split.py REF_DIR RUN.lum|RUN.pfm [RUN ...]
 
 REF_DIR: a reference folder of picvr-bench-error (bench/refs/<key>/chunk_*.pfm, RGB,
 rows bottom to top); RUN.lum: the final luminance images of runs of one condition
 with different seeds (bench/results/<out>/runs/*_r?_warm.lum, float32, rows top to
-bottom), at least two.  The reference is the mean of its chunks, reduced to luminance
+bottom), or picvr-render's --out-float images (RUN.pfm), at least two.  The reference is the mean of its chunks, reduced to luminance
 with the weights bench_error.c uses.
 
 Pixels: those whose reference differs from the image's most common value (the
@@ -17,6 +17,9 @@ Printed (RMS over those pixels):
   between seeds       a pixel's standard deviation over the runs
   systematic          the error of the mean with the seeds' share (variance / runs)
                       taken out: the part every seed's cache shares
+  mean offset         the runs' mean luminance over those pixels against the
+                      reference's, in per cent (the bias of the image's mean)
+  true RMSE per run   over all pixels, as bench_error.c measures it
 Standard library only (docs/cache.md, "A full cache's error floor").
 """
 import glob
@@ -49,6 +52,15 @@ def read_lum(path, n):
     return struct.unpack('<%df' % n, data)
 
 
+def read_run(path, w, h):
+    if path.endswith('.pfm'):
+        lum, rw, rh = read_pfm_luminance(path)
+        if (rw, rh) != (w, h):
+            sys.exit('%s: %dx%d, the reference is %dx%d' % (path, rw, rh, w, h))
+        return lum
+    return read_lum(path, w * h)
+
+
 def main():
     if len(sys.argv) < 4:
         sys.exit(__doc__)
@@ -61,23 +73,30 @@ def main():
         ref = lum if ref is None else [a + b for a, b in zip(ref, lum)]
     ref = [a / len(chunks) for a in ref]
     n = w * h
-    runs = [read_lum(p, n) for p in sys.argv[2:]]
+    runs = [read_run(p, w, h) for p in sys.argv[2:]]
     k = len(runs)
     background = Counter(ref).most_common(1)[0][0]
     pixels = [i for i in range(n) if ref[i] != background]
     if not pixels:
         sys.exit('no pixel sees the volume')
-    se = var = mean_ref = 0.0
+    se = var = mean_ref = mean_run = 0.0
     for i in pixels:
         m = sum(r[i] for r in runs) / k
         se += (m - ref[i]) ** 2
         var += sum((r[i] - m) ** 2 for r in runs) / (k - 1)
         mean_ref += ref[i]
+        mean_run += m
     p = len(pixels)
     print('%d runs, %d of %d pixels see the volume (mean reference %.4f)'
           % (k, p, n, mean_ref / p))
     print('error of the mean %.4f  between seeds %.4f  systematic %.4f'
           % (math.sqrt(se / p), math.sqrt(var / p), math.sqrt(max(se - var / k, 0.0) / p)))
+    # mean_ref > 0: a pixel that sees the volume differs from the background, and
+    # luminance is never negative; the guard keeps an all-black reference printable.
+    offset = 100.0 * (mean_run / mean_ref - 1.0) if mean_ref > 0 else 0.0
+    rmse = [math.sqrt(sum((r[i] - ref[i]) ** 2 for i in range(n)) / n) for r in runs]
+    print('mean offset %+.2f %%  true RMSE per run %s'
+          % (offset, ' '.join('%.4f' % e for e in rmse)))
 
 
 if __name__ == '__main__':

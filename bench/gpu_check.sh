@@ -16,7 +16,8 @@
 #
 # usage: bench/gpu_check.sh [SECS, default 20] [OUT, default bench/results]
 # env:   DATA (default ../shared/data), B (build directory, default build),
-#        EXTRA (default .gpu/extra: libraries for a bare machine, see gpu_env.sh)
+#        EXTRA (default .gpu/extra: libraries for a bare machine, see gpu_env.sh),
+#        CACHES (default "off object screen object-2048"; plain, off, is the baseline)
 set -eu
 SECS=${1:-20}
 OUT=${2:-bench/results}
@@ -52,7 +53,7 @@ for size in 128x128 512x512; do
     # object-2048: object space with Eq. 5's cap raised from 768 to 2048 samples per
     # point (--samples; CPU devices allow 768 only), nearer the paper's "repeat until
     # Eq. 5 holds": fewer entries capped, each dearer.
-    for cache in off object screen object-2048; do
+    for cache in ${CACHES:-off object screen object-2048}; do
         log="$OUT/gpu_${size}_${cache}.csv"
         case "$cache" in
             object-2048) mode="--cache object --samples 2048" ;;

@@ -10,7 +10,8 @@
 #
 # usage: bench/gpu_tests.sh [OUT, default bench/results]
 # env:   B (build directory, default build), DATA (default ../shared/data),
-#        EXTRA (default .gpu/extra, see gpu_env.sh)
+#        EXTRA (default .gpu/extra, see gpu_env.sh), TESTS_S (stop the suite after
+#        this many seconds, exit 124; default 0: no limit)
 set -u
 OUT=${1:-bench/results}
 B=${B:-build}
@@ -20,7 +21,9 @@ mkdir -p "$OUT"
 . "$(dirname "$0")/gpu_env.sh"
 data=$(cd "$DATA" && pwd)
 log=$(cd "$OUT" && pwd)/gpu_tests.txt
-(cd "$B" && PICVR_VALIDATION=1 PICVR_DATA="$data" ./picvr-tests) > "$log" 2>&1
+# Line-buffered, so that a suite stopped at TESTS_S leaves every line it printed.
+(cd "$B" && PICVR_VALIDATION=1 PICVR_DATA="$data" timeout "${TESTS_S:-0}" stdbuf -oL -eL \
+    ./picvr-tests) > "$log" 2>&1
 rc=$?
 grep -m 1 "^picvr-tests: device" "$log" || true
 grep -E "^\[  (PASSED|FAILED) |^\[  FAILED  \] |^\[==========\] [0-9]+ test\(s\) run" "$log"

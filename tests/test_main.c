@@ -6,6 +6,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <vulkan/vulkan.h>
 
 #define TU_ENTRY(name) cmocka_unit_test_setup_teardown(name, tu_setup, tu_teardown),
 
@@ -24,10 +25,29 @@ static void print_device(void) {
     picvr_destroy(ctx);
 }
 
+/* The suite creates and destroys a few hundred contexts, each with its own VkInstance.
+   When the last instance goes, the loader unloads the driver, and the next one loads it
+   again; NVIDIA's driver takes static TLS each time it is loaded and never gives it back,
+   so after a few dozen contexts no driver loads at all (PICVR_ERROR_NO_DEVICE, measured
+   on an H200, README "Measuring on a GPU").  An instance held for the whole run keeps the
+   driver loaded; it enables no layer and creates no device, so the tests see the same
+   library.  PICVR_TEST_HOLD_INSTANCE=0 runs without it. */
+static VkInstance hold_driver_loaded(void) {
+    const char *env = getenv("PICVR_TEST_HOLD_INSTANCE");
+    if (env && env[0] == '0') return VK_NULL_HANDLE;
+    VkInstanceCreateInfo ci = {VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+    VkInstance instance = VK_NULL_HANDLE;
+    if (vkCreateInstance(&ci, NULL, &instance) != VK_SUCCESS) return VK_NULL_HANDLE;
+    return instance;
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {TU_ALL_TESTS(TU_ENTRY)};
+    VkInstance held = hold_driver_loaded();
     print_device();
     const char *filter = getenv("PICVR_TEST_FILTER");
     if (filter && *filter) cmocka_set_test_filter(filter);
-    return cmocka_run_group_tests_name("picvr", tests, NULL, NULL);
+    int failed = cmocka_run_group_tests_name("picvr", tests, NULL, NULL);
+    if (held != VK_NULL_HANDLE) vkDestroyInstance(held, NULL);
+    return failed;
 }
