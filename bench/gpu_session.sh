@@ -37,6 +37,7 @@ rm -rf "$W" && mkdir -p "$W" "$OUT" || exit 1
 
 stage() { echo "== $(date -u +%T) $*"; }
 pack() { tar -C "$W" -czf "$OUT/$1.tgz" "$1"; }
+D1R4="--cache-param delta_voxels=1 --cache-param radius_max_voxels=4"
 render() { timeout 120 "$B/picvr-render" --volume "$VOL" --tf ct-bonsai --lights paper1 --quiet "$@"; }
 
 # The loader goes into / (the device tool's notes), the rest into /tmp (gpu_env.sh).
@@ -79,8 +80,8 @@ pack check
 stage "2 object space, delta 1 voxel, radius_max 4 voxels"
 mkdir -p "$W/d1r4"
 for size in 128x128 512x512; do
-    render --size "$size" --time "$((SECS * 1000))" --round 1000 --cache object \
-        --cache-param delta_voxels=1 --cache-param radius_max_voxels=4 \
+    # shellcheck disable=SC2086 # $D1R4 is several options
+    render --size "$size" --time "$((SECS * 1000))" --round 1000 --cache object $D1R4 \
         --log "$W/d1r4/gpu_${size}_object-d1r4.csv" --json "$W/d1r4/gpu_${size}_object-d1r4.json" |
         tail -3
 done
@@ -91,7 +92,7 @@ mkdir -p "$W/err"
 for seed in 101 102 103; do
     for cond in ${ERR_CONDS:-off object object-d1r4}; do
         case "$cond" in
-            object-d1r4) mode="--cache object --cache-param delta_voxels=1 --cache-param radius_max_voxels=4" ;;
+            object-d1r4) mode="--cache object $D1R4" ;;
             *) mode="--cache $cond" ;;
         esac
         # shellcheck disable=SC2086 # $mode is several options

@@ -131,12 +131,12 @@ void test_scheduler_update_runs_after_cold_compile(void **state) {
    created in a sliver of each round, and with 256x256 it filled the default pool of
    65536 entries within 2 s, so there the pool holds 2^20 (2026-11-30; this GPU
    configuration has not run on a GPU yet). */
-static uint32_t plentiful_size(void) { return tu_device_is_cpu() ? 48 : 256; }
-
-static picvr_config plentiful_requests_config(void) {
+static picvr_config plentiful_requests_config(uint32_t *size) {
+    int cpu = tu_device_is_cpu();   /* opens a context: asked once */
+    *size = cpu ? 48 : 256;
     picvr_config cfg = sched_config(6, PICVR_CACHE_SCREEN_SPACE);
-    cfg.cache.superpixel_size = tu_device_is_cpu() ? 4 : 2;
-    if (!tu_device_is_cpu()) {
+    cfg.cache.superpixel_size = cpu ? 4 : 2;
+    if (!cpu) {
         cfg.cache.max_requests = 16384;
         cfg.cache.max_entries = 1u << 20;   /* 65536 filled within 2 s on the H200 */
     }
@@ -156,8 +156,9 @@ static picvr_config plentiful_requests_config(void) {
    entries is small), and rendering gets the rest. */
 void test_scheduler_measured_shares_track_targets(void **state) {
     (void)state;
-    picvr_config cfg = plentiful_requests_config();
-    picvr_stats st = cube_shares_after_2s(&cfg, 0, plentiful_size());
+    uint32_t size;
+    picvr_config cfg = plentiful_requests_config(&size);
+    picvr_stats st = cube_shares_after_2s(&cfg, 0, size);
     assert_true(st.cache_full == 0);
     assert_true(fabs(st.fraction_create - st.target_create) < 0.05);
     assert_true(fabs(st.fraction_update - st.target_update) < 0.05);
@@ -336,11 +337,12 @@ void test_scheduler_no_deadlock_with_tiny_pools(void **state) {
    accumulated image are kept (entries and iterations only grow). */
 void test_scheduler_set_scheduler_switches_shares(void **state) {
     (void)state;
-    picvr_config cfg = plentiful_requests_config();
+    uint32_t size;
+    picvr_config cfg = plentiful_requests_config(&size);
     cfg.scheduler.priorities = PICVR_SWITCH_OFF;
     picvr_context *ctx = tu_create_config(&cfg);
     tu_vol vol;
-    cube_scene(ctx, &vol, 0, plentiful_size(), plentiful_size());
+    cube_scene(ctx, &vol, 0, size, size);
     for (int i = 0; i < 20; i++) TU_OK(picvr_step(ctx, 100.0));
     picvr_stats before = tu_stats_finite(ctx);
     picvr_scheduler_config sc;
