@@ -90,8 +90,12 @@
  *   PICVR_DEVICE=<substring>  pick the Vulkan device whose name contains it
  *                             (config.device_name wins over it).  Default: a
  *                             discrete GPU, else an integrated one, else lavapipe.
- *   PICVR_VALIDATION=1        enable the Khronos validation layer (as config.validation)
- *   PICVR_VALIDATION=0        disable it even when config.validation asks for it.
+ *   PICVR_VALIDATION=1        enable the Khronos validation layer unless
+ *                             config.validation is PICVR_SWITCH_OFF
+ *   PICVR_VALIDATION=0        disable it whatever config.validation says
+ *   LP_NUM_THREADS            lavapipe's own thread count: on a CPU device it sizes the
+ *                             cache's creation batch (one entry per thread)
+ * No other environment variable is read.
  */
 #ifndef PICVR_H
 #define PICVR_H
@@ -136,16 +140,18 @@ typedef enum picvr_status {
 /* A static English name for the status ("PICVR_OK", ...); never NULL. */
 const char *picvr_status_string(picvr_status status);
 
+/* Severity of a log message; in picvr_config.log_level the least severe one passed on. */
 typedef enum picvr_log_level {
-    PICVR_LOG_DEBUG = 0, PICVR_LOG_INFO, PICVR_LOG_WARNING, PICVR_LOG_ERROR
+    PICVR_LOG_DEFAULT = 0,         /* in picvr_config: PICVR_LOG_WARNING */
+    PICVR_LOG_DEBUG, PICVR_LOG_INFO, PICVR_LOG_WARNING, PICVR_LOG_ERROR
 } picvr_log_level;
 
 typedef void (*picvr_log_fn)(picvr_log_level level, const char *message, void *user);
 
-/* Host allocation hooks: all three functions or none (then malloc/realloc/free). */
+/* Host allocation hooks: both functions or neither (then malloc and free).  alloc is
+   never asked for 0 bytes; free is never given NULL. */
 typedef struct picvr_allocator {
     void *(*alloc)(size_t size, void *user);
-    void *(*realloc)(void *ptr, size_t size, void *user);
     void (*free)(void *ptr, void *user);
     void *user;
 } picvr_allocator;
@@ -172,7 +178,6 @@ typedef enum picvr_switch {
 } picvr_switch;
 
 typedef struct picvr_cache_config {
-    picvr_cache_mode mode;
     float gamma;               /* Eq. 5 estimation accuracy; 0: 0.1 */
     float epsilon;             /* Eq. 10 validity radius threshold; 0: 0.1 */
     float delta_voxels;        /* position offset Delta in voxels (of the smallest
@@ -244,42 +249,49 @@ typedef struct picvr_cache_config {
                                   bound caps a lookup's cost where lists grow long, at the
                                   price of the entries it ignores (bonsai's longest lists
                                   hold about 200 references) */
+    picvr_cache_mode mode;     /* DEFAULT: NONE */
 } picvr_cache_config;
 
 /* The scheduler (paper §6, §7): how picvr_step splits device time between rendering,
    cache-entry creation and cache update.  Zero fields mean the Table 1 values. */
 
 typedef struct picvr_scheduler_config {
-    picvr_switch priorities;   /* Eq. 12 per-block rendering priorities; default ON */
     float create_min, create_max; /* t_c,min and t_c,max: creation's share of device time
                                   when the hit rate is 1 and 0; 0: 0.05 and 0.15 */
     float update_min, update_max; /* the same for the update procedure; 0: 0.01, 0.02 */
     float exponent;            /* e_c in t = t_min + (1 - h^e_c)(t_max - t_min); 0: 3 */
     float rounds_per_second;   /* scheduling rounds (one submission each); 0: 20 */
     float hit_rate_window_ms;  /* the hit rate h is measured over this window; 0: 100 */
+    picvr_switch priorities;   /* Eq. 12 per-block rendering priorities; default ON */
 } picvr_scheduler_config;
+
+/* The application's own Vulkan objects (sokol's sg_environment): all four handles or
+   none.  picvr then creates no instance or device and never destroys these.  The queue
+   must support compute; the device needs Vulkan 1.1, no optional feature or extension,
+   and linear filtering of R8_UNORM, R16_UNORM and R32G32B32A32_SFLOAT images.  picvr submits to the queue only inside its own calls and waits for that work
+   before returning, so the queue may be shared with the application's work as long as
+   no other thread uses it during a picvr call. */
+typedef struct picvr_vulkan {
+    void *instance;           /* VkInstance */
+    void *physical_device;    /* VkPhysicalDevice */
+    void *device;             /* VkDevice */
+    void *queue;              /* VkQueue */
+    uint32_t queue_family;    /* family index of queue */
+} picvr_vulkan;
 
 typedef struct picvr_config {
     const char *device_name;  /* substring of the device name; NULL: PICVR_DEVICE or auto */
-    int validation;           /* 1: enable the Khronos validation layer (+sync validation);
-                                 0: only if PICVR_VALIDATION=1.  Messages go to the log at
-                                 PICVR_LOG_ERROR and are counted in stats.validation_messages */
+    picvr_switch validation;  /* the Khronos validation layer with synchronization
+                                 validation.  DEFAULT: on when PICVR_VALIDATION=1;
+                                 ON: on unless PICVR_VALIDATION=0; OFF: off.  Messages go
+                                 to the log at PICVR_LOG_ERROR and are counted in
+                                 stats.validation_messages */
     uint32_t seed;            /* random seed (0 is a valid seed) */
-    picvr_log_fn log;         /* NULL: warnings and errors go to stderr */
+    picvr_log_fn log;         /* NULL: messages go to stderr */
     void *log_user;
-    picvr_log_level log_level;/* least severe level passed to log; 0 means PICVR_LOG_WARNING */
+    picvr_log_level log_level;/* least severe level passed on; DEFAULT: WARNING */
     picvr_allocator allocator;
-
-    /* Optional: the application's own Vulkan objects (all of instance, physical device,
-       device and queue, or none).  picvr then creates no instance or device and never
-       destroys these.  The queue must support compute; the device must have been created
-       with the features listed in README.md ("Using your own VkDevice"). */
-    void *vk_instance;        /* VkInstance */
-    void *vk_physical_device; /* VkPhysicalDevice */
-    void *vk_device;          /* VkDevice */
-    void *vk_queue;           /* VkQueue */
-    uint32_t vk_queue_family; /* family index of vk_queue */
-
+    picvr_vulkan vulkan;      /* zero: picvr makes its own instance and device */
     picvr_cache_config cache; /* the irradiance cache; zero: defaults (see above) */
     picvr_scheduler_config scheduler; /* zero: defaults (see above) */
 } picvr_config;
@@ -296,6 +308,12 @@ picvr_status picvr_create(const picvr_config *cfg, picvr_context **out);
 
 /* Waits for the device, frees everything.  NULL is allowed. */
 void picvr_destroy(picvr_context *ctx);
+
+/* The configuration the context runs with: what picvr_create was given, with every
+   zero field replaced by the default it resolved to (cache and scheduler values, log
+   level, validation ON or OFF as it came out, the Vulkan handles in use).  The
+   scheduler part follows picvr_set_scheduler.  device_name and log_user are as given. */
+picvr_status picvr_get_config(const picvr_context *ctx, picvr_config *out);
 
 /* ---- volume ------------------------------------------------------------------ */
 
@@ -353,10 +371,11 @@ typedef enum picvr_light_type {
     PICVR_LIGHT_POINT = 4        /* position */
 } picvr_light_type;
 
+/* No struct of this header starts with an enum, so `= {0}` zeroes one in C and C++. */
 typedef struct picvr_light {
-    picvr_light_type type;
     float color[3];          /* >= 0 */
     float intensity;         /* >= 0; see "Units of lights" above */
+    picvr_light_type type;
     float position[3];
     float radius;
     float direction[3];

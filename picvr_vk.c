@@ -107,6 +107,7 @@ typedef struct image {
 } image;
 
 struct picvr_context {
+    picvr_config config;             /* as given to picvr_create (picvr_get_config) */
     picvr_allocator alloc;
     picvr_log_fn log;
     void *log_user;
@@ -495,11 +496,13 @@ static int has_layer(const char *name) {
     return 0;
 }
 
+/* picvr.h, ENVIRONMENT: PICVR_VALIDATION=0 always wins, OFF beats PICVR_VALIDATION=1. */
 static int want_validation(const picvr_config *cfg) {
     const char *env = getenv("PICVR_VALIDATION");
     if (env && env[0] == '0') return 0;
+    if (cfg->validation == PICVR_SWITCH_OFF) return 0;
     if (env && env[0] == '1') return 1;
-    return cfg->validation == 1;
+    return cfg->validation == PICVR_SWITCH_ON;
 }
 
 static picvr_status create_instance(picvr_context *ctx, int validation) {
@@ -881,13 +884,13 @@ static VkDeviceSize volume_alloc_limit(const picvr_context *ctx) {
 
 static picvr_status context_init(picvr_context *ctx, const picvr_config *cfg) {
     picvr_status s;
-    if (cfg->vk_device) {
+    if (cfg->vulkan.device) {
         ctx->external = 1;
-        ctx->instance = (VkInstance)cfg->vk_instance;
-        ctx->phys = (VkPhysicalDevice)cfg->vk_physical_device;
-        ctx->device = (VkDevice)cfg->vk_device;
-        ctx->queue = (VkQueue)cfg->vk_queue;
-        ctx->queue_family = cfg->vk_queue_family;
+        ctx->instance = (VkInstance)cfg->vulkan.instance;
+        ctx->phys = (VkPhysicalDevice)cfg->vulkan.physical_device;
+        ctx->device = (VkDevice)cfg->vulkan.device;
+        ctx->queue = (VkQueue)cfg->vulkan.queue;
+        ctx->queue_family = cfg->vulkan.queue_family;
     } else {
         const char *want = cfg->device_name ? cfg->device_name : getenv("PICVR_DEVICE");
         if ((s = create_instance(ctx, want_validation(cfg)))) return s;
@@ -936,14 +939,16 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     *out = NULL;
     picvr_config cfg;
     if (cfg_in) cfg = *cfg_in; else memset(&cfg, 0, sizeof cfg);
-    int hooks = (cfg.allocator.alloc != NULL) + (cfg.allocator.realloc != NULL) + (cfg.allocator.free != NULL);
-    if (hooks != 0 && hooks != 3) return PICVR_ERROR_INVALID_ARGUMENT;
-    int ext = (cfg.vk_instance != NULL) + (cfg.vk_physical_device != NULL) + (cfg.vk_device != NULL) + (cfg.vk_queue != NULL);
+    if ((cfg.allocator.alloc != NULL) != (cfg.allocator.free != NULL)) return PICVR_ERROR_INVALID_ARGUMENT;
+    int ext = (cfg.vulkan.instance != NULL) + (cfg.vulkan.physical_device != NULL) + (cfg.vulkan.device != NULL) +
+              (cfg.vulkan.queue != NULL);
     if (ext != 0 && ext != 4) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.log_level > PICVR_LOG_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)cfg.validation > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     picvr_context *ctx = mem_alloc(&cfg.allocator, sizeof *ctx);
     if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(ctx, 0, sizeof *ctx);
+    ctx->config = cfg;
     ctx->alloc = cfg.allocator;
     ctx->log = cfg.log;
     ctx->log_user = cfg.log_user;
@@ -958,6 +963,21 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     if (!s) s = context_init(ctx, &cfg);
     if (s) { picvr_destroy(ctx); return s; }
     *out = ctx;
+    return PICVR_OK;
+}
+
+picvr_status picvr_get_config(const picvr_context *ctx, picvr_config *out) {
+    if (!ctx || !out) return PICVR_ERROR_NULL_POINTER;
+    *out = ctx->config;
+    out->validation = ctx->validation_enabled ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
+    out->log_level = ctx->log_level;
+    out->vulkan.instance = ctx->instance;
+    out->vulkan.physical_device = ctx->phys;
+    out->vulkan.device = ctx->device;
+    out->vulkan.queue = ctx->queue;
+    out->vulkan.queue_family = ctx->queue_family;
+    out->cache = ctx->cache;
+    out->scheduler = ctx->sched;
     return PICVR_OK;
 }
 

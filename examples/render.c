@@ -494,7 +494,7 @@ static void end_progress_line(progress *p)
 
 static void log_message(picvr_log_level level, const char *message, void *user)
 {
-    static const char *const names[] = {"debug", "info", "warning", "error"};
+    static const char *const names[] = {"default", "debug", "info", "warning", "error"};
     end_progress_line(user);
     fprintf(stderr, "picvr %s: %s\n", level <= PICVR_LOG_ERROR ? names[level] : "?",
             message);
@@ -975,7 +975,7 @@ static int render(const options *o, const pvio_layout *layout)
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.device_name = o->device;
-    cfg.validation = o->validation;
+    cfg.validation = o->validation ? PICVR_SWITCH_ON : PICVR_SWITCH_DEFAULT;
     cfg.cache = o->params;                     /* --cache-param; the rest below */
     cfg.cache.mode = o->cache;
     cfg.scheduler.priorities = o->priorities;

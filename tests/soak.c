@@ -92,17 +92,6 @@ static void h_free(void *p, void *user) {
     g_host_live -= (long long)h->size;
     free(h);
 }
-static void *h_realloc(void *p, size_t size, void *user) {
-    if (!p) return h_alloc(size, user);
-    hdr *h = (hdr *)p - 1;
-    size_t old = h->size;
-    hdr *n = realloc(h, sizeof(hdr) + size);
-    if (!n) return NULL;
-    n->size = size;
-    g_host_live += (long long)size - (long long)old;
-    return n + 1;
-}
-
 /* ---- helpers ---------------------------------------------------------------------------- */
 
 static double now_s(void) {
@@ -244,7 +233,6 @@ int main(int argc, char **argv) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.allocator.alloc = h_alloc;
-    cfg.allocator.realloc = h_realloc;
     cfg.allocator.free = h_free;
     const char *mode = argc > 2 ? argv[2] : "none";
     cfg.cache.mode = strcmp(mode, "object") == 0 ? PICVR_CACHE_OBJECT_SPACE

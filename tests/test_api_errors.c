@@ -69,7 +69,7 @@ void test_create_destroy_errors(void **state) {
     picvr_destroy(NULL); /* allowed */
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
-    cfg.validation = 1;
+    cfg.validation = PICVR_SWITCH_ON;
     TU_EXPECT(picvr_create(&cfg, NULL), PICVR_ERROR_NULL_POINTER);
 
     picvr_context *ctx = (picvr_context *)&cfg; /* must be overwritten with NULL */
@@ -647,7 +647,7 @@ void test_create_config_errors(void **state) {
     (void)state;
     picvr_config base;
     memset(&base, 0, sizeof base);
-    base.validation = 1;
+    base.validation = PICVR_SWITCH_ON;
     int failures = 0, n = 0;
 #define CFG_ROW(label, want, stmt)                                                                 \
     do {                                                                                           \
@@ -664,7 +664,8 @@ void test_create_config_errors(void **state) {
         }                                                                                          \
     } while (0)
     CFG_ROW("log_level 99", PICVR_ERROR_INVALID_ARGUMENT, cfg.log_level = (picvr_log_level)99);
-    CFG_ROW("vk_device without instance/queue", PICVR_ERROR_INVALID_ARGUMENT, cfg.vk_device = (void *)&cfg);
+    CFG_ROW("validation 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.validation = (picvr_switch)7);
+    CFG_ROW("vulkan.device without instance/queue", PICVR_ERROR_INVALID_ARGUMENT, cfg.vulkan.device = (void *)&cfg);
     CFG_ROW("allocator free only", PICVR_ERROR_INVALID_ARGUMENT, cfg.allocator.free = free_hook);
     /* cache */
     CFG_ROW("cache.mode 99", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.mode = (picvr_cache_mode)99);
@@ -738,4 +739,76 @@ void test_create_config_errors(void **state) {
     free(img);
     tu_vol_free(&vol);
     tu_finish(ctx);
+}
+
+/* picvr_get_config gives every zero field the default picvr.h documents for it (the
+   values are written out here from the header, not read from the library), follows
+   picvr_set_scheduler, and hands out Vulkan handles that a second context can run on
+   (picvr_config.vulkan: that context must not destroy them). */
+void test_get_config_resolves_defaults(void **state) {
+    (void)state;
+    picvr_context *a = tu_create(3);
+    picvr_config c;
+    TU_EXPECT(picvr_get_config(NULL, &c), PICVR_ERROR_NULL_POINTER);
+    TU_EXPECT(picvr_get_config(a, NULL), PICVR_ERROR_NULL_POINTER);
+    TU_OK(picvr_get_config(a, &c));
+    assert_int_equal(c.seed, 3);
+    assert_int_equal(c.log_level, PICVR_LOG_WARNING);
+    picvr_stats st;
+    TU_OK(picvr_get_stats(a, &st));
+    assert_int_equal(c.validation, st.validation_enabled ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF);
+    assert_int_equal(c.cache.mode, PICVR_CACHE_NONE);
+    assert_true(c.cache.gamma == 0.1f && c.cache.epsilon == 0.1f && c.cache.delta_voxels == 2.0f);
+    assert_true(c.cache.radius_min_voxels == 0.01f && c.cache.radius_max_voxels == 16.0f);
+    assert_true(c.cache.update_threshold == 0.1f && c.cache.rebuild_interval_ms == 1000.0f);
+    assert_int_equal(c.cache.max_samples, 768);
+    assert_int_equal(c.cache.superpixel_size, 32);
+    assert_int_equal(c.cache.max_entries, 65536);
+    assert_int_equal(c.cache.max_nodes, 8 * 65536);
+    assert_int_equal(c.cache.max_refs, 16 * 65536);
+    assert_int_equal(c.cache.max_requests, 1000);
+    assert_int_equal(c.cache.max_lookup_refs, PICVR_CACHE_MAX_LOOKUP_REFS);
+    assert_int_equal(c.cache.curvature_limit, PICVR_SWITCH_OFF);
+    assert_int_equal(c.cache.medium_model, PICVR_SWITCH_ON);
+    assert_true(c.scheduler.create_min == 0.05f && c.scheduler.create_max == 0.15f);
+    assert_true(c.scheduler.update_min == 0.01f && c.scheduler.update_max == 0.02f);
+    assert_true(c.scheduler.exponent == 3.0f && c.scheduler.rounds_per_second == 20.0f);
+    assert_true(c.scheduler.hit_rate_window_ms == 100.0f);
+    assert_int_equal(c.scheduler.priorities, PICVR_SWITCH_ON);
+    assert_non_null(c.vulkan.instance);
+    assert_non_null(c.vulkan.physical_device);
+    assert_non_null(c.vulkan.device);
+    assert_non_null(c.vulkan.queue);
+
+    picvr_scheduler_config sc;
+    memset(&sc, 0, sizeof sc);
+    sc.priorities = PICVR_SWITCH_OFF;
+    sc.create_max = 0.5f;
+    TU_OK(picvr_set_scheduler(a, &sc));
+    TU_OK(picvr_get_config(a, &c));
+    assert_int_equal(c.scheduler.priorities, PICVR_SWITCH_OFF);
+    assert_true(c.scheduler.create_max == 0.5f && c.scheduler.create_min == 0.05f);
+
+    /* a second context on the first one's device renders, and leaves it working */
+    picvr_config b_cfg;
+    memset(&b_cfg, 0, sizeof b_cfg);
+    b_cfg.vulkan = c.vulkan;
+    picvr_context *b = NULL;
+    TU_OK(picvr_create(&b_cfg, &b));
+    picvr_config bc;
+    TU_OK(picvr_get_config(b, &bc));
+    assert_ptr_equal(bc.vulkan.device, c.vulkan.device);
+    tu_vol vol = tu_vol_ball(8);
+    picvr_context *both[2] = {b, a};
+    for (int i = 0; i < 2; i++) {
+        tu_upload(both[i], &vol);
+        tu_set_camera(both[i], 0, 0, 20, 0, 0, 0, 30, 8, 8);
+        tu_background_only(both[i], 1, 1, 1, 1);
+        TU_OK(picvr_step_iterations(both[i], 2));
+        TU_OK(picvr_get_stats(both[i], &st));
+        assert_int_equal(st.iterations, 2);
+        if (i == 0) picvr_destroy(b);
+    }
+    tu_vol_free(&vol);
+    tu_finish(a);
 }

@@ -36,7 +36,7 @@ picvr_context *tu_create(uint32_t seed) {
 
 picvr_context *tu_create_config(const picvr_config *cfg_in) {
     picvr_config cfg = *cfg_in;
-    cfg.validation = 1;
+    cfg.validation = PICVR_SWITCH_ON;
     picvr_context *ctx = NULL;
     TU_OK(picvr_create(&cfg, &ctx));
     assert_non_null(ctx);
@@ -45,7 +45,7 @@ picvr_context *tu_create_config(const picvr_config *cfg_in) {
         picvr_stats st;
         TU_OK(picvr_get_stats(ctx, &st));
         if (st.validation_enabled != 1)
-            fail_msg("cfg.validation = 1 but stats.validation_enabled = %u",
+            fail_msg("cfg.validation ON but stats.validation_enabled = %u",
                      st.validation_enabled);
     }
     return ctx;

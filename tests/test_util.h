@@ -90,6 +90,7 @@
     X(test_bad_inputs_rest_of_api_and_device_limits)                \
     X(test_calls_in_wrong_order)                                    \
     X(test_create_config_errors)                                    \
+    X(test_get_config_resolves_defaults)                            \
     /* test_accumulation.c */                                       \
     X(test_image_zero_before_first_iteration)                       \
     X(test_changes_reset_accumulation_identical_camera_does_not)    \
