@@ -11,6 +11,8 @@ SHADER_SRC  := $(wildcard shaders/*.comp)
 SHADER_INC  := $(wildcard shaders/*.glsl)
 TEST_SRC    := $(wildcard tests/test_*.c)
 LIB_OBJ     := $(B)/picvr_vk.o
+# The implementation: picvr_vk.c includes the parts in host/.
+LIB_SRC     := picvr.h picvr_vk.c picvr_shaders.h $(wildcard host/*.h host/*.c)
 
 .PHONY: all deps lib test demo bench-speed bench-scheduler bench-long-run bench-hit-rate shaders check-shaders check-layout check-examples clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
@@ -57,7 +59,7 @@ check-shaders: $(B)/picvr_shaders.h
 	@echo "picvr_shaders.h matches shaders/"
 
 # ---- library, examples, tests ----------------------------------------------------
-$(B)/picvr_vk.o: picvr_vk.c picvr.h picvr_shaders.h | $(B)/.deps
+$(B)/picvr_vk.o: $(LIB_SRC) | $(B)/.deps
 	$(CC) $(CFLAGS) -c -o $@ $<
 $(B)/libpicvr.a: $(LIB_OBJ)
 	ar rcs $@ $^
@@ -66,17 +68,18 @@ lib: $(B)/libpicvr.a
 $(B)/picvr-render: examples/render.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -o $@ examples/render.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lstb -lz
 
-$(B)/cpu_reference.o: tests/cpu_reference.c tests/cpu_reference.h picvr.h | $(B)/.deps
+$(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps
 	$(CC) $(CFLAGS) -O3 -fopenmp -c -o $@ $<
 
-$(B)/picvr-tests: $(TEST_SRC) tests/test_util.h $(B)/cpu_reference.o $(B)/libpicvr.a
+$(B)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
+              shaders/cache_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -fopenmp -o $@ $(TEST_SRC) $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lcmocka
 
-$(B)/picvr-bench-speed: bench/bench_speed.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a
+$(B)/picvr-bench-speed: bench/bench_speed.c examples/volume_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
 
 # The host's mirrors of the shaders' layouts and constants (tools/check_layout.sh).
-$(B)/layout-host: tools/layout_host.c picvr_vk.c picvr.h picvr_shaders.h | $(B)/.deps
+$(B)/layout-host: tools/layout_host.c $(LIB_SRC) | $(B)/.deps
 	$(CC) $(CFLAGS) -o $@ tools/layout_host.c $(LDLIBS)
 check-layout: $(B)/layout-host
 	GLSLANG=$(GLSLANG) sh tools/check_layout.sh $(B)/layout-host
@@ -89,11 +92,22 @@ test: deps check-shaders check-layout check-examples $(B)/picvr-tests $(B)/picvr
 	$(B)/picvr-bench-error --self-test
 	cd $(B) && PICVR_VALIDATION=1 PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
 
-demo: deps $(B)/picvr-render
-	$(B)/picvr-render --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz --tf ct-bonsai \
-	  --lights studio --size 512x512 --time 20000 --out $(B)/bonsai.png \
-	  --log $(B)/bonsai.csv --json $(B)/bonsai.json
-	@echo "wrote $(B)/bonsai.png"
+# The demo renders the bonsai CT from the data folder, ../shared/data beside the
+# repository (README "Data": what it holds, where it comes from).  DATA=DIR points at
+# another copy of that folder, VOLUME=FILE at any raw volume picvr-render reads
+# (NAME_XxYxZ_TYPE.raw[.gz]), DEMO_TF=PRESET picks its transfer function.  Outputs:
+# build/NAME.png, .csv, .json, NAME the file name up to its first '_' (bonsai).
+VOLUME    ?= $(DATA)/bonsai_256x256x256_uint8.raw.gz
+DEMO_TF   ?= ct-bonsai
+DEMO_NAME  = $(firstword $(subst _, ,$(basename $(basename $(notdir $(VOLUME))))))
+demo: demo-volume deps $(B)/picvr-render
+	$(B)/picvr-render --volume $(VOLUME) --tf $(DEMO_TF) \
+	  --lights studio --size 512x512 --time 20000 --out $(B)/$(DEMO_NAME).png \
+	  --log $(B)/$(DEMO_NAME).csv --json $(B)/$(DEMO_NAME).json
+	@echo "wrote $(B)/$(DEMO_NAME).png"
+demo-volume:
+	@[ -f "$(VOLUME)" ] || { echo "make demo: $(VOLUME) not found (by default the bonsai" \
+	  "CT from ../shared/data, see README 'Data'); set DATA=DIR or VOLUME=FILE"; exit 1; }
 
 bench-speed: deps $(B)/picvr-bench-speed
 	$(B)/picvr-bench-speed --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz
@@ -129,11 +143,11 @@ BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotat
 
 # The library's sources as one checksum: the bench's run files carry it, so that a run
 # made with other library code is never reused (bench/bench_error.c, run_signature).
-BENCH_BUILD = $(shell cat picvr.h picvr_vk.c shaders/*.glsl shaders/*.comp | cksum | cut -d' ' -f1)
+BENCH_BUILD = $(shell cat $(LIB_SRC) shaders/*.glsl shaders/*.comp | cksum | cut -d' ' -f1)
 $(B)/picvr-bench-error: bench/bench_error.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ bench/bench_error.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
-$(B)/picvr-bench-fig9: bench/bench_fig9.c shaders/cache_math.glsl tests/cache_math_host.h | $(B)/.deps
+$(B)/picvr-bench-fig9: bench/bench_fig9.c shaders/cache_math.glsl reference/cache_math_host.h | $(B)/.deps
 	$(CC) $(CFLAGS) -o $@ bench/bench_fig9.c -lm
 
 # gnuplot only for the benchmark plots, so `make test` does not need it.
@@ -195,15 +209,16 @@ $(B)/.deps-robust: tools/install-deps.sh | $(B)/.deps
 	@sh tools/install-deps.sh robust
 	@touch $@
 
-$(BA)/picvr_vk.o: picvr_vk.c picvr.h picvr_shaders.h | $(B)/.deps
+$(BA)/picvr_vk.o: $(LIB_SRC) | $(B)/.deps
 	@mkdir -p $(BA)
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -c -o $@ $<
 $(BA)/libpicvr.a: $(BA)/picvr_vk.o
 	ar rcs $@ $^
-$(BA)/cpu_reference.o: tests/cpu_reference.c tests/cpu_reference.h picvr.h | $(B)/.deps
+$(BA)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps
 	@mkdir -p $(BA)
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -O2 -fopenmp -c -o $@ $<
-$(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a
+$(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
+              tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -o $@ $(TEST_SRC) tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl
 $(BA)/picvr-render: examples/render.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h tests/asan_keep_drivers.c $(BA)/libpicvr.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ examples/render.c examples/volume_io.c examples/presets.c tests/asan_keep_drivers.c $(BA)/libpicvr.a $(LDLIBS) -lstb -lz -ldl

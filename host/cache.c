@@ -1,0 +1,173 @@
+/* host/cache.c - the irradiance cache's host side, paper §4-5: its configuration
+ * (Table 1 defaults), the pools of entries, octree nodes, references and creation
+ * requests (allocated only when the cache is on), the world-space parameters of Eq. 5-11
+ * in the uniform block, the pre-built top of the octree (§4.4), the creation batch, and
+ * the counters each round leaves.  The cache procedures themselves are
+ * shaders/cache_create.comp (§4.2), cache_update.comp (§4.3) and cache_rebuild.comp
+ * (§4.4).  Part of picvr_vk.c; uses util, vulkan, schedule. */
+
+/* Fills in the Table 1 defaults and validates. */
+static picvr_status picvr_resolve_cache_config(picvr_context *ctx, const picvr_cache_config *in, picvr_cache_config *c) {
+    *c = *in;
+    if ((unsigned)c->mode > PICVR_CACHE_SCREEN_SPACE) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->mode == PICVR_CACHE_DEFAULT) c->mode = PICVR_CACHE_NONE;   /* until issue 3 is validated */
+    if (!c->superpixel_size) c->superpixel_size = 32;
+    if (c->superpixel_size > 4096) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)c->curvature_limit > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->curvature_limit == PICVR_SWITCH_DEFAULT) c->curvature_limit = PICVR_SWITCH_OFF;
+    if ((unsigned)c->medium_model > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->medium_model == PICVR_SWITCH_DEFAULT) c->medium_model = PICVR_SWITCH_ON;
+    float *f[7] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels,
+                   &c->update_threshold, &c->rebuild_interval_ms};
+    const float def[7] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f, 0.1f, 1000.0f};
+    for (int i = 0; i < 7; i++) {
+        if (!isfinite(*f[i])) return PICVR_ERROR_NON_FINITE;
+        if (*f[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+        if (*f[i] == 0.0f) *f[i] = def[i];
+    }
+    if (c->epsilon >= 1.0f || c->radius_max_voxels < c->radius_min_voxels) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (!c->max_entries) c->max_entries = 65536;
+    if (c->max_entries > (1u << 24)) return PICVR_ERROR_SIZE_OVERFLOW;   /* indices pass through floats */
+    /* at least 8192 nodes: the pre-built top of the octree takes up to 4681 */
+    if (!c->max_nodes) c->max_nodes = 8 * c->max_entries > 8192 ? 8 * c->max_entries : 8192;
+    if (!c->max_refs) c->max_refs = 16 * c->max_entries;
+    if (!c->max_requests) c->max_requests = 1000;
+    if (!c->max_samples) c->max_samples = PICVR_CACHE_DEFAULT_SAMPLES;
+    if (c->max_samples > PICVR_CACHE_MAX_SAMPLES) return PICVR_ERROR_INVALID_ARGUMENT;
+    c->max_samples = (c->max_samples + PICVR_CACHE_CREATE_GROUP - 1) / PICVR_CACHE_CREATE_GROUP * PICVR_CACHE_CREATE_GROUP;
+    if (!c->max_lookup_refs) c->max_lookup_refs = PICVR_CACHE_MAX_LOOKUP_REFS;
+    if (c->max_lookup_refs > PICVR_CACHE_MAX_LOOKUP_REFS) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->max_nodes < 4681 || c->max_refs < 2 || c->max_nodes > (1u << 28) || c->max_refs > (1u << 28))
+        return PICVR_ERROR_INVALID_ARGUMENT;
+    return PICVR_OK;
+}
+
+static picvr_status picvr_create_cache_buffers(picvr_context *ctx) {
+    const picvr_cache_config *c = &ctx->cache.cfg;
+    VkBufferUsageFlags st = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    uint64_t sizes[3] = {(uint64_t)c->max_entries * PICVR_CACHE_ENTRY_BYTES, (uint64_t)c->max_nodes * PICVR_CACHE_NODE_BYTES,
+                         (uint64_t)c->max_refs * PICVR_CACHE_REF_BYTES};
+    for (int i = 0; i < 3; i++)
+        if (sizes[i] > ctx->vk.props.limits.maxStorageBufferRange) return PICVR_ERROR_SIZE_OVERFLOW;
+    picvr_status s;
+    if ((s = picvr_buffer_create(ctx, &ctx->cache.entries, sizes[0], st, 0))) return s;
+    if ((s = picvr_buffer_create(ctx, &ctx->cache.nodes, sizes[1], st, 0))) return s;
+    if ((s = picvr_buffer_create(ctx, &ctx->cache.refs, sizes[2], st, 0))) return s;
+    if ((s = picvr_buffer_create(ctx, &ctx->cache.counters, sizeof(picvr_cache_counters),
+                           st | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 0))) return s;
+    if ((s = picvr_buffer_create(ctx, &ctx->cache.requests, (uint64_t)c->max_requests * PICVR_CACHE_REQUEST_BYTES, st, 0))) return s;
+    if ((s = picvr_buffer_create(ctx, &ctx->cache.prebuilt_nodes, 4681u * PICVR_CACHE_NODE_BYTES,
+                           VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
+    return PICVR_OK;
+}
+
+/* Entry creation runs one workgroup per entry, and a round's procedures are separated by
+   barriers, so a creation dispatch lasts about as long as its slowest entry whenever it
+   holds fewer entries than the device runs side by side: a partial dispatch costs what a
+   full one does.  So creation waits until it is owed a full batch, and its cost per
+   entry is measured as if every dispatch were full (picvr_finish_round).
+   - A CPU driver (lavapipe) runs one workgroup per thread, one thread per core: with one
+     entry per dispatch (a 20 ms entry against a 7.5 ms share per round, bonsai) half of
+     the creation share was idle time on 2 cores.  The batch is one entry per thread
+     (LP_NUM_THREADS, lavapipe's own setting, else the online cores; at most 64).
+   - A GPU runs thousands of workgroups at once, and one entry takes milliseconds of
+     sequential sampling: with the batch at 1 an H200 created about 50 entries per 50 ms
+     round in 6 ms of creation share, the cost model took 0.12 ms per entry, and bonsai's
+     hit rate was 0.69 after 10 s (2026-11-30).  The batch is the resident workgroups
+     (picvr_gpu_resident_groups), at most the request queue (cache.max_requests). */
+static uint32_t picvr_creation_batch(const picvr_context *ctx) {
+    uint32_t gpu = picvr_gpu_resident_groups(ctx);
+    if (gpu) return gpu < ctx->cache.cfg.max_requests ? gpu : ctx->cache.cfg.max_requests;
+    long n = 0;
+    const char *env = getenv("LP_NUM_THREADS");
+    if (env && *env) n = strtol(env, NULL, 10);
+#if defined(_SC_NPROCESSORS_ONLN)
+    if (n <= 0) n = sysconf(_SC_NPROCESSORS_ONLN);
+#endif
+    return n < 1 ? 1u : n > 64 ? 64u : (uint32_t)n;
+}
+
+/* World-space cache parameters (Delta and the radii are given in voxels of the
+   smallest spacing) and the depth of the pre-built top of the octree: the depth at
+   which an entry of the largest radius is inserted (same rule as the shader's
+   insertion_depth), at most CACHE_PREBUILT_MAX_DEPTH.  Pre-building it lets many
+   entries be created in parallel from the start under object-space locking. */
+static uint32_t picvr_cache_scene_params(picvr_context *ctx) {
+    picvr_gpu_scene *g = &ctx->scene.gpu;
+    float voxel = ctx->scene.has_volume ? g->cell_size[3] : 1.0f;
+    g->cache_params[0] = ctx->cache.cfg.gamma;
+    g->cache_params[1] = ctx->cache.cfg.epsilon;
+    g->cache_params[2] = ctx->cache.cfg.delta_voxels * voxel;
+    g->cache_params[3] = ctx->cache.cfg.update_threshold;
+    g->cache_radii[0] = ctx->cache.cfg.radius_min_voxels * voxel;
+    g->cache_radii[1] = ctx->cache.cfg.radius_max_voxels * voxel;
+    g->cache_radii[2] = ctx->cache.cfg.curvature_limit == PICVR_SWITCH_ON ? 1.0f : 0.0f;
+    g->cache_radii[3] = ctx->cache.cfg.medium_model == PICVR_SWITCH_ON ? 1.0f : 0.0f;
+    g->cache_caps[0] = ctx->cache.cfg.max_entries;
+    g->cache_caps[1] = ctx->cache.cfg.max_nodes;
+    g->cache_caps[2] = ctx->cache.cfg.max_refs;
+    g->cache_caps[3] = ctx->cache.cfg.max_requests;
+    if (ctx->scene.has_camera) {
+        uint32_t side = ctx->cache.cfg.superpixel_size;
+        g->cache_screen[0] = side;
+        g->cache_screen[1] = (ctx->scene.camera.width + side - 1) / side;
+        g->cache_screen[2] = ctx->cache.superpixel_count;
+        g->cache_screen[3] = ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE;
+    }
+    float edge = g->box_size[0];
+    if (g->box_size[1] < edge) edge = g->box_size[1];
+    if (g->box_size[2] < edge) edge = g->box_size[2];
+    uint32_t depth = 0;
+    while (depth < PICVR_CACHE_PREBUILT_MAX_DEPTH && edge * 0.5f >= PICVR_CACHE_NODE_RADII * g->cache_radii[1]) { edge *= 0.5f; depth++; }
+    return depth;
+}
+
+/* Empties the cache: a complete octree down to the pre-built depth (node i's children
+   are 8i+1 .. 8i+8), no entries, no references, no requests, unlocked nodes. */
+static picvr_status picvr_cache_clear(picvr_context *ctx) {
+    if (!ctx->cache.on) return PICVR_OK;
+    uint32_t depth = picvr_cache_scene_params(ctx);
+    uint32_t count = 0, level = 1;
+    for (uint32_t d = 0; d <= depth; d++, level *= 8) count += level;
+    uint32_t inner = count - level / 8;            /* nodes above the deepest level */
+    uint32_t *nodes = picvr_host_alloc(&ctx->alloc, (size_t)count * PICVR_CACHE_NODE_BYTES);
+    if (!nodes) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    memset(nodes, 0, (size_t)count * PICVR_CACHE_NODE_BYTES);
+    for (uint32_t i = 0; i < inner; i++) nodes[i * 4] = 8 * i + 1;
+    picvr_status s = picvr_cmd_begin(ctx);
+    if (!s) {
+        picvr_barrier_all(ctx);
+        vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.nodes.buf, 0, VK_WHOLE_SIZE, 0);
+        if (ctx->cache.superpixels.buf) vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.superpixels.buf, 0, VK_WHOLE_SIZE, 0);
+        picvr_barrier_all(ctx);
+        s = picvr_cmd_submit_wait(ctx);
+    }
+    if (!s) s = picvr_upload_buffer(ctx, &ctx->cache.nodes, nodes, (size_t)count * PICVR_CACHE_NODE_BYTES);
+    if (!s) s = picvr_upload_buffer(ctx, &ctx->cache.prebuilt_nodes, nodes, (size_t)count * PICVR_CACHE_NODE_BYTES);
+    picvr_host_free(&ctx->alloc, nodes);
+    picvr_cache_counters counters;
+    memset(&counters, 0, sizeof counters);
+    counters.dispatch[1] = counters.dispatch[2] = 1;
+    counters.node_count = count;
+    if (!s) s = picvr_upload_buffer(ctx, &ctx->cache.counters, &counters, sizeof counters);
+    ctx->cache.prebuilt = count;
+    ctx->cache.counts = counters;
+    ctx->cache.point_rounds = ctx->cache.truncated = ctx->cache.lookups_cut = ctx->cache.lookups_spilled = 0;
+    ctx->cache.requests_pending = 0;
+    ctx->cache.since_rebuild_ms = 0.0;
+    picvr_sched_forget_hits(&ctx->sched, ctx->cache.on);
+    return s;
+}
+
+/* The cache counters a round left: the 64-bit sums of the wrapping ones, the requests. */
+static void picvr_cache_take_counters(picvr_context *ctx, const picvr_cache_counters *got) {
+    /* one round adds far less than 2^32, so the difference modulo 2^32 is exact */
+    const picvr_cache_counters *old = &ctx->cache.counts;
+    ctx->cache.point_rounds += (uint32_t)(got->point_rounds - old->point_rounds);
+    ctx->cache.truncated += (uint32_t)(got->truncated - old->truncated);
+    ctx->cache.lookups_cut += (uint32_t)(got->lookups_cut - old->lookups_cut);
+    ctx->cache.lookups_spilled += (uint32_t)(got->lookups_spilled - old->lookups_spilled);
+    ctx->cache.counts = *got;
+    ctx->cache.requests_issued += got->requests;
+    ctx->cache.requests_pending = got->dispatch[0];   /* valid requests queued for the next round */
+}

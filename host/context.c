@@ -1,0 +1,186 @@
+/* host/context.c - picvr_create and picvr_destroy: resolving the configuration,
+ * opening the device (or adopting the application's), making what every scene needs,
+ * and freeing it all; picvr_get_config and picvr_set_scheduler.  Part of picvr_vk.c;
+ * the last part: it uses all the others. */
+
+static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *cfg) {
+    picvr_status s;
+    if (cfg->vulkan.device) {
+        ctx->vk.external = 1;
+        ctx->vk.instance = (VkInstance)cfg->vulkan.instance;
+        ctx->vk.phys = (VkPhysicalDevice)cfg->vulkan.physical_device;
+        ctx->vk.device = (VkDevice)cfg->vulkan.device;
+        ctx->vk.queue = (VkQueue)cfg->vulkan.queue;
+        ctx->vk.queue_family = cfg->vulkan.queue_family;
+    } else {
+        const char *want = cfg->device_name ? cfg->device_name : getenv("PICVR_DEVICE");
+        if ((s = picvr_create_instance(ctx, picvr_want_validation(cfg)))) return s;
+        if ((s = picvr_pick_device(ctx, want))) return s;
+        if ((s = picvr_create_device(ctx))) return s;
+    }
+    vkGetPhysicalDeviceProperties(ctx->vk.phys, &ctx->vk.props);
+    vkGetPhysicalDeviceMemoryProperties(ctx->vk.phys, &ctx->vk.mem_props);
+    picvr_log_message(ctx, PICVR_LOG_INFO, "device: %s", ctx->vk.props.deviceName);
+
+    if (!picvr_format_filters(ctx, VK_FORMAT_R8_UNORM) || !picvr_format_filters(ctx, VK_FORMAT_R16_UNORM) ||
+        !picvr_format_filters(ctx, VK_FORMAT_R32G32B32A32_SFLOAT)) {
+        picvr_log_message(ctx, PICVR_LOG_ERROR, "device cannot filter R8/R16 volumes or RGBA32F tables");
+        return PICVR_ERROR_UNSUPPORTED_TYPE;
+    }
+    ctx->vk.float_volume_format = picvr_format_filters(ctx, VK_FORMAT_R32_SFLOAT) ? VK_FORMAT_R32_SFLOAT : VK_FORMAT_R16_UNORM;
+
+    VkCommandPoolCreateInfo pi = {VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pi.queueFamilyIndex = ctx->vk.queue_family;
+    PICVR_VK_TRY(ctx, vkCreateCommandPool(ctx->vk.device, &pi, NULL, &ctx->vk.cmd_pool));
+    VkCommandBufferAllocateInfo ai = {VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    ai.commandPool = ctx->vk.cmd_pool;
+    ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    ai.commandBufferCount = 1;
+    PICVR_VK_TRY(ctx, vkAllocateCommandBuffers(ctx->vk.device, &ai, &ctx->vk.cmd));
+    VkFenceCreateInfo fi = {VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    PICVR_VK_TRY(ctx, vkCreateFence(ctx->vk.device, &fi, NULL, &ctx->vk.fence));
+
+    if ((s = picvr_create_pipelines(ctx)) || (s = picvr_create_sampler(ctx)) || (s = picvr_create_timestamps(ctx))) return s;
+    ctx->sched.create_batch = picvr_creation_batch(ctx);
+    ctx->vk.max_volume_bytes = picvr_volume_alloc_limit(ctx);
+    if (ctx->cache.on && (s = picvr_create_cache_buffers(ctx))) return s;
+    if ((s = picvr_buffer_create(ctx, &ctx->rounds.readback, PICVR_ROUND_READBACK_BYTES, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1))) return s;
+    if ((s = picvr_buffer_create(ctx, &ctx->scene.ubo, sizeof(picvr_gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
+    if ((s = picvr_image_create(ctx, &ctx->scene.tf_image, VK_IMAGE_TYPE_1D, VK_FORMAT_R32G32B32A32_SFLOAT, PICVR_TF_SIZE, 1, 1))) return s;
+    if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_staging, sizeof ctx->scene.tf_table, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1))) return s;
+    if (!(ctx->scene.tf_rm = picvr_host_alloc(&ctx->alloc, sizeof *ctx->scene.tf_rm))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_range_max, sizeof *ctx->scene.tf_rm,
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
+    return picvr_default_transfer_function(ctx);
+}
+
+picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
+    if (!out) return PICVR_ERROR_NULL_POINTER;
+    *out = NULL;
+    picvr_config cfg;
+    if (cfg_in) cfg = *cfg_in; else memset(&cfg, 0, sizeof cfg);
+    if ((cfg.allocator.alloc != NULL) != (cfg.allocator.free != NULL)) return PICVR_ERROR_INVALID_ARGUMENT;
+    int ext = (cfg.vulkan.instance != NULL) + (cfg.vulkan.physical_device != NULL) + (cfg.vulkan.device != NULL) +
+              (cfg.vulkan.queue != NULL);
+    if (ext != 0 && ext != 4) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)cfg.log_level > PICVR_LOG_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)cfg.validation > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
+    picvr_context *ctx = picvr_host_alloc(&cfg.allocator, sizeof *ctx);
+    if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    memset(ctx, 0, sizeof *ctx);
+    ctx->config = cfg;
+    ctx->alloc = cfg.allocator;
+    ctx->log = cfg.log;
+    ctx->log_user = cfg.log_user;
+    ctx->log_level = cfg.log_level ? cfg.log_level : PICVR_LOG_WARNING;
+    ctx->seed = cfg.seed;
+    ctx->cache.requests_set = cfg.cache.max_requests != 0;
+    picvr_status s = picvr_resolve_cache_config(ctx, &cfg.cache, &ctx->cache.cfg);
+    if (!s) s = picvr_resolve_scheduler_config(&cfg.scheduler, &ctx->sched.cfg);
+    ctx->cache.on = ctx->cache.cfg.mode != PICVR_CACHE_NONE;
+    ctx->sched.use_priorities = ctx->sched.cfg.priorities == PICVR_SWITCH_ON;
+    picvr_update_targets(&ctx->sched, ctx->cache.on);
+    if (!s) s = picvr_context_init(ctx, &cfg);
+    if (s) { picvr_destroy(ctx); return s; }
+    *out = ctx;
+    return PICVR_OK;
+}
+
+picvr_status picvr_get_config(const picvr_context *ctx, picvr_config *out) {
+    if (!ctx || !out) return PICVR_ERROR_NULL_POINTER;
+    *out = ctx->config;
+    out->validation = ctx->vk.validation_enabled ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
+    out->log_level = ctx->log_level;
+    out->vulkan.instance = ctx->vk.instance;
+    out->vulkan.physical_device = ctx->vk.phys;
+    out->vulkan.device = ctx->vk.device;
+    out->vulkan.queue = ctx->vk.queue;
+    out->vulkan.queue_family = ctx->vk.queue_family;
+    out->cache = ctx->cache.cfg;
+    out->scheduler = ctx->sched.cfg;
+    return PICVR_OK;
+}
+
+void picvr_destroy(picvr_context *ctx) {
+    if (!ctx) return;
+    if (ctx->vk.device) {
+        vkDeviceWaitIdle(ctx->vk.device);
+        picvr_buffer_destroy(ctx, &ctx->scene.ubo);
+        picvr_buffer_destroy(ctx, &ctx->scene.tf_staging);
+        picvr_buffer_destroy(ctx, &ctx->scene.tf_range_max);
+        picvr_buffer_destroy(ctx, &ctx->scene.majorant);
+        picvr_buffer_destroy(ctx, &ctx->results.readback);
+        picvr_buffer_destroy(ctx, &ctx->results.partials);
+        for (int i = 0; i < 3; i++) picvr_buffer_destroy(ctx, &ctx->image.planes[i]);
+        picvr_image_destroy(ctx, &ctx->scene.tf_image);
+        picvr_image_destroy(ctx, &ctx->scene.volume);
+        VkDevice d = ctx->vk.device;
+        if (ctx->pipes.linear_sampler) vkDestroySampler(d, ctx->pipes.linear_sampler, NULL);
+        for (int p = 0; p < 3; p++)
+            for (uint32_t i = 0; i < PICVR_VARIANT_SLOTS; i++)
+                for (int k = 0; k < PICVR_KERNELS; k++)
+                    if (ctx->pipes.variants[p][i].pipe[k]) vkDestroyPipeline(d, ctx->pipes.variants[p][i].pipe[k], NULL);
+        if (ctx->pipes.rebuild_pipe) vkDestroyPipeline(d, ctx->pipes.rebuild_pipe, NULL);
+        if (ctx->pipes.select_pipe) vkDestroyPipeline(d, ctx->pipes.select_pipe, NULL);
+        if (ctx->pipes.priority_pipe) vkDestroyPipeline(d, ctx->pipes.priority_pipe, NULL);
+        if (ctx->pipes.select_module) vkDestroyShaderModule(d, ctx->pipes.select_module, NULL);
+        if (ctx->pipes.priority_module) vkDestroyShaderModule(d, ctx->pipes.priority_module, NULL);
+        if (ctx->rounds.timestamps) vkDestroyQueryPool(d, ctx->rounds.timestamps, NULL);
+        picvr_buffer_destroy(ctx, &ctx->image.render_queue);
+        picvr_buffer_destroy(ctx, &ctx->image.shade_queue);
+        picvr_buffer_destroy(ctx, &ctx->image.lookup_queue);
+        picvr_buffer_destroy(ctx, &ctx->rounds.readback);
+        if (ctx->pipes.update_module) vkDestroyShaderModule(d, ctx->pipes.update_module, NULL);
+        if (ctx->pipes.rebuild_module) vkDestroyShaderModule(d, ctx->pipes.rebuild_module, NULL);
+        picvr_buffer_destroy(ctx, &ctx->cache.prebuilt_nodes);
+        picvr_buffer_destroy(ctx, &ctx->cache.superpixels);
+        if (ctx->pipes.lookup_module) vkDestroyShaderModule(d, ctx->pipes.lookup_module, NULL);
+        if (ctx->pipes.create_module) vkDestroyShaderModule(d, ctx->pipes.create_module, NULL);
+        picvr_buffer_destroy(ctx, &ctx->cache.entries);
+        picvr_buffer_destroy(ctx, &ctx->cache.nodes);
+        picvr_buffer_destroy(ctx, &ctx->cache.refs);
+        picvr_buffer_destroy(ctx, &ctx->cache.counters);
+        picvr_buffer_destroy(ctx, &ctx->cache.requests);
+        if (ctx->pipes.stats_pipe) vkDestroyPipeline(d, ctx->pipes.stats_pipe, NULL);
+        if (ctx->pipes.track_module) vkDestroyShaderModule(d, ctx->pipes.track_module, NULL);
+        if (ctx->pipes.shade_module) vkDestroyShaderModule(d, ctx->pipes.shade_module, NULL);
+        if (ctx->pipes.stats_module) vkDestroyShaderModule(d, ctx->pipes.stats_module, NULL);
+        if (ctx->pipes.desc_pool) vkDestroyDescriptorPool(d, ctx->pipes.desc_pool, NULL);
+        if (ctx->pipes.layout) vkDestroyPipelineLayout(d, ctx->pipes.layout, NULL);
+        if (ctx->pipes.stats_layout) vkDestroyPipelineLayout(d, ctx->pipes.stats_layout, NULL);
+        if (ctx->pipes.set_layout) vkDestroyDescriptorSetLayout(d, ctx->pipes.set_layout, NULL);
+        if (ctx->vk.fence) vkDestroyFence(d, ctx->vk.fence, NULL);
+        if (ctx->vk.cmd_pool) vkDestroyCommandPool(d, ctx->vk.cmd_pool, NULL);
+        if (!ctx->vk.external) vkDestroyDevice(d, NULL);
+    }
+    if (!ctx->vk.external && ctx->vk.instance) {
+        if (ctx->vk.messenger) {
+            PFN_vkDestroyDebugUtilsMessengerEXT destroy = (PFN_vkDestroyDebugUtilsMessengerEXT)
+                vkGetInstanceProcAddr(ctx->vk.instance, "vkDestroyDebugUtilsMessengerEXT");
+            if (destroy) destroy(ctx->vk.instance, ctx->vk.messenger, NULL);
+        }
+        vkDestroyInstance(ctx->vk.instance, NULL);
+    }
+    picvr_host_free(&ctx->alloc, ctx->scene.brick_min);
+    picvr_host_free(&ctx->alloc, ctx->scene.brick_max);
+    picvr_host_free(&ctx->alloc, ctx->scene.tf_rm);
+    picvr_allocator a = ctx->alloc;
+    picvr_host_free(&a, ctx);
+}
+
+picvr_status picvr_set_scheduler(picvr_context *ctx, const picvr_scheduler_config *cfg) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
+    const picvr_scheduler_config zero = {0};
+    picvr_scheduler_config c;
+    picvr_status s = picvr_resolve_scheduler_config(cfg ? cfg : &zero, &c);
+    if (s) return s;
+    if (c.priorities == PICVR_SWITCH_ON && (s = picvr_create_priority_pipeline(ctx))) return s;
+    ctx->sched.cfg = c;
+    ctx->sched.use_priorities = c.priorities == PICVR_SWITCH_ON;
+    /* credit owed under the old shares would be spent under the new ones */
+    ctx->sched.credit_ms[PICVR_PROC_CREATE] = ctx->sched.credit_ms[PICVR_PROC_UPDATE] = 0.0;
+    picvr_update_targets(&ctx->sched, ctx->cache.on);
+    return PICVR_OK;
+}

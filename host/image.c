@@ -1,0 +1,169 @@
+/* host/image.c - the image: the camera, the accumulation planes (running mean, Kahan
+ * terms and per-pixel variance for Eq. 5), the rendering procedure's queues and the
+ * round-robin order of its 16x8-pixel blocks; resetting the accumulation.  Part of
+ * picvr_vk.c; uses util, vulkan, cache (the superpixels of §5.2 follow the image). */
+
+static void picvr_invalidate_accumulation(picvr_context *ctx) {
+    ctx->image.block_samples = 0;
+    ctx->image.block_cursor = 0;
+    ctx->image.elapsed_ms = 0.0;
+    ctx->results.valid = 0;
+}
+
+static picvr_status picvr_clear_accumulation(picvr_context *ctx) {
+    picvr_invalidate_accumulation(ctx);
+    if (!ctx->image.planes[0].buf) return PICVR_OK;
+    picvr_status s = picvr_cmd_begin(ctx);
+    if (s) return s;
+    picvr_barrier_all(ctx);
+    for (int i = 0; i < 3; i++) vkCmdFillBuffer(ctx->vk.cmd, ctx->image.planes[i].buf, 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, 0, VK_WHOLE_SIZE, 0);   /* block credits */
+    picvr_barrier_all(ctx);
+    return picvr_cmd_submit_wait(ctx);
+}
+
+picvr_status picvr_reset(picvr_context *ctx) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    return picvr_clear_accumulation(ctx);
+}
+
+picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if ((unsigned)view > PICVR_VIEW_CACHE_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (view != PICVR_VIEW_IMAGE && !ctx->cache.on) return PICVR_ERROR_NOT_READY;
+    if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
+    ctx->scene.gpu.view[0] = (uint32_t)view;
+    return picvr_clear_accumulation(ctx);
+}
+
+static uint32_t picvr_gcd32(uint32_t a, uint32_t b) {
+    while (b) { uint32_t t = a % b; a = b; b = t; }
+    return a;
+}
+
+/* The round-robin stride over n blocks: coprime with n (so k -> k * stride mod n is a
+   permutation) and near n / golden ratio (so consecutive k land far apart). */
+static uint32_t picvr_spread_stride(uint32_t n) {
+    if (n <= 2) return 1;
+    uint32_t s = (uint32_t)(n * 0.6180339887) | 1u;
+    while (picvr_gcd32(s, n) != 1) s++;
+    return s % n ? s % n : 1;
+}
+
+static picvr_status picvr_create_image_buffers(picvr_context *ctx, uint32_t w, uint32_t h) {
+    VkDeviceSize pixels = (VkDeviceSize)w * h;
+    VkDeviceSize plane = pixels * 16;
+    if (plane > ctx->vk.props.limits.maxStorageBufferRange) {
+        picvr_log_message(ctx, PICVR_LOG_WARNING, "image of %ux%u exceeds maxStorageBufferRange", w, h);
+        return PICVR_ERROR_SIZE_OVERFLOW;
+    }
+    /* an event queue (shading; with the cache also the lookup): smaller than a plane */
+    VkDeviceSize queue_bytes = PICVR_EVENT_HEAD_BYTES + pixels * PICVR_EVENT_WORDS * 4;
+    if (queue_bytes > ctx->vk.props.limits.maxStorageBufferRange) {
+        picvr_log_message(ctx, PICVR_LOG_WARNING, "image of %ux%u: its event queue exceeds maxStorageBufferRange", w, h);
+        return PICVR_ERROR_SIZE_OVERFLOW;
+    }
+    VkDeviceSize groups = (pixels + 255) / 256;
+    uint32_t blocks = ((w + 15) / 16) * ((h + 7) / 8);
+    picvr_buffer acc[3], rb, part, queue, shade, lookup, sp;
+    picvr_buffer *made[] = {&acc[0], &acc[1], &acc[2], &rb, &part, &queue, &shade, &lookup, &sp};
+    for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) memset(made[i], 0, sizeof *made[i]);
+    picvr_status s = PICVR_OK;
+    for (int i = 0; i < 3 && !s; i++)
+        s = picvr_buffer_create(ctx, &acc[i], plane, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                              VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 0);
+    if (!s) s = picvr_buffer_create(ctx, &rb, plane, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1);
+    if (!s) s = picvr_buffer_create(ctx, &part, groups * sizeof(picvr_gpu_partial), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, 1);
+    /* the rendering queue: a 32-byte header, then one uvec4 per block */
+    if (!s) s = picvr_buffer_create(ctx, &queue, 32 + (VkDeviceSize)blocks * 16,
+                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                              VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
+    VkBufferUsageFlags queue_usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    if (!s) s = picvr_buffer_create(ctx, &shade, queue_bytes, queue_usage, 0);
+    if (!s && ctx->cache.on) s = picvr_buffer_create(ctx, &lookup, queue_bytes, queue_usage, 0);
+    /* superpixel locks and counters: the real thing in screen-space mode, a stub (the
+       shader module declares the binding) in object-space mode */
+    uint32_t side = ctx->cache.cfg.superpixel_size, superpixels = 0;
+    if (!s && ctx->cache.on) {
+        superpixels = ((w + side - 1) / side) * ((h + side - 1) / side);
+        uint64_t bytes = ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE ? (uint64_t)superpixels * 5 * 4 : 16;
+        s = picvr_buffer_create(ctx, &sp, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
+    }
+    if (s) {   /* nothing replaced yet: free what was made (a zeroed buffer is a no-op) */
+        for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) picvr_buffer_destroy(ctx, made[i]);
+        return s;
+    }
+    if (ctx->cache.on) {
+        picvr_buffer_destroy(ctx, &ctx->cache.superpixels);
+        ctx->cache.superpixels = sp;
+        ctx->cache.superpixel_count = superpixels;
+    }
+    for (int i = 0; i < 3; i++) { picvr_buffer_destroy(ctx, &ctx->image.planes[i]); ctx->image.planes[i] = acc[i]; }
+    picvr_buffer_destroy(ctx, &ctx->results.readback);
+    picvr_buffer_destroy(ctx, &ctx->results.partials);
+    picvr_buffer_destroy(ctx, &ctx->image.render_queue);
+    picvr_buffer_destroy(ctx, &ctx->image.shade_queue);
+    picvr_buffer_destroy(ctx, &ctx->image.lookup_queue);
+    ctx->results.readback = rb;
+    ctx->results.partials = part;
+    ctx->image.render_queue = queue;
+    ctx->image.shade_queue = shade;
+    ctx->image.lookup_queue = lookup;
+    ctx->image.block_total = blocks;
+    ctx->image.block_stride = picvr_spread_stride(blocks);
+    ctx->pipes.descriptors_dirty = 1;
+    return PICVR_OK;
+}
+
+static picvr_status picvr_validate_camera(const picvr_camera *c, picvr_camera *out) {
+    if (!c) return PICVR_ERROR_NULL_POINTER;
+    *out = *c;
+    if (!picvr_finite3(c->position) || !picvr_finite3(c->target) || !picvr_finite3(c->up) || !isfinite(c->fov_y_degrees))
+        return PICVR_ERROR_NON_FINITE;
+    if (c->width == 0 || c->height == 0) return PICVR_ERROR_INVALID_DIMENSIONS;
+    if (c->width > PICVR_MAX_IMAGE_SIZE || c->height > PICVR_MAX_IMAGE_SIZE) return PICVR_ERROR_SIZE_OVERFLOW;
+    if (out->up[0] == 0.0f && out->up[1] == 0.0f && out->up[2] == 0.0f) out->up[1] = 1.0f;
+    if (out->fov_y_degrees == 0.0f) out->fov_y_degrees = 40.0f;
+    if (!(out->fov_y_degrees > 0.0f && out->fov_y_degrees <= 179.0f)) return PICVR_ERROR_INVALID_CAMERA;
+    float f[3] = {c->target[0] - c->position[0], c->target[1] - c->position[1], c->target[2] - c->position[2]};
+    double lf = picvr_len3(f);
+    if (!(lf > 0.0) || !isfinite(lf)) return PICVR_ERROR_INVALID_CAMERA;
+    float r[3];
+    picvr_cross3(f, out->up, r);
+    if (!(picvr_len3(r) > 1e-6 * lf * picvr_len3(out->up))) return PICVR_ERROR_INVALID_CAMERA;
+    return PICVR_OK;
+}
+
+picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    picvr_camera c;
+    picvr_status s = picvr_validate_camera(camera, &c);
+    if (s) return s;
+    if (ctx->scene.has_camera && !memcmp(&c, &ctx->scene.camera, sizeof c)) return PICVR_OK;
+    if (!ctx->scene.has_camera || c.width != ctx->scene.camera.width || c.height != ctx->scene.camera.height)
+        if ((s = picvr_create_image_buffers(ctx, c.width, c.height))) return s;
+    float f[3] = {c.target[0] - c.position[0], c.target[1] - c.position[1], c.target[2] - c.position[2]}, r[3], u[3];
+    picvr_normalize3(f);
+    picvr_cross3(f, c.up, r);
+    picvr_normalize3(r);
+    picvr_cross3(r, f, u);
+    picvr_gpu_scene *g = &ctx->scene.gpu;
+    picvr_pack4(g->cam_pos, c.position, (float)tan(0.5 * c.fov_y_degrees * PICVR_PI / 180.0));
+    picvr_pack4(g->cam_fwd, f, (float)c.width / (float)c.height);
+    picvr_pack4(g->cam_right, r, 0.0f);
+    picvr_pack4(g->cam_up, u, 0.0f);
+    g->image[0] = c.width;
+    g->image[1] = c.height;
+    ctx->scene.camera = c;
+    ctx->scene.has_camera = 1;
+    if (ctx->cache.on) {
+        picvr_cache_scene_params(ctx);   /* the request cap and superpixels follow the image size */
+        if ((s = picvr_cmd_begin(ctx))) return s;
+        picvr_barrier_all(ctx);
+        vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.superpixels.buf, 0, VK_WHOLE_SIZE, 0);
+        picvr_barrier_all(ctx);
+        if ((s = picvr_cmd_submit_wait(ctx))) return s;
+    }
+    return picvr_clear_accumulation(ctx);
+}

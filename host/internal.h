@@ -1,0 +1,358 @@
+/* host/internal.h - what every part of picvr's implementation shares: the limits and
+ * sizes the host mirrors from the shaders, the host copies of the shaders' uniform and
+ * buffer layouts (`make check-layout` compares them with glslang's reflection), and the
+ * context, grouped as the architecture is (ARCHITECTURE.md): device and pipelines;
+ * scene; image and accumulation; cache; scheduler and rounds; readback and stats.
+ * Included once, by picvr_vk.c, before the parts in host/; not a public header. */
+#ifndef PICVR_INTERNAL_H
+#define PICVR_INTERNAL_H
+
+#include "picvr.h"
+#include "picvr_shaders.h"
+
+#include <vulkan/vulkan.h>
+
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#if defined(__unix__) || defined(__APPLE__)
+#include <sys/time.h>
+#include <unistd.h>
+#endif
+
+#define PICVR_FINE_THRESHOLD 64.0          /* expected steps per brick above which the shader
+
+                                      tracks at voxel level (shaders: FINE_THRESHOLD) */
+#define PICVR_TF_SIZE 4096               /* entries of the transfer-function table (shaders: TF_SIZE) */
+
+#define PICVR_MAX_GRID 64                /* majorant grid cells per axis at most */
+
+#define PICVR_STAGING_CHUNK (32u << 20)  /* bytes per volume upload slab */
+
+#define PICVR_BATCH_TARGET_MS 100.0      /* picvr_step_iterations: one submission at most this long */
+
+#define PICVR_MAX_BATCH 1024u
+
+#define PICVR_SCHED_HISTORY 128u         /* rounds remembered for the time shares and the hit rate */
+
+#define PICVR_SHARE_WINDOW_MS 1000.0     /* stats.fraction_*: measured over the last second */
+
+#define PICVR_MAX_QUEUE 65535u           /* blocks per dispatch (shaders/block_select.comp) */
+
+/* Sizes of the shaders' buffer elements (std430), mirrored here; `make check-layout`
+   (part of `make test`) compares them with glslang's reflection of the shaders. */
+#define PICVR_CACHE_NODE_BYTES 16u       /* struct Node */
+
+#define PICVR_CACHE_REF_BYTES 8u         /* struct Ref */
+
+#define PICVR_CACHE_REQUEST_BYTES 32u    /* struct Request */
+
+#define PICVR_CACHE_ENTRY_BYTES 144u     /* struct Entry */
+
+/* Eq. 5's sample cap (cache.max_samples; its limits PICVR_CACHE_MAX_SAMPLES and
+   PICVR_CACHE_MAX_SAMPLES_CPU are in picvr.h): rounds of the 128-thread creation
+   workgroup (shaders/cache_create.comp, CREATE_MAX_ROUNDS).  On a CPU device at most 6 rounds:
+   llvmpipe silently truncates an invocation's loops past 65535 iterations, and 6 rounds
+   x 7 points x 2 transmittance estimates x (640 pooled comb steps + 16 orders) = 55104,
+   plus the light loops (the budget is spelled out in cache_create.comp). */
+#define PICVR_CACHE_CREATE_GROUP 128u
+
+#define PICVR_CACHE_DEFAULT_SAMPLES 768u
+
+#define PICVR_ROUND_READBACK_BYTES (sizeof(picvr_cache_counters) + 16)
+
+/* The rendering procedure's event queues (shaders/render.glsl), one buffer each: a
+   head (one uvec4: indirect dispatch, count), then one event of EVENT_WORDS words per
+   pixel; the event kernels run EVENT_GROUP threads per workgroup. */
+#define PICVR_EVENT_HEAD_BYTES 16u
+
+#define PICVR_EVENT_WORDS 3u
+
+#define PICVR_EVENT_GROUP 128u
+
+enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
+
+/* Pipeline variants.  The kernels' specialization constants (shaders/common.glsl,
+   cache.glsl) compile out what the scene does not use; the key of a procedure's variant
+   holds those that vary with the scene (picvr_variant_key).  Each procedure keeps up to
+   VARIANT_SLOTS variants, made by the first step that needs one; a new one replaces
+   the least recently used. */
+#define PICVR_VARIANT_SLOTS 8u
+
+#define PICVR_KEY_PHASE_MIS 1u      /* constant 0 USE_PHASE_MIS */
+
+#define PICVR_KEY_FINE 2u           /* constant 1 USE_FINE */
+
+#define PICVR_KEY_DEBUG_VIEW 4u     /* constant 3 USE_DEBUG_VIEW */
+
+#define PICVR_KEY_MONO_SHIFT 3u     /* constant 4 MONO_CHANNEL: 2 bits, 3 = colours differ */
+
+/* The kernels of one variant: creation and update have one (KERNEL_MAIN); rendering
+   has its tracking kernel there, then its shading kernel and, cached, the lookup
+   (shaders/render.glsl). */
+enum { PICVR_KERNEL_MAIN, PICVR_KERNEL_SHADE, PICVR_KERNEL_LOOKUP, PICVR_KERNELS };
+
+typedef struct picvr_variant_slot {
+    uint32_t key;
+    VkPipeline pipe[PICVR_KERNELS];        /* pipe[KERNEL_MAIN] VK_NULL_HANDLE: a free slot */
+    uint32_t used;                   /* variant_clock of the last step that chose it */
+    int dispatched;                  /* it has run (a first dispatch stays out of the costs) */
+} picvr_variant_slot;
+
+#define PICVR_PI 3.14159265358979323846
+
+/* ---- host mirror of the std140 uniform block in shaders/common.glsl ---- */
+typedef struct picvr_gpu_light { float p0[4], p1[4], p2[4], p3[4], p4[4]; } picvr_gpu_light;
+
+typedef struct picvr_gpu_scene {
+    float cam_pos[4], cam_fwd[4], cam_right[4], cam_up[4];
+    float box_min[4], box_size[4], cell_size[4];
+    uint32_t grid[4], image[4], dims[4];
+    float background[4];
+    float value_map[4];
+    float cache_params[4], cache_radii[4];
+    uint32_t cache_caps[4], cache_screen[4], view[4];
+    float light_mono[4];
+    picvr_gpu_light lights[PICVR_MAX_LIGHTS];
+} picvr_gpu_scene;
+
+/* Sparse table of the opacity column: level k holds the max over 2^k entries. */
+typedef struct picvr_range_max { float level[13][PICVR_TF_SIZE]; } picvr_range_max;
+
+typedef struct picvr_gpu_partial { float sums[4]; uint32_t counts[4]; } picvr_gpu_partial;
+
+typedef struct picvr_buffer {
+    VkBuffer buf;
+    VkDeviceMemory mem;
+    VkDeviceSize size;
+    void *mapped;      /* non-NULL when host visible */
+    int coherent;
+} picvr_buffer;
+
+typedef struct picvr_image {
+    VkImage img;
+    VkDeviceMemory mem;
+    VkImageView view;
+} picvr_image;
+
+/* The cache's counter block (struct CacheCounters of shaders/cache.glsl, word for
+   word; `make check-layout` compares the offsets).  The device writes it; the host
+   reads a copy after every round. */
+typedef struct picvr_cache_counters {
+    uint32_t dispatch[3];        /* indirect creation dispatch: x = valid requests queued */
+    uint32_t request_count;      /* requests queued this round (valid or not) */
+    uint32_t entry_count;
+    uint32_t node_count;
+    uint32_t ref_count;
+    uint32_t full;               /* 1 once a pool ran out */
+    uint32_t hits, misses;       /* scatter events served by the cache, and not, this round */
+    uint32_t requests;           /* creation requests issued this round */
+    uint32_t capped;             /* entries stored at the Eq. 5 sample cap */
+    uint32_t point_rounds;       /* creation rounds of the stored entries' points (wraps) */
+    uint32_t truncated;          /* their samples cut at the loop bound (wraps) */
+    uint32_t lookups_cut;        /* octree walks stopped at max_lookup_refs (wraps) */
+    uint32_t lookups_spilled;    /* lookups past the candidate buffer (wraps) */
+} picvr_cache_counters;
+
+/* A round's record for the §6 time shares and the hit-rate window. */
+typedef struct picvr_round_record {
+    double end_ms, device_ms[3];
+    uint32_t hits, misses;
+} picvr_round_record;
+
+/* Device and queue (host/vulkan.c). */
+typedef struct picvr_device {
+    int external;                    /* instance/device belong to the application */
+    VkInstance instance;
+    VkDebugUtilsMessengerEXT messenger;
+    VkPhysicalDevice phys;
+    VkDevice device;
+    VkQueue queue;
+    uint32_t queue_family;
+    VkPhysicalDeviceProperties props;
+    VkPhysicalDeviceMemoryProperties mem_props;
+    uint32_t validation_messages;
+    int validation_enabled;
+    int lost;                        /* VK_ERROR_DEVICE_LOST seen: every call refuses */
+    VkCommandPool cmd_pool;
+    VkCommandBuffer cmd;             /* the one command buffer: record, submit, wait */
+    VkFence fence;
+    VkFormat float_volume_format;    /* R32_SFLOAT, or R16_UNORM where it cannot filter */
+    VkDeviceSize max_volume_bytes;   /* largest volume image the device can hold; 0: unknown */
+} picvr_device;
+
+/* Shader modules, pipelines and the one descriptor set (host/pipelines.c). */
+typedef struct picvr_pipelines {
+    VkDescriptorSetLayout set_layout;
+    VkPipelineLayout layout, stats_layout;
+    VkDescriptorPool desc_pool;
+    VkDescriptorSet set;
+    int descriptors_dirty;           /* a bound buffer or image changed */
+    VkShaderModule track_module, shade_module, lookup_module; /* the rendering kernels; lookup: cached */
+    VkShaderModule stats_module, create_module, update_module, rebuild_module;
+    VkShaderModule select_module, priority_module;
+    VkPipeline select_pipe, priority_pipe; /* the rendering queue; priority_pipe only with priorities */
+    VkPipeline stats_pipe, rebuild_pipe;
+    picvr_variant_slot variants[3][PICVR_VARIANT_SLOTS]; /* PROC_*: the variants made so far */
+    uint32_t variant_clock;          /* ticks once per step: the slots' last use */
+    uint32_t current_slot[3];        /* PROC_*: the slot this step's rounds dispatch */
+    VkSampler linear_sampler;
+} picvr_pipelines;
+
+/* What is rendered: volume, transfer function, lights, camera (host/volume.c,
+   transfer.c, lights.c, camera.c), and their uniform block. */
+typedef struct picvr_scene {
+    picvr_gpu_scene gpu;             /* the uniform block as the kernels read it */
+    picvr_buffer ubo;                /* persistently mapped copy of gpu */
+    int has_volume, has_camera;
+    picvr_image volume;
+    picvr_buffer majorant;           /* majorant grid, then the empty-space distances */
+    uint32_t dims[3];
+    float spacing[3];
+    uint32_t brick, grid[3];
+    float *brick_min, *brick_max;    /* normalized data range per brick, with apron */
+    int use_fine;                    /* some brick needs voxel-level majorants */
+    picvr_image tf_image;
+    picvr_buffer tf_staging;
+    picvr_buffer tf_range_max;       /* sparse table of the opacity column (fine majorants) */
+    float tf_table[PICVR_TF_SIZE * 4];
+    picvr_range_max *tf_rm;
+    float density;
+    int use_phase_mis;               /* some light or the background needs MIS */
+    picvr_camera camera;
+} picvr_scene;
+
+/* The image: accumulation planes, the rendering procedure's queues, block order
+   (host/camera.c). */
+typedef struct picvr_image_state {
+    picvr_buffer planes[3];          /* mean rgba, Kahan terms, (lum mean, M2, n, bad) */
+    picvr_buffer render_queue;       /* header + one uvec4 per block (shaders/queue.glsl) */
+    picvr_buffer shade_queue;        /* the rendering procedure's event queues (shaders/render.glsl): */
+    picvr_buffer lookup_queue;       /* for shading, and with the cache for the lookup */
+    uint32_t block_total;            /* 16x8 blocks of the image */
+    uint32_t block_cursor;           /* position k in the round-robin order (k * stride) mod B */
+    uint32_t block_stride;           /* coprime with block_total, near block_total / golden ratio */
+    uint64_t block_samples;          /* blocks rendered since the accumulation was reset */
+    double elapsed_ms;               /* wall time of the rounds since then */
+} picvr_image_state;
+
+/* The irradiance cache, §4-5 (host/cache.c); nothing allocated when it is off. */
+typedef struct picvr_cache {
+    picvr_cache_config cfg;          /* resolved: no zero fields */
+    int on;
+    int requests_set;                /* the application chose max_requests */
+    picvr_buffer entries, nodes, refs, counters, requests;
+    picvr_buffer prebuilt_nodes;     /* the pre-built top of the octree, copied on rebuild */
+    picvr_buffer superpixels;        /* screen-space locking: locks + ray/miss counters */
+    uint32_t superpixel_count;
+    uint32_t prebuilt;               /* nodes of the pre-built top of the octree */
+    double since_rebuild_ms;
+    uint32_t requests_issued;        /* by the rounds of the last step */
+    uint32_t requests_pending;       /* valid requests the last round queued (each holds a lock) */
+    picvr_cache_counters counts;     /* as read after the last round */
+    uint64_t point_rounds;           /* counts.point_rounds, .truncated, .lookups_cut and */
+    uint64_t truncated;              /* .lookups_spilled wrap at 2^32 on the device; */
+    uint64_t lookups_cut;            /* summed here round by round */
+    uint64_t lookups_spilled;
+} picvr_cache;
+
+/* The scheduler's state, §6-7 (host/schedule.c): no Vulkan here. */
+typedef struct picvr_sched {
+    picvr_scheduler_config cfg;      /* resolved: no zero fields */
+    int use_priorities;
+    double cost[3];                  /* device ms per work package, PROC_*; 0: not measured */
+    double overhead_ms;              /* wall time of a round beyond its device time */
+    double credit_ms[2];             /* PROC_CREATE, PROC_UPDATE: device time owed by the shares */
+    int first_dispatch[3];           /* PROC_*: this round runs a variant for the first time */
+    uint32_t create_batch;           /* entries a creation dispatch waits for (picvr_creation_batch) */
+    picvr_round_record history[PICVR_SCHED_HISTORY];
+    uint32_t history_count;          /* records in history (ring, newest at history_count-1 mod N) */
+    double hit_rate;                 /* over the last hit_rate_window_ms */
+    double target[2];                /* the §6 shares of creation and update now */
+} picvr_sched;
+
+/* Submissions of rounds and their device timestamps (host/rounds.c). */
+typedef struct picvr_rounds {
+    uint32_t count;                  /* rounds since creation: keys the cache procedures' RNG */
+    picvr_buffer readback;           /* cache counters and rendered-block count of a round */
+    VkQueryPool timestamps;          /* PICVR_ROUND_TIMESTAMPS; VK_NULL_HANDLE: none */
+    double timestamp_ns;             /* nanoseconds per timestamp tick */
+    uint64_t timestamp_mask;         /* valid bits */
+} picvr_rounds;
+
+/* Image readback and statistics (host/readback.c). */
+typedef struct picvr_results {
+    picvr_buffer readback;           /* one accumulation plane, host visible */
+    picvr_buffer partials;           /* the stats kernel's per-workgroup sums */
+    int valid;                       /* stats is up to date */
+    picvr_stats stats;
+} picvr_results;
+
+struct picvr_context {
+    picvr_config config;             /* as given to picvr_create (picvr_get_config) */
+    picvr_allocator alloc;
+    picvr_log_fn log;
+    void *log_user;
+    picvr_log_level log_level;
+    uint32_t seed;
+    picvr_device vk;
+    picvr_pipelines pipes;
+    picvr_scene scene;
+    picvr_image_state image;
+    picvr_cache cache;
+    picvr_sched sched;
+    picvr_rounds rounds;
+    picvr_results results;
+};
+
+#define PICVR_VK_TRY(ctx, call) do { picvr_status s_ = picvr_vk_status((ctx), (call), #call); if (s_) return s_; } while (0)
+
+/* Binding layout shared by all kernels (see ARCHITECTURE.md): 0 scene UBO, 1 volume,
+   2 transfer function, 3 majorant grid, 4-6 accumulation planes, 7 stats partials,
+   8 opacity range-max table, 9-13 cache entries, nodes, refs, counters, requests,
+   14 superpixels (screen-space locking), 15 the rendering queue, 16 and 17 the rendering
+   procedure's event queues for shading and for the cache lookup. */
+#define PICVR_NUM_BINDINGS 18
+
+#define PICVR_CACHE_PREBUILT_MAX_DEPTH 4u
+
+#define PICVR_CACHE_NODE_RADII 1.0f     /* as in shaders/cache.glsl (insertion_depth) */
+
+#ifndef PICVR_CACHE_PIXELS_PER_REQUEST
+
+#define PICVR_CACHE_PIXELS_PER_REQUEST 4096u
+
+#endif
+
+/* Timestamps of a round: start, after creation, after rebuild, after update, end. */
+#define PICVR_ROUND_TIMESTAMPS 5u
+
+/* What one round does. */
+typedef struct picvr_round_plan {
+    uint32_t render_blocks;   /* blocks to render (more than the image has: several dispatches) */
+    int whole_passes;         /* round-robin from block 0, priorities ignored (picvr_step_iterations) */
+    uint32_t create_budget;   /* queued requests that become entries this round */
+    uint32_t request_cap;     /* requests this round's rendering may queue */
+    uint32_t update_groups;   /* update work packages */
+    int rebuild;              /* rebuild the octree */
+} picvr_round_plan;
+
+/* What the §6 plan of a round reads of the cache and the image. */
+typedef struct picvr_plan_inputs {
+    int cache_on;
+    uint32_t requests_pending;    /* requests the last round queued: creation's work */
+    uint32_t max_requests;
+    int rebuild_due;              /* the octree rebuild interval has passed */
+    uint32_t block_total;
+} picvr_plan_inputs;
+
+/* The normalization v' = clamp(v * scale + offset, 0, 1) applied to raw voxel values;
+   the shader applies the same to the texture's value (UNORM formats read v / max). */
+typedef struct picvr_value_map { double lo, hi; } picvr_value_map;
+
+#endif /* PICVR_INTERNAL_H */

@@ -1,0 +1,158 @@
+/* host/lights.c - lights and background: validation, packing into the uniform block,
+ * the power that chooses a light, and the scene facts the kernels specialize on
+ * (delta lights only, one chromaticity for every emitter).  Part of picvr_vk.c; uses
+ * util, vulkan, cache, image. */
+
+static picvr_status picvr_validate_light(const picvr_light *l) {
+    if (l->type < PICVR_LIGHT_SPHERE || l->type > PICVR_LIGHT_POINT) return PICVR_ERROR_INVALID_LIGHT;
+    if (!picvr_finite3(l->color) || !isfinite(l->intensity) || !picvr_finite3(l->position) || !isfinite(l->radius) ||
+        !picvr_finite3(l->direction) || !isfinite(l->angular_diameter) || !picvr_finite3(l->edge_u) || !picvr_finite3(l->edge_v))
+        return PICVR_ERROR_NON_FINITE;
+    if (l->intensity < 0.0f || l->color[0] < 0.0f || l->color[1] < 0.0f || l->color[2] < 0.0f)
+        return PICVR_ERROR_INVALID_LIGHT;
+    for (int c = 0; c < 3; c++)   /* colour * intensity must stay a finite float */
+        if ((double)l->color[c] * l->intensity > FLT_MAX) return PICVR_ERROR_INVALID_LIGHT;
+    if (l->type == PICVR_LIGHT_SPHERE && !(l->radius > 0.0f)) return PICVR_ERROR_INVALID_LIGHT;
+    if (l->type == PICVR_LIGHT_RECT) {
+        float n[3];
+        picvr_cross3(l->edge_u, l->edge_v, n);
+        double lu = picvr_len3(l->edge_u), lv = picvr_len3(l->edge_v), ln = picvr_len3(n);
+        if (!(lu > 0.0) || !(lv > 0.0) || !(ln > 1e-6 * lu * lv) || !isfinite(ln)) return PICVR_ERROR_INVALID_LIGHT;
+    }
+    if (l->type == PICVR_LIGHT_DIRECTIONAL &&
+        (!(picvr_len3(l->direction) > 0.0) || l->angular_diameter < 0.0f || l->angular_diameter >= (float)PICVR_PI))
+        return PICVR_ERROR_INVALID_LIGHT;
+    return PICVR_OK;
+}
+
+/* Emitted power used to choose a light (proportional sampling), in double. */
+static double picvr_light_power(const picvr_light *l, double scene_radius) {
+    double lum = picvr_luminance(l->color) * l->intensity;
+    switch (l->type) {
+    case PICVR_LIGHT_SPHERE: return lum * PICVR_PI * 4.0 * PICVR_PI * (double)l->radius * l->radius;
+    case PICVR_LIGHT_RECT: { float n[3]; picvr_cross3(l->edge_u, l->edge_v, n); return lum * PICVR_PI * picvr_len3(n); }
+    case PICVR_LIGHT_DIRECTIONAL: return lum * PICVR_PI * scene_radius * scene_radius;
+    default: return lum * 4.0 * PICVR_PI;
+    }
+}
+
+static void picvr_pack_light(const picvr_light *l, picvr_gpu_light *g) {
+    memset(g, 0, sizeof *g);
+    float rad[3];
+    for (int c = 0; c < 3; c++) rad[c] = l->color[c] * l->intensity;
+    picvr_pack4(g->p0, l->position, (float)l->type);
+    picvr_pack4(g->p1, rad, 0.0f);
+    if (l->type == PICVR_LIGHT_SPHERE) g->p2[3] = l->radius;
+    if (l->type == PICVR_LIGHT_RECT) {
+        float n[3];
+        picvr_cross3(l->edge_u, l->edge_v, n);
+        picvr_pack4(g->p2, l->edge_u, 0.0f);
+        picvr_pack4(g->p3, l->edge_v, (float)picvr_len3(n));
+    }
+    if (l->type == PICVR_LIGHT_DIRECTIONAL) {
+        double inv = 1.0 / picvr_len3(l->direction);
+        float dir[3] = {(float)(l->direction[0] * inv), (float)(l->direction[1] * inv), (float)(l->direction[2] * inv)};
+        picvr_pack4(g->p0, dir, (float)l->type);
+        /* 1 - cos(half angle) = 2 sin^2(half angle / 2), without cancellation.  Rule:
+           cones below 1e-12 sr/(2 pi) are delta lights (their radiance would overflow). */
+        double s = sin(0.25 * l->angular_diameter), omc = 2.0 * s * s;
+        if (omc < 1e-12) omc = 0.0;
+        g->p2[3] = (float)omc;
+        /* colour * intensity is the irradiance on a plane facing the sun:
+           E = L * pi sin^2(h), so L = E / (pi omc (2 - omc)). */
+        if (omc > 0.0)
+            for (int c = 0; c < 3; c++) g->p1[c] = (float)(rad[c] / (PICVR_PI * omc * (2.0 - omc)));
+    }
+}
+
+static int picvr_light_is_delta(const picvr_gpu_light *g) {
+    int type = (int)g->p0[3];
+    return type == PICVR_LIGHT_POINT || (type == PICVR_LIGHT_DIRECTIONAL && g->p2[3] == 0.0f);
+}
+
+/* scene.light_mono: whether every emitter (a light or the background with power) has
+   one chromaticity k, as white lights do.  Transmittance and the phase function are
+   scalars, so the irradiance is then k times one scalar field: an entry's three rates
+   and radii agree, and a cache lookup extrapolates only channel m (k's largest) and
+   adds ln(k_c / k_m) for the others (cache.glsl, predict), a third of the work.  The
+   results are those of the three-channel path up to float rounding, except in an entry
+   whose centre estimate is 0: there the zero rule of Eq. 6 (cache_math.glsl) gives each
+   channel its own rate, while this path keeps the exact ratio k.  Colours count as one
+   chromaticity when they agree to 1e-6 of k_m (cross-multiplied, no division).  No
+   emitter at all: channel 0 with k = (1, 1, 1) (the image is black anyway). */
+static int picvr_emits_light(const float e[3]) { return e[0] > 0.0f || e[1] > 0.0f || e[2] > 0.0f; }
+
+static void picvr_light_chromaticity(const float (*emit)[3], uint32_t n, float out[4]) {
+    const float *k = NULL;
+    for (uint32_t i = 0; i < n && !k; i++)
+        if (picvr_emits_light(emit[i])) k = emit[i];
+    static const float white[3] = {1.0f, 1.0f, 1.0f};
+    if (!k) k = white;
+    int m = k[1] > k[0] ? 1 : 0;
+    if (k[2] > k[m]) m = 2;
+    for (uint32_t i = 0; i < n; i++) {
+        const float *e = emit[i];
+        if (!picvr_emits_light(e)) continue;
+        for (int c = 0; c < 3; c++)
+            if (fabs((double)e[c] * k[m] - (double)k[c] * e[m]) > 1e-6 * (double)e[m] * k[m]) {
+                out[0] = out[1] = out[2] = 0.0f;
+                out[3] = 3.0f;
+                return;
+            }
+    }
+    /* ln(k_c / k_m) > ln(1e-45 / FLT_MAX) > -193: a float; k_c = 0 -> below the code for 0 */
+    for (int c = 0; c < 3; c++)
+        out[c] = k[c] > 0.0f ? (float)log((double)k[c] / k[m]) : -138.2f;
+    out[3] = (float)m;
+}
+
+picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uint32_t count,
+                              const picvr_background *bg) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (count > PICVR_MAX_LIGHTS) return PICVR_ERROR_TOO_MANY_LIGHTS;
+    if (count > 0 && !lights) return PICVR_ERROR_NULL_POINTER;
+    for (uint32_t i = 0; i < count; i++) {
+        picvr_status s = picvr_validate_light(&lights[i]);
+        if (s) return s;
+    }
+    if (bg) {
+        if (!picvr_finite3(bg->color) || !isfinite(bg->intensity)) return PICVR_ERROR_NON_FINITE;
+        if (bg->intensity < 0.0f || bg->color[0] < 0.0f || bg->color[1] < 0.0f || bg->color[2] < 0.0f)
+            return PICVR_ERROR_INVALID_LIGHT;
+        for (int c = 0; c < 3; c++)
+            if ((double)bg->color[c] * bg->intensity > FLT_MAX) return PICVR_ERROR_INVALID_LIGHT;
+    }
+    /* Scene radius for the power of lights at infinity: the volume's bounding sphere
+       (1 before a volume is uploaded; only the ratios matter). */
+    double R = ctx->scene.has_volume ? ctx->scene.gpu.box_size[3] : 1.0;
+    double power[PICVR_MAX_LIGHTS + 1], total = 0.0;
+    for (uint32_t i = 0; i < count; i++) total += power[i] = picvr_light_power(&lights[i], R);
+    double bg_power = bg ? picvr_luminance(bg->color) * bg->intensity * 4.0 * PICVR_PI * PICVR_PI * R * R : 0.0;
+    total += bg_power;
+
+    int mis = 0;
+    double cdf = 0.0;
+    for (uint32_t i = 0; i < count; i++) {
+        picvr_gpu_light *g = &ctx->scene.gpu.lights[i];
+        picvr_pack_light(&lights[i], g);
+        /* Rule: with zero total power every probability is 0 and nothing is sampled. */
+        double pmf = total > 0.0 ? power[i] / total : 0.0;
+        cdf += pmf;
+        g->p1[3] = (float)pmf;
+        g->p4[0] = (float)cdf;
+        if (!picvr_light_is_delta(g) && pmf > 0.0) mis = 1;
+    }
+    float bgr[3] = {0, 0, 0};
+    if (bg) for (int c = 0; c < 3; c++) bgr[c] = bg->color[c] * bg->intensity;
+    picvr_pack4(ctx->scene.gpu.background, bgr, total > 0.0 ? (float)(bg_power / total) : 0.0f);
+    if (bg_power > 0.0) mis = 1;
+    float emit[PICVR_MAX_LIGHTS + 1][3];
+    for (uint32_t i = 0; i < count; i++)
+        for (int c = 0; c < 3; c++) emit[i][c] = power[i] > 0.0 ? ctx->scene.gpu.lights[i].p1[c] : 0.0f;
+    for (int c = 0; c < 3; c++) emit[count][c] = bg_power > 0.0 ? bgr[c] : 0.0f;
+    picvr_light_chromaticity((const float (*)[3])emit, count + 1, ctx->scene.gpu.light_mono);
+    ctx->scene.gpu.grid[3] = count;
+    ctx->scene.use_phase_mis = mis;
+    picvr_status s = picvr_cache_clear(ctx);
+    return s ? s : picvr_clear_accumulation(ctx);
+}

@@ -1,0 +1,257 @@
+/* host/pipelines.c - shader modules, the descriptor set shared by every kernel, and the
+ * pipeline variants: specialization constants compile out what the scene does not use
+ * (phase-function MIS, voxel-level majorants, the debug views, per-channel light), and
+ * each procedure keeps up to PICVR_VARIANT_SLOTS variants.  Part of picvr_vk.c; uses
+ * host/util.c and host/vulkan.c. */
+
+static picvr_status picvr_create_shader(picvr_context *ctx, const uint32_t *code, size_t size, VkShaderModule *out) {
+    VkShaderModuleCreateInfo ci = {VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    ci.codeSize = size;
+    ci.pCode = code;
+    PICVR_VK_TRY(ctx, vkCreateShaderModule(ctx->vk.device, &ci, NULL, out));
+    return PICVR_OK;
+}
+
+static picvr_status picvr_create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPipelineLayout layout,
+                                    const VkSpecializationInfo *spec, VkPipeline *out) {
+    VkComputePipelineCreateInfo ci = {VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = mod;
+    ci.stage.pName = "main";
+    ci.stage.pSpecializationInfo = spec;
+    ci.layout = layout;
+    PICVR_VK_TRY(ctx, vkCreateComputePipelines(ctx->vk.device, VK_NULL_HANDLE, 1, &ci, NULL, out));
+    return PICVR_OK;
+}
+
+/* The bindings only cached contexts write: 9-14 and 17. */
+static int picvr_cache_binding(uint32_t i) { return (i >= 9 && i < 15) || i == 17; }
+
+static VkDescriptorType picvr_binding_type(uint32_t i) {
+    return i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+         : i < 3 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+}
+
+/* The Eq. 12 priority pipeline, made once (at creation with priorities on, or by the
+   first picvr_set_scheduler that turns them on); a module left by a failure is reused
+   next time and destroyed with the context. */
+static picvr_status picvr_create_priority_pipeline(picvr_context *ctx) {
+    picvr_status s = PICVR_OK;
+    if (!ctx->pipes.priority_module)
+        s = picvr_create_shader(ctx, picvr_spv_block_priority, sizeof picvr_spv_block_priority, &ctx->pipes.priority_module);
+    if (!s && !ctx->pipes.priority_pipe)
+        s = picvr_create_pipeline(ctx, ctx->pipes.priority_module, ctx->pipes.layout, NULL, &ctx->pipes.priority_pipe);
+    return s;
+}
+
+/* True when the cached rendering procedure runs its debug-view variant. */
+static int picvr_debug_view_on(const picvr_context *ctx) {
+    return ctx->cache.on && ctx->scene.gpu.view[0] != PICVR_VIEW_IMAGE;
+}
+
+/* The key of procedure proc's variant for the current scene.  Only the constants a
+   procedure reads are in its key, so that a change elsewhere makes no new variant:
+   creation samples light but looks nothing up, the update procedure tracks and looks
+   up but samples no light, plain Monte Carlo looks nothing up.  Not specialized,
+   because measured without gain: the light types present (their code compiled out for
+   bonsai under one sphere light: cached 32.6 / 37.8 iterations a second of rendering
+   time against 35.4 / 41.5 without, plain +0-3 %; 2026-11-30), which would have made
+   a new variant, and a pause, whenever an application turns a light of a new type on. */
+static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
+    uint32_t mis = ctx->scene.use_phase_mis ? PICVR_KEY_PHASE_MIS : 0u, fine = ctx->scene.use_fine ? PICVR_KEY_FINE : 0u;
+    uint32_t mono = (uint32_t)ctx->scene.gpu.light_mono[3] << PICVR_KEY_MONO_SHIFT;
+    if (proc == PICVR_PROC_CREATE) return mis | fine;
+    if (proc == PICVR_PROC_UPDATE) return fine | mono;
+    if (!ctx->cache.on) return mis | fine;
+    return mis | fine | mono | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
+}
+
+/* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
+   the procedure has no such kernel; on a failure none is left).  One set of constants
+   for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
+   creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
+   MAX_LOOKUP_REFS, fixed per context. */
+static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
+    VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
+    if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
+    else if (proc == PICVR_PROC_UPDATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.update_module;
+    else {
+        mod[PICVR_KERNEL_MAIN] = ctx->pipes.track_module;
+        mod[PICVR_KERNEL_SHADE] = ctx->pipes.shade_module;
+        if (ctx->cache.on) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
+    }
+    uint32_t value[7] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP,
+                         (key & PICVR_KEY_DEBUG_VIEW) != 0, (key >> PICVR_KEY_MONO_SHIFT) & 3u,
+                         ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE,
+                         ctx->cache.on ? ctx->cache.cfg.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS};
+    VkSpecializationMapEntry entry[7];
+    for (uint32_t i = 0; i < 7; i++) {
+        entry[i].constantID = i;
+        entry[i].offset = 4 * i;
+        entry[i].size = 4;
+    }
+    VkSpecializationInfo spec = {7, entry, sizeof value, value};
+    picvr_status s = PICVR_OK;
+    for (int k = 0; k < PICVR_KERNELS; k++) {
+        out[k] = VK_NULL_HANDLE;
+        if (!s && mod[k]) s = picvr_create_pipeline(ctx, mod[k], ctx->pipes.layout, &spec, &out[k]);
+    }
+    if (s)
+        for (int k = 0; k < PICVR_KERNELS; k++)
+            if (out[k]) { vkDestroyPipeline(ctx->vk.device, out[k], NULL); out[k] = VK_NULL_HANDLE; }
+    return s;
+}
+
+/* Chooses this step's variant of procedure proc (ctx->now_slot), making it if no slot
+   holds its key, in a free slot or in place of the least recently used one.  Rounds
+   wait for their fence, so between steps no pipeline is in use.  On a failure the
+   slots are as before. */
+static picvr_status picvr_select_variant(picvr_context *ctx, int proc) {
+    uint32_t key = picvr_variant_key(ctx, proc), pick = 0;
+    picvr_variant_slot *t = ctx->pipes.variants[proc];
+    for (uint32_t i = 0; i < PICVR_VARIANT_SLOTS; i++)
+        if (t[i].pipe[PICVR_KERNEL_MAIN] && t[i].key == key) {
+            t[i].used = ctx->pipes.variant_clock;
+            ctx->pipes.current_slot[proc] = i;
+            return PICVR_OK;
+        }
+    for (uint32_t i = 1; i < PICVR_VARIANT_SLOTS && t[pick].pipe[PICVR_KERNEL_MAIN]; i++)
+        if (!t[i].pipe[PICVR_KERNEL_MAIN] || t[i].used < t[pick].used) pick = i;
+    VkPipeline pipe[PICVR_KERNELS];
+    picvr_status s = picvr_create_variant(ctx, proc, key, pipe);
+    if (s) return s;
+    for (int k = 0; k < PICVR_KERNELS; k++) {
+        if (t[pick].pipe[k]) vkDestroyPipeline(ctx->vk.device, t[pick].pipe[k], NULL);
+        t[pick].pipe[k] = pipe[k];
+    }
+    t[pick].key = key;
+    t[pick].used = ctx->pipes.variant_clock;
+    t[pick].dispatched = 0;
+    ctx->pipes.current_slot[proc] = pick;
+    return PICVR_OK;
+}
+
+/* Kernel k of the variant this step dispatches for procedure proc. */
+static VkPipeline picvr_current_kernel(const picvr_context *ctx, int proc, int k) {
+    return ctx->pipes.variants[proc][ctx->pipes.current_slot[proc]].pipe[k];
+}
+
+static VkPipeline picvr_current_pipeline(const picvr_context *ctx, int proc) { return picvr_current_kernel(ctx, proc, PICVR_KERNEL_MAIN); }
+
+/* The pipeline variants of every procedure the context runs, for the current scene. */
+static picvr_status picvr_select_variants(picvr_context *ctx) {
+    ctx->pipes.variant_clock++;
+    picvr_status s = picvr_select_variant(ctx, PICVR_PROC_RENDER);
+    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_CREATE);
+    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_UPDATE);
+    return s;
+}
+
+static picvr_status picvr_create_pipelines(picvr_context *ctx) {
+    VkDescriptorSetLayoutBinding b[PICVR_NUM_BINDINGS];
+    memset(b, 0, sizeof b);
+    for (uint32_t i = 0; i < PICVR_NUM_BINDINGS; i++) {
+        b[i].binding = i;
+        b[i].descriptorType = picvr_binding_type(i);
+        b[i].descriptorCount = 1;
+        b[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+    }
+    VkDescriptorSetLayoutCreateInfo li = {VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+    li.bindingCount = PICVR_NUM_BINDINGS;
+    li.pBindings = b;
+    PICVR_VK_TRY(ctx, vkCreateDescriptorSetLayout(ctx->vk.device, &li, NULL, &ctx->pipes.set_layout));
+
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};   /* four words, every kernel */
+    VkPipelineLayoutCreateInfo pl = {VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    pl.setLayoutCount = 1;
+    pl.pSetLayouts = &ctx->pipes.set_layout;
+    pl.pushConstantRangeCount = 1;
+    pl.pPushConstantRanges = &pcr;
+    PICVR_VK_TRY(ctx, vkCreatePipelineLayout(ctx->vk.device, &pl, NULL, &ctx->pipes.layout));
+    PICVR_VK_TRY(ctx, vkCreatePipelineLayout(ctx->vk.device, &pl, NULL, &ctx->pipes.stats_layout));
+
+    VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
+                                     {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, PICVR_NUM_BINDINGS - 3}};
+    VkDescriptorPoolCreateInfo pi = {VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    pi.maxSets = 1;
+    pi.poolSizeCount = 3;
+    pi.pPoolSizes = sizes;
+    PICVR_VK_TRY(ctx, vkCreateDescriptorPool(ctx->vk.device, &pi, NULL, &ctx->pipes.desc_pool));
+    VkDescriptorSetAllocateInfo ai = {VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    ai.descriptorPool = ctx->pipes.desc_pool;
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &ctx->pipes.set_layout;
+    PICVR_VK_TRY(ctx, vkAllocateDescriptorSets(ctx->vk.device, &ai, &ctx->pipes.set));
+
+    picvr_status s = ctx->cache.on
+        ? picvr_create_shader(ctx, picvr_spv_render_track_cache, sizeof picvr_spv_render_track_cache, &ctx->pipes.track_module)
+        : picvr_create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->pipes.track_module);
+    if (!s) s = picvr_create_shader(ctx, picvr_spv_render_shade, sizeof picvr_spv_render_shade, &ctx->pipes.shade_module);
+    if (!s) s = picvr_create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->pipes.stats_module);
+    if (!s) s = picvr_create_shader(ctx, picvr_spv_block_select, sizeof picvr_spv_block_select, &ctx->pipes.select_module);
+    if (!s) s = picvr_create_pipeline(ctx, ctx->pipes.select_module, ctx->pipes.layout, NULL, &ctx->pipes.select_pipe);
+    if (!s && ctx->sched.use_priorities) s = picvr_create_priority_pipeline(ctx);
+    if (!s && ctx->cache.on && picvr_on_cpu_device(ctx) &&
+        ctx->cache.cfg.max_samples > PICVR_CACHE_MAX_SAMPLES_CPU) {
+        picvr_log_message(ctx, PICVR_LOG_ERROR, "cache.max_samples %u: at most %u on a CPU device (loop bound)",
+              ctx->cache.cfg.max_samples, PICVR_CACHE_MAX_SAMPLES_CPU);
+        s = PICVR_ERROR_INVALID_ARGUMENT;
+    }
+    if (!s && ctx->cache.on) {
+        s = picvr_create_shader(ctx, picvr_spv_render_lookup, sizeof picvr_spv_render_lookup, &ctx->pipes.lookup_module);
+        if (!s) s = picvr_create_shader(ctx, picvr_spv_cache_create, sizeof picvr_spv_cache_create, &ctx->pipes.create_module);
+        if (!s) s = picvr_create_shader(ctx, picvr_spv_cache_update, sizeof picvr_spv_cache_update, &ctx->pipes.update_module);
+        if (!s) s = picvr_create_shader(ctx, picvr_spv_cache_rebuild, sizeof picvr_spv_cache_rebuild, &ctx->pipes.rebuild_module);
+        if (!s) s = picvr_create_pipeline(ctx, ctx->pipes.rebuild_module, ctx->pipes.layout, NULL, &ctx->pipes.rebuild_pipe);
+    }
+    if (s) return s;
+    /* The procedures' pipelines are variants made by the steps (picvr_select_variant). */
+    return picvr_create_pipeline(ctx, ctx->pipes.stats_module, ctx->pipes.stats_layout, NULL, &ctx->pipes.stats_pipe);
+}
+
+static picvr_status picvr_create_sampler(picvr_context *ctx) {
+    VkSamplerCreateInfo si = {VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    si.magFilter = si.minFilter = VK_FILTER_LINEAR;
+    si.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    si.addressModeU = si.addressModeV = si.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    si.maxLod = 0.0f;
+    PICVR_VK_TRY(ctx, vkCreateSampler(ctx->vk.device, &si, NULL, &ctx->pipes.linear_sampler));
+    return PICVR_OK;
+}
+
+static void picvr_update_descriptors(picvr_context *ctx) {
+    if (!ctx->pipes.descriptors_dirty) return;
+    VkDescriptorBufferInfo ubo = {ctx->scene.ubo.buf, 0, VK_WHOLE_SIZE};
+    VkDescriptorImageInfo vol = {ctx->pipes.linear_sampler, ctx->scene.volume.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkDescriptorImageInfo tf = {ctx->pipes.linear_sampler, ctx->scene.tf_image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkDescriptorBufferInfo bufs[PICVR_NUM_BINDINGS - 3] = {
+        {ctx->scene.majorant.buf, 0, VK_WHOLE_SIZE}, {ctx->image.planes[0].buf, 0, VK_WHOLE_SIZE},
+        {ctx->image.planes[1].buf, 0, VK_WHOLE_SIZE}, {ctx->image.planes[2].buf, 0, VK_WHOLE_SIZE},
+        {ctx->results.partials.buf, 0, VK_WHOLE_SIZE}, {ctx->scene.tf_range_max.buf, 0, VK_WHOLE_SIZE},
+        {ctx->cache.entries.buf, 0, VK_WHOLE_SIZE}, {ctx->cache.nodes.buf, 0, VK_WHOLE_SIZE},
+        {ctx->cache.refs.buf, 0, VK_WHOLE_SIZE}, {ctx->cache.counters.buf, 0, VK_WHOLE_SIZE},
+        {ctx->cache.requests.buf, 0, VK_WHOLE_SIZE}, {ctx->cache.superpixels.buf, 0, VK_WHOLE_SIZE},
+        {ctx->image.render_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->image.shade_queue.buf, 0, VK_WHOLE_SIZE},
+        {ctx->image.lookup_queue.buf, 0, VK_WHOLE_SIZE}};
+    VkWriteDescriptorSet w[PICVR_NUM_BINDINGS];
+    memset(w, 0, sizeof w);
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < PICVR_NUM_BINDINGS; i++) {
+        /* The cache bindings stay unwritten when the cache is off: no pipeline then uses them. */
+        if (!ctx->cache.on && picvr_cache_binding(i)) continue;
+        w[n].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        w[n].dstSet = ctx->pipes.set;
+        w[n].dstBinding = i;
+        w[n].descriptorCount = 1;
+        w[n].descriptorType = picvr_binding_type(i);
+        if (i == 0) w[n].pBufferInfo = &ubo;
+        else if (i == 1) w[n].pImageInfo = &vol;
+        else if (i == 2) w[n].pImageInfo = &tf;
+        else w[n].pBufferInfo = &bufs[i - 3];
+        n++;
+    }
+    vkUpdateDescriptorSets(ctx->vk.device, n, w, 0, NULL);
+    ctx->pipes.descriptors_dirty = 0;
+}

@@ -1,0 +1,180 @@
+/* host/schedule.c - the scheduler's formulas, paper §6: the hit rate over a window of
+ * rounds, the target shares t = t_min + (1 - h^e_c)(t_max - t_min) of cache-entry
+ * creation and update, the credit that keeps each procedure at its share of device
+ * time, the cost model (device time per work package), and the plan of a round.  Plain
+ * arithmetic on picvr_sched: no Vulkan, no other part of the context.  Part of
+ * picvr_vk.c; uses host/util.c. */
+
+static picvr_status picvr_resolve_scheduler_config(const picvr_scheduler_config *in, picvr_scheduler_config *c) {
+    *c = *in;
+    if ((unsigned)c->priorities > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->priorities == PICVR_SWITCH_DEFAULT) c->priorities = PICVR_SWITCH_ON;
+    float *f[7] = {&c->create_min, &c->create_max, &c->update_min, &c->update_max, &c->exponent,
+                   &c->rounds_per_second, &c->hit_rate_window_ms};
+    const float def[7] = {0.05f, 0.15f, 0.01f, 0.02f, 3.0f, 20.0f, 100.0f};
+    for (int i = 0; i < 7; i++) {
+        if (!isfinite(*f[i])) return PICVR_ERROR_NON_FINITE;
+        if (*f[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+        if (*f[i] == 0.0f) *f[i] = def[i];
+    }
+    /* a pair given as (min, 0) keeps max at its default only if that is >= min */
+    if (c->create_min > c->create_max || c->update_min > c->update_max) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->create_max + c->update_max > 0.9f) return PICVR_ERROR_INVALID_ARGUMENT;  /* rendering keeps >= 10% */
+    if (c->rounds_per_second > 1000.0f || c->rounds_per_second < 1.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+    return PICVR_OK;
+}
+
+static double picvr_moving_average(double old, double now) { return old > 0.0 ? 0.7 * old + 0.3 * now : now; }
+
+/* The hit rate over the last hit_rate_window_ms of rounds (at least the last round). */
+static double picvr_window_hit_rate(const picvr_sched *sc, double now) {
+    uint64_t hits = 0, events = 0;
+    uint32_t n = sc->history_count < PICVR_SCHED_HISTORY ? sc->history_count : PICVR_SCHED_HISTORY;
+    for (uint32_t k = 0; k < n; k++) {
+        const picvr_round_record *r = &sc->history[(sc->history_count - 1 - k) % PICVR_SCHED_HISTORY];
+        if (k > 0 && r->end_ms < now - sc->cfg.hit_rate_window_ms) break;
+        hits += r->hits;
+        events += (uint64_t)r->hits + r->misses;
+    }
+    return events ? (double)hits / (double)events : 0.0;
+}
+
+/* §6: t = t_min + (1 - h^e) (t_max - t_min), for creation and update. */
+static void picvr_update_targets(picvr_sched *sc, int cache_on) {
+    const picvr_scheduler_config *c = &sc->cfg;
+    double f = 1.0 - pow(sc->hit_rate, c->exponent);
+    sc->target[PICVR_PROC_CREATE] = cache_on ? c->create_min + f * (c->create_max - c->create_min) : 0.0;
+    sc->target[PICVR_PROC_UPDATE] = cache_on ? c->update_min + f * (c->update_max - c->update_min) : 0.0;
+}
+
+/* An empty cache: the hit rate restarts from 0. */
+static void picvr_sched_forget_hits(picvr_sched *sc, int cache_on) {
+    for (uint32_t i = 0; i < PICVR_SCHED_HISTORY; i++) sc->history[i].hits = sc->history[i].misses = 0;
+    sc->hit_rate = 0.0;
+    picvr_update_targets(sc, cache_on);
+}
+
+/* After a round: the procedure was owed its target share of the round's device time
+   and used dev_ms.  Rules: the credit stays below one round's share plus one batch of
+   packages, so a stretch without work (no requests) is not paid back later in a burst;
+   the debt stays below one round's share plus this round's use (or one batch if more),
+   so a dispatch that ran long (entries vary several-fold in cost) is paid back in full -
+   forgiving it made creation overshoot its share by 15-20 % with batches - but debts do
+   not pile up beyond that. */
+static void picvr_settle_credit(picvr_sched *sc, int proc, double device_total, double dev_ms) {
+    double c = sc->credit_ms[proc] + sc->target[proc] * device_total - dev_ms;
+    double batch = proc == PICVR_PROC_CREATE ? sc->create_batch : 1.0;
+    double share = sc->target[proc] * 1000.0 / sc->cfg.rounds_per_second;
+    double hi = share + batch * sc->cost[proc];
+    double lo = -(share + (dev_ms > batch * sc->cost[proc] ? dev_ms : batch * sc->cost[proc]));
+    sc->credit_ms[proc] = c > hi ? hi : c < lo ? lo : c;
+}
+
+/* Packages a procedure may run this round: the device time it is owed (its credit,
+   settled against the measured time after every round in picvr_settle_credit) plus its share
+   of this round, in whole packages of the estimated cost.  Because the credit is
+   settled with measured times, an estimate that is off (packages of varying cost, a
+   cost that drifts as the cache fills) does not bias the long-run share, and a package
+   longer than one round's share still runs every few rounds.
+   A procedure runs only when it is owed at least `batch` packages (picvr_creation_batch).
+   Rule: an unmeasured cost (first round) allows one batch. */
+static uint32_t picvr_sched_packages(const picvr_sched *sc, int proc, double share_ms, uint32_t available, uint32_t batch) {
+    if (sc->cost[proc] <= 0.0) return available < batch ? available : batch;
+    double owed = (sc->credit_ms[proc] + share_ms) / sc->cost[proc];
+    if (!(owed >= (double)batch)) return 0;           /* also NaN */
+    return owed < (double)available ? (uint32_t)owed : available;
+}
+
+/* Plans a round of round_ms of device time by the §6 shares and the measured costs. */
+static picvr_round_plan picvr_sched_plan(const picvr_sched *sc, double round_ms, const picvr_plan_inputs *in) {
+    picvr_round_plan p;
+    memset(&p, 0, sizeof p);
+    double avail = round_ms - sc->overhead_ms;
+    if (avail < 0.1 * round_ms) avail = 0.1 * round_ms;
+    double left = avail;
+    const double *cost = sc->cost;
+    if (in->cache_on) {
+        double create_ms = sc->target[PICVR_PROC_CREATE] * avail, update_ms = sc->target[PICVR_PROC_UPDATE] * avail;
+        p.create_budget = picvr_sched_packages(sc, PICVR_PROC_CREATE, create_ms, in->requests_pending, sc->create_batch);
+        p.update_groups = picvr_sched_packages(sc, PICVR_PROC_UPDATE, update_ms, UINT32_MAX, 1);
+        /* requests for the next round: what its creation share can take, at least one batch */
+        double next = cost[PICVR_PROC_CREATE] > 0.0 ? ceil(create_ms / cost[PICVR_PROC_CREATE]) : 4.0;
+        if (next < sc->create_batch) next = sc->create_batch;
+        p.request_cap = next > in->max_requests ? in->max_requests : (uint32_t)next;
+        p.rebuild = in->rebuild_due;
+        /* Work conserving: time creation and update cannot use goes to rendering. */
+        left -= p.create_budget * cost[PICVR_PROC_CREATE] + p.update_groups * cost[PICVR_PROC_UPDATE];
+    }
+    double blocks = cost[PICVR_PROC_RENDER] > 0.0 ? left / cost[PICVR_PROC_RENDER] : 32.0;
+    p.render_blocks = blocks < 1.0 ? 1 : blocks > 64.0 * in->block_total ? 64 * in->block_total : (uint32_t)blocks;
+    return p;
+}
+
+/* After a round: the cost model (device ms per work package of each procedure), the
+   credit of creation and update, and the overhead of a round beyond its device time.
+   dev: the round's device time per procedure (PROC_*), rebuild_ms the part of
+   dev[PROC_UPDATE] the octree rebuild took; created, update_groups and blocks: the work
+   packages the procedures ran. */
+static void picvr_sched_account(picvr_sched *sc, const double dev[3], double rebuild_ms, uint32_t created,
+                                uint32_t update_groups, uint32_t blocks, double wall_ms, int cache_on) {
+    /* Rule: a pipeline variant's first dispatch neither enters the cost model nor is
+       charged to its procedure's credit.  llvmpipe compiles a pipeline at its first
+       dispatch, inside the round's timestamps (../shared/LAVAPIPE.md); taken for the
+       procedure's own cost, that time held the update procedure (1 % of a round) back
+       for seconds of credit with a cold shader cache. */
+    const int *first = sc->first_dispatch;
+    /* Rule: a creation dispatch of fewer entries than a batch costs what a full batch
+       does (picvr_creation_batch), so its cost per entry is its time over the batch. */
+    if (created > 0 && !first[PICVR_PROC_CREATE])
+        sc->cost[PICVR_PROC_CREATE] = picvr_moving_average(sc->cost[PICVR_PROC_CREATE],
+            dev[PICVR_PROC_CREATE] / (created > sc->create_batch ? created : sc->create_batch));
+    if (update_groups > 0 && !first[PICVR_PROC_UPDATE])
+        sc->cost[PICVR_PROC_UPDATE] = picvr_moving_average(sc->cost[PICVR_PROC_UPDATE],
+                                                           (dev[PICVR_PROC_UPDATE] - rebuild_ms) / update_groups);
+    if (blocks > 0 && !first[PICVR_PROC_RENDER])
+        sc->cost[PICVR_PROC_RENDER] = picvr_moving_average(sc->cost[PICVR_PROC_RENDER], dev[PICVR_PROC_RENDER] / blocks);
+    double device_total = dev[0] + dev[1] + dev[2];
+    if (cache_on) {
+        if (!first[PICVR_PROC_CREATE]) picvr_settle_credit(sc, PICVR_PROC_CREATE, device_total, dev[PICVR_PROC_CREATE]);
+        /* The update procedure's share (Table 1: 1-2 %) is its own: the octree rebuild
+           runs on top (rendering gives way), though the stats count it as update time
+           (octree maintenance).  Charged to the update's credit, it took most of that
+           share as the cache grew. */
+        if (!first[PICVR_PROC_UPDATE])
+            picvr_settle_credit(sc, PICVR_PROC_UPDATE, device_total, dev[PICVR_PROC_UPDATE] - rebuild_ms);
+    }
+    sc->overhead_ms = picvr_moving_average(sc->overhead_ms, wall_ms > device_total ? wall_ms - device_total : 1e-3);
+}
+
+/* Remembers a round that ended at end_ms (for the shares of the stats and the hit-rate
+   window) and moves the hit rate and the §6 targets on. */
+static void picvr_sched_record(picvr_sched *sc, double end_ms, const double dev[3], uint32_t hits, uint32_t misses,
+                               int cache_on) {
+    picvr_round_record *r = &sc->history[sc->history_count % PICVR_SCHED_HISTORY];
+    r->end_ms = end_ms;
+    for (int i = 0; i < 3; i++) r->device_ms[i] = dev[i];
+    r->hits = hits;
+    r->misses = misses;
+    sc->history_count++;
+    sc->hit_rate = picvr_window_hit_rate(sc, end_ms);
+    picvr_update_targets(sc, cache_on);
+}
+
+/* stats.fraction_*: each procedure's share of the device time of the rounds that ended
+   in the last SHARE_WINDOW_MS; target_*: the §6 shares now. */
+static void picvr_sched_shares(const picvr_sched *sc, picvr_stats *st) {
+    double sum[3] = {0, 0, 0};
+    uint32_t n = sc->history_count < PICVR_SCHED_HISTORY ? sc->history_count : PICVR_SCHED_HISTORY;
+    double newest = n ? sc->history[(sc->history_count - 1) % PICVR_SCHED_HISTORY].end_ms : 0.0;
+    for (uint32_t k = 0; k < n; k++) {
+        const picvr_round_record *r = &sc->history[(sc->history_count - 1 - k) % PICVR_SCHED_HISTORY];
+        if (r->end_ms < newest - PICVR_SHARE_WINDOW_MS) break;
+        for (int i = 0; i < 3; i++) sum[i] += r->device_ms[i];
+    }
+    double total = sum[0] + sum[1] + sum[2];
+    st->fraction_create = total > 0.0 ? sum[PICVR_PROC_CREATE] / total : 0.0;
+    st->fraction_update = total > 0.0 ? sum[PICVR_PROC_UPDATE] / total : 0.0;
+    st->fraction_render = total > 0.0 ? sum[PICVR_PROC_RENDER] / total : 0.0;
+    st->target_create = sc->target[PICVR_PROC_CREATE];
+    st->target_update = sc->target[PICVR_PROC_UPDATE];
+}

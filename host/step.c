@@ -1,0 +1,106 @@
+/* host/step.c - picvr_step (rounds until the time budget is spent, sized by the §6
+ * shares) and picvr_step_iterations (whole passes with a fixed split, for tests and
+ * offline rendering), and picvr_prepare.  Part of picvr_vk.c; uses util, vulkan,
+ * schedule, pipelines, cache, image, rounds. */
+
+/* The scene's uniform block and the descriptors, as the next dispatches read them. */
+static picvr_status picvr_upload_scene(picvr_context *ctx) {
+    if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
+    if (!ctx->scene.has_volume || !ctx->scene.has_camera) return PICVR_ERROR_NOT_READY;
+    memcpy(ctx->scene.ubo.mapped, &ctx->scene.gpu, sizeof ctx->scene.gpu);
+    picvr_buffer_flush(ctx, &ctx->scene.ubo);
+    picvr_update_descriptors(ctx);
+    return PICVR_OK;
+}
+
+static picvr_status picvr_prepare_render(picvr_context *ctx) {
+    picvr_status s = picvr_upload_scene(ctx);   /* first: it checks that the scene is ready */
+    return s ? s : picvr_select_variants(ctx);
+}
+
+picvr_status picvr_prepare(picvr_context *ctx) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
+    if (!ctx->scene.has_volume) return PICVR_ERROR_NOT_READY;   /* dense media choose USE_FINE */
+    return picvr_select_variants(ctx);
+}
+
+/* What the plan of a timed round needs to know of the cache and the image. */
+static picvr_plan_inputs picvr_plan_inputs_now(const picvr_context *ctx) {
+    picvr_plan_inputs in;
+    in.cache_on = ctx->cache.on;
+    in.requests_pending = ctx->cache.requests_pending;
+    in.max_requests = ctx->cache.cfg.max_requests;
+    in.rebuild_due = ctx->cache.since_rebuild_ms >= ctx->cache.cfg.rebuild_interval_ms;
+    in.block_total = ctx->image.block_total;
+    return in;
+}
+
+/* picvr_step: rounds until `budget_ms` of wall time have passed (at least one round). */
+static picvr_status picvr_step_time(picvr_context *ctx, double budget_ms) {
+    picvr_status s = picvr_prepare_render(ctx);
+    if (s) return s;
+    ctx->cache.requests_issued = 0;
+    double start = picvr_clock_ms(), round_ms = 1000.0 / ctx->sched.cfg.rounds_per_second;
+    do {
+        double left = budget_ms - (picvr_clock_ms() - start);
+        picvr_plan_inputs in = picvr_plan_inputs_now(ctx);
+        picvr_round_plan p = picvr_sched_plan(&ctx->sched, left < round_ms ? left : round_ms, &in);
+        if ((s = picvr_run_round(ctx, &p))) return s;
+        /* Rule: a remainder under a tenth of a round is not worth a round's fixed costs. */
+    } while (budget_ms - (picvr_clock_ms() - start) > 0.1 * round_ms);
+    return PICVR_OK;
+}
+
+/* The fixed split of picvr_step_iterations: unless the application set max_requests,
+   one request per CACHE_PIXELS_PER_REQUEST pixels per pass. */
+static uint32_t picvr_pass_request_cap(const picvr_context *ctx) {
+    if (ctx->cache.requests_set) return ctx->cache.cfg.max_requests;
+    uint64_t per = ((uint64_t)ctx->scene.camera.width * ctx->scene.camera.height) / PICVR_CACHE_PIXELS_PER_REQUEST;
+    return per < 1 ? 1 : per < ctx->cache.cfg.max_requests ? (uint32_t)per : ctx->cache.cfg.max_requests;
+}
+
+/* picvr_step_iterations: whole passes over the image, priorities ignored, so that every
+   pixel gets exactly `passes` samples.  With the cache, one pass per round and a fixed
+   split that does not depend on timing: every request of a pass (at most the
+   per-iteration request cap) is created in the next round and 1/16 of the blocks are
+   updated.  Without it, passes are batched into rounds of about BATCH_TARGET_MS. */
+static picvr_status picvr_step_passes(picvr_context *ctx, uint32_t passes) {
+    picvr_status s = picvr_prepare_render(ctx);
+    if (s) return s;
+    ctx->cache.requests_issued = 0;
+    ctx->image.block_cursor = 0;
+    for (uint32_t done = 0; done < passes;) {
+        picvr_round_plan p;
+        memset(&p, 0, sizeof p);
+        p.whole_passes = 1;
+        uint32_t k = 1;
+        if (ctx->cache.on) {
+            p.create_budget = UINT32_MAX;
+            p.request_cap = picvr_pass_request_cap(ctx);
+            p.update_groups = (ctx->image.block_total + 15) / 16;
+            p.rebuild = ctx->cache.since_rebuild_ms >= ctx->cache.cfg.rebuild_interval_ms;
+        } else if (ctx->sched.cost[PICVR_PROC_RENDER] > 0.0) {
+            double fit = PICVR_BATCH_TARGET_MS / (ctx->sched.cost[PICVR_PROC_RENDER] * ctx->image.block_total);
+            k = fit < 1.0 ? 1u : fit > PICVR_MAX_BATCH ? PICVR_MAX_BATCH : (uint32_t)fit;
+        }
+        if (k > passes - done) k = passes - done;
+        p.render_blocks = k * ctx->image.block_total;
+        if ((s = picvr_run_round(ctx, &p))) return s;
+        done += k;
+    }
+    return PICVR_OK;
+}
+
+picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (!isfinite(milliseconds)) return PICVR_ERROR_NON_FINITE;   /* the NaN/Inf convention */
+    if (milliseconds < 0.0) return PICVR_ERROR_INVALID_ARGUMENT;
+    return picvr_step_time(ctx, milliseconds);
+}
+
+picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (iterations == 0) return PICVR_OK;
+    return picvr_step_passes(ctx, iterations);
+}

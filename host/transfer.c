@@ -1,0 +1,75 @@
+/* host/transfer.c - the transfer function: validated control points, tabulated into a
+ * 1D texture the kernels sample; a new one rebuilds the majorants, empties the cache
+ * and restarts the image.  Part of picvr_vk.c; uses util, vulkan, cache, image,
+ * majorant. */
+
+/* Piecewise-linear evaluation at v, constant beyond the end points; at a step
+   (equal values) the later point wins. */
+static void picvr_tf_eval(const picvr_tf_point *p, uint32_t n, float v, float out[4]) {
+    uint32_t i = 0;
+    while (i < n && p[i].value <= v) i++;
+    const picvr_tf_point *a = &p[i == 0 ? 0 : i - 1], *b = &p[i == n ? n - 1 : i];
+    float span = b->value - a->value;
+    float f = span > 0.0f ? (v - a->value) / span : 0.0f;   /* rule: no division by a zero span */
+    for (int c = 0; c < 3; c++) out[c] = a->albedo[c] + f * (b->albedo[c] - a->albedo[c]);
+    out[3] = a->opacity + f * (b->opacity - a->opacity);
+}
+
+static picvr_status picvr_upload_tf_table(picvr_context *ctx) {
+    memcpy(ctx->scene.tf_staging.mapped, ctx->scene.tf_table, sizeof ctx->scene.tf_table);
+    picvr_buffer_flush(ctx, &ctx->scene.tf_staging);
+    picvr_status s = picvr_cmd_begin(ctx);
+    if (s) return s;
+    picvr_image_barrier(ctx, ctx->scene.tf_image.img, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    VkBufferImageCopy region = {0};
+    region.imageSubresource = (VkImageSubresourceLayers){VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = (VkExtent3D){PICVR_TF_SIZE, 1, 1};
+    vkCmdCopyBufferToImage(ctx->vk.cmd, ctx->scene.tf_staging.buf, ctx->scene.tf_image.img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    picvr_image_barrier(ctx, ctx->scene.tf_image.img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    s = picvr_cmd_submit_wait(ctx);
+    ctx->pipes.descriptors_dirty = 1;
+    return s;
+}
+
+static picvr_status picvr_validate_tf(const picvr_tf_point *p, uint32_t n, float density) {
+    if (!p) return PICVR_ERROR_NULL_POINTER;
+    if (n == 0 || n > PICVR_MAX_TF_POINTS) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
+    if (!isfinite(density)) return PICVR_ERROR_NON_FINITE;
+    if (density < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+    for (uint32_t i = 0; i < n; i++) {
+        if (!isfinite(p[i].value) || !picvr_finite3(p[i].albedo) || !isfinite(p[i].opacity)) return PICVR_ERROR_NON_FINITE;
+        if (p[i].value < 0.0f || p[i].value > 1.0f || p[i].opacity < 0.0f) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
+        for (int c = 0; c < 3; c++)
+            if (p[i].albedo[c] < 0.0f || p[i].albedo[c] > 1.0f) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
+        if (i > 0 && p[i].value < p[i - 1].value) return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
+        /* sigma_t = D * opacity must fit a float */
+        if ((double)p[i].opacity * density > FLT_MAX) return PICVR_ERROR_INVALID_ARGUMENT;
+    }
+    return PICVR_OK;
+}
+
+static picvr_status picvr_apply_tf(picvr_context *ctx, const picvr_tf_point *p, uint32_t n, float density) {
+    for (int i = 0; i < PICVR_TF_SIZE; i++) picvr_tf_eval(p, n, (float)i / (PICVR_TF_SIZE - 1), &ctx->scene.tf_table[i * 4]);
+    ctx->scene.density = density;
+    ctx->scene.gpu.box_min[3] = density;
+    picvr_range_max_build(ctx->scene.tf_rm, ctx->scene.tf_table);
+    picvr_status s = picvr_upload_tf_table(ctx);
+    if (!s) s = picvr_upload_buffer(ctx, &ctx->scene.tf_range_max, ctx->scene.tf_rm, sizeof *ctx->scene.tf_rm);
+    if (!s) s = picvr_update_majorant(ctx);
+    if (!s) s = picvr_cache_clear(ctx);
+    if (!s) s = picvr_clear_accumulation(ctx);
+    return s;
+}
+
+static picvr_status picvr_default_transfer_function(picvr_context *ctx) {
+    picvr_tf_point ramp[2] = {{0.0f, {1, 1, 1}, 0.0f}, {1.0f, {1, 1, 1}, 1.0f}};
+    return picvr_apply_tf(ctx, ramp, 2, 1.0f);
+}
+
+picvr_status picvr_set_transfer_function(picvr_context *ctx, const picvr_tf_point *points,
+                                         uint32_t count, float density) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    picvr_status s = picvr_validate_tf(points, count, density);
+    if (s) return s;
+    return picvr_apply_tf(ctx, points, count, density);
+}

@@ -1,0 +1,251 @@
+/* host/volume.c - uploading a volume: validation against overflow and device limits,
+ * the value range, the 3D image (float data as R16_UNORM where R32F cannot be
+ * filtered), the bricks of the majorant grid and the world box.  Part of picvr_vk.c;
+ * uses util, vulkan, cache, image, majorant. */
+
+static size_t picvr_voxel_bytes(picvr_voxel_type t) {
+    return t == PICVR_VOXEL_UINT8 ? 1 : t == PICVR_VOXEL_UINT16 ? 2 : t == PICVR_VOXEL_FLOAT32 ? 4 : 0;
+}
+
+/* Reads voxel i as a double. */
+static double picvr_voxel_at(const picvr_volume_desc *d, size_t i) {
+    switch (d->type) {
+    case PICVR_VOXEL_UINT8: return ((const uint8_t *)d->data)[i];
+    case PICVR_VOXEL_UINT16: return ((const uint16_t *)d->data)[i];
+    default: return ((const float *)d->data)[i];
+    }
+}
+
+static double picvr_normalize_value(picvr_value_map m, double v) {
+    /* Rule: a degenerate range (constant float data) maps v to clamp(v, 0, 1). */
+    double x = m.hi > m.lo ? (v - m.lo) / (m.hi - m.lo) : v;
+    return x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
+}
+
+static picvr_status picvr_validate_volume(picvr_context *ctx, const picvr_volume_desc *d, size_t *bytes) {
+    if (!d || !d->data) return PICVR_ERROR_NULL_POINTER;
+    if (d->dims[0] == 0 || d->dims[1] == 0 || d->dims[2] == 0) return PICVR_ERROR_INVALID_DIMENSIONS;
+    size_t bpv = picvr_voxel_bytes(d->type);
+    if (!bpv) return PICVR_ERROR_UNSUPPORTED_TYPE;
+    if (!picvr_finite3(d->spacing) || !isfinite(d->value_min) || !isfinite(d->value_max)) return PICVR_ERROR_NON_FINITE;
+    for (int i = 0; i < 3; i++)
+        if (d->spacing[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (d->value_max < d->value_min) return PICVR_ERROR_INVALID_ARGUMENT;
+    uint64_t n = d->dims[0];
+    for (int i = 1; i < 3; i++) {
+        if (n > UINT64_MAX / d->dims[i]) return PICVR_ERROR_SIZE_OVERFLOW;
+        n *= d->dims[i];
+    }
+    if (n > (uint64_t)SIZE_MAX / bpv) return PICVR_ERROR_SIZE_OVERFLOW;
+    uint32_t lim = ctx->vk.props.limits.maxImageDimension3D;
+    if (d->dims[0] > lim || d->dims[1] > lim || d->dims[2] > lim) {
+        picvr_log_message(ctx, PICVR_LOG_WARNING, "volume exceeds maxImageDimension3D = %u", lim);
+        return PICVR_ERROR_SIZE_OVERFLOW;
+    }
+    *bytes = (size_t)n * bpv;
+    return PICVR_OK;
+}
+
+/* Data range for normalization, and (float32) the finiteness check. */
+static picvr_status picvr_volume_range(const picvr_volume_desc *d, size_t n, picvr_value_map *m) {
+    int given = d->value_min != 0.0f || d->value_max != 0.0f;
+    if (d->type != PICVR_VOXEL_FLOAT32) {
+        m->lo = given ? d->value_min : 0.0;
+        m->hi = given ? d->value_max : d->type == PICVR_VOXEL_UINT8 ? 255.0 : 65535.0;
+        return PICVR_OK;
+    }
+    /* float32: always scanned, every voxel must be finite */
+    const float *f = d->data;
+    double lo = INFINITY, hi = -INFINITY;
+    for (size_t i = 0; i < n; i++) {
+        if (!isfinite(f[i])) return PICVR_ERROR_NON_FINITE;
+        if (f[i] < lo) lo = f[i];
+        if (f[i] > hi) hi = f[i];
+    }
+    if (d->value_min != 0.0f || d->value_max != 0.0f) { lo = d->value_min; hi = d->value_max; }
+    m->lo = lo; m->hi = hi;
+    return PICVR_OK;
+}
+
+/* Bricks of `brick` voxels, at most MAX_GRID per axis; min/max of the normalized
+   value over each brick plus a one-voxel apron (trilinear filtering reaches it). */
+static picvr_status picvr_build_bricks(picvr_context *ctx, const picvr_volume_desc *d, picvr_value_map m,
+                                 uint32_t brick, const uint32_t grid[3], float **bmin_out, float **bmax_out) {
+    size_t cells = (size_t)grid[0] * grid[1] * grid[2];
+    float *bmin = picvr_host_alloc(&ctx->alloc, cells * sizeof(float));
+    float *bmax = picvr_host_alloc(&ctx->alloc, cells * sizeof(float));
+    if (!bmin || !bmax) { picvr_host_free(&ctx->alloc, bmin); picvr_host_free(&ctx->alloc, bmax); return PICVR_ERROR_OUT_OF_HOST_MEMORY; }
+    const uint32_t *dim = d->dims;
+    for (uint32_t cz = 0; cz < grid[2]; cz++)
+        for (uint32_t cy = 0; cy < grid[1]; cy++)
+            for (uint32_t cx = 0; cx < grid[0]; cx++) {
+                uint32_t c[3] = {cx, cy, cz}, lo[3], hi[3];
+                for (int a = 0; a < 3; a++) {
+                    uint32_t l = c[a] * brick, h = l + brick;   /* [l, h] with the apron */
+                    lo[a] = l > 0 ? l - 1 : 0;
+                    hi[a] = h < dim[a] - 1 ? h : dim[a] - 1;
+                    if (lo[a] > hi[a]) lo[a] = hi[a];
+                }
+                double vmin = INFINITY, vmax = -INFINITY;
+                for (uint32_t z = lo[2]; z <= hi[2]; z++)
+                    for (uint32_t y = lo[1]; y <= hi[1]; y++)
+                        for (uint32_t x = lo[0]; x <= hi[0]; x++) {
+                            double v = picvr_voxel_at(d, x + (size_t)dim[0] * (y + (size_t)dim[1] * z));
+                            if (v < vmin) vmin = v;
+                            if (v > vmax) vmax = v;
+                        }
+                size_t i = cx + (size_t)grid[0] * (cy + (size_t)grid[1] * cz);
+                bmin[i] = (float)picvr_normalize_value(m, vmin);
+                bmax[i] = (float)picvr_normalize_value(m, vmax);
+            }
+    *bmin_out = bmin;
+    *bmax_out = bmax;
+    return PICVR_OK;
+}
+
+/* Copies voxels into the 3D image in z-slabs of at most STAGING_CHUNK bytes, converting
+   float data to R16_UNORM where the device cannot filter R32_SFLOAT. */
+static picvr_status picvr_upload_voxels(picvr_context *ctx, picvr_image *im, const picvr_volume_desc *d,
+                                  VkFormat fmt, picvr_value_map m) {
+    size_t in_bpv = picvr_voxel_bytes(d->type);
+    size_t out_bpv = fmt == VK_FORMAT_R16_UNORM ? 2 : in_bpv;
+    size_t slice_in = (size_t)d->dims[0] * d->dims[1] * in_bpv;
+    size_t slice_out = (size_t)d->dims[0] * d->dims[1] * out_bpv;
+    uint32_t slab = (uint32_t)(PICVR_STAGING_CHUNK / slice_out);
+    if (slab == 0) slab = 1;
+    if (slab > d->dims[2]) slab = d->dims[2];
+    picvr_buffer staging;
+    picvr_status s = picvr_buffer_create(ctx, &staging, (VkDeviceSize)slab * slice_out, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1);
+    if (s) return s;
+    int convert = d->type == PICVR_VOXEL_FLOAT32 && fmt == VK_FORMAT_R16_UNORM;
+    for (uint32_t z0 = 0; z0 < d->dims[2] && !s; z0 += slab) {
+        uint32_t nz = d->dims[2] - z0 < slab ? d->dims[2] - z0 : slab;
+        const uint8_t *src = (const uint8_t *)d->data + (size_t)z0 * slice_in;
+        if (convert) {
+            uint16_t *dst = staging.mapped;
+            const float *f = (const float *)src;
+            size_t cnt = (size_t)nz * d->dims[0] * d->dims[1];
+            for (size_t i = 0; i < cnt; i++) dst[i] = (uint16_t)lrint(picvr_normalize_value(m, f[i]) * 65535.0);
+        } else {
+            memcpy(staging.mapped, src, (size_t)nz * slice_in);
+        }
+        picvr_buffer_flush(ctx, &staging);
+        if ((s = picvr_cmd_begin(ctx))) break;
+        picvr_image_barrier(ctx, im->img, z0 == 0 ? VK_IMAGE_LAYOUT_UNDEFINED : VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        VkBufferImageCopy region = {0};
+        region.imageSubresource = (VkImageSubresourceLayers){VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageOffset = (VkOffset3D){0, 0, (int32_t)z0};
+        region.imageExtent = (VkExtent3D){d->dims[0], d->dims[1], nz};
+        vkCmdCopyBufferToImage(ctx->vk.cmd, staging.buf, im->img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+        if (z0 + nz >= d->dims[2])
+            picvr_image_barrier(ctx, im->img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+        s = picvr_cmd_submit_wait(ctx);
+    }
+    picvr_buffer_destroy(ctx, &staging);
+    return s;
+}
+
+/* scale/offset so that clamp(tex * scale + offset, 0, 1) is the normalized value. */
+static void picvr_shader_value_map(picvr_context *ctx, const picvr_volume_desc *d, VkFormat fmt, picvr_value_map m) {
+    double unit = fmt == VK_FORMAT_R8_UNORM ? 255.0 : fmt == VK_FORMAT_R16_UNORM ? 65535.0 : 1.0;
+    double scale = 1.0, offset = 0.0;
+    if (!(d->type == PICVR_VOXEL_FLOAT32 && fmt == VK_FORMAT_R16_UNORM) && m.hi > m.lo) {
+        scale = unit / (m.hi - m.lo);
+        offset = -m.lo / (m.hi - m.lo);
+    }
+    ctx->scene.gpu.value_map[0] = (float)scale;
+    ctx->scene.gpu.value_map[1] = (float)offset;
+}
+
+picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *desc) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    size_t bytes;
+    picvr_status s = picvr_validate_volume(ctx, desc, &bytes);
+    if (s) return s;
+    {   /* issue 6: the world box (dims * spacing, and its diagonal) must fit a float */
+        double diag2 = 0.0;
+        for (int i = 0; i < 3; i++) {
+            double size = (double)desc->dims[i] * (desc->spacing[i] > 0.0f ? desc->spacing[i] : 1.0f);
+            diag2 += size * size;
+        }
+        if (!(sqrt(diag2) < FLT_MAX)) return PICVR_ERROR_INVALID_ARGUMENT;
+    }
+    {   /* issue 6: a volume larger than the device can allocate (picvr_volume_alloc_limit) is
+           refused before anything is allocated */
+        VkDeviceSize dev = (VkDeviceSize)(bytes / picvr_voxel_bytes(desc->type)) *
+            (desc->type == PICVR_VOXEL_FLOAT32 && ctx->vk.float_volume_format == VK_FORMAT_R16_UNORM ? 2 : picvr_voxel_bytes(desc->type));
+        if (ctx->vk.max_volume_bytes && dev > ctx->vk.max_volume_bytes) {
+            picvr_log_message(ctx, PICVR_LOG_WARNING, "volume of %llu bytes exceeds the device's allocation limit", (unsigned long long)dev);
+            return PICVR_ERROR_OUT_OF_DEVICE_MEMORY;
+        }
+    }
+    picvr_value_map m;
+    if ((s = picvr_volume_range(desc, bytes / picvr_voxel_bytes(desc->type), &m))) return s;
+
+    uint32_t maxdim = desc->dims[0];
+    for (int i = 1; i < 3; i++) if (desc->dims[i] > maxdim) maxdim = desc->dims[i];
+    uint32_t brick = 8;   /* measured on bonsai: 8 beats 4 (DDA steps) and 16 (null collisions) */
+    while ((maxdim + brick - 1) / brick > PICVR_MAX_GRID) brick *= 2;
+    uint32_t grid[3];
+    for (int i = 0; i < 3; i++) grid[i] = (desc->dims[i] + brick - 1) / brick;
+
+    VkFormat fmt = desc->type == PICVR_VOXEL_UINT8 ? VK_FORMAT_R8_UNORM
+                 : desc->type == PICVR_VOXEL_UINT16 ? VK_FORMAT_R16_UNORM : ctx->vk.float_volume_format;
+    /* Build the new volume beside the old one; swap only when everything succeeded. */
+    picvr_image vol;
+    picvr_buffer maj;
+    float *bmin = NULL, *bmax = NULL;
+    size_t cells = (size_t)grid[0] * grid[1] * grid[2];
+    if ((s = picvr_image_create(ctx, &vol, VK_IMAGE_TYPE_3D, fmt, desc->dims[0], desc->dims[1], desc->dims[2]))) return s;
+    if ((s = picvr_buffer_create(ctx, &maj, 2 * cells * sizeof(float),
+                           VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) {
+        picvr_image_destroy(ctx, &vol);
+        return s;
+    }
+    s = picvr_upload_voxels(ctx, &vol, desc, fmt, m);
+    if (!s) s = picvr_build_bricks(ctx, desc, m, brick, grid, &bmin, &bmax);
+    if (s) { picvr_image_destroy(ctx, &vol); picvr_buffer_destroy(ctx, &maj); return s; }
+
+    picvr_image_destroy(ctx, &ctx->scene.volume);
+    picvr_buffer_destroy(ctx, &ctx->scene.majorant);
+    picvr_host_free(&ctx->alloc, ctx->scene.brick_min);
+    picvr_host_free(&ctx->alloc, ctx->scene.brick_max);
+    ctx->scene.volume = vol;
+    ctx->scene.majorant = maj;
+    ctx->scene.brick_min = bmin;
+    ctx->scene.brick_max = bmax;
+    ctx->scene.brick = brick;
+    float min_spacing = FLT_MAX;
+    for (int i = 0; i < 3; i++) {
+        ctx->scene.dims[i] = desc->dims[i];
+        ctx->scene.spacing[i] = desc->spacing[i] > 0.0f ? desc->spacing[i] : 1.0f;
+        ctx->scene.grid[i] = grid[i];
+        float size = ctx->scene.dims[i] * ctx->scene.spacing[i];
+        ctx->scene.gpu.box_min[i] = -0.5f * size;
+        ctx->scene.gpu.box_size[i] = size;
+        ctx->scene.gpu.cell_size[i] = brick * ctx->scene.spacing[i];
+        ctx->scene.gpu.grid[i] = grid[i];
+        ctx->scene.gpu.dims[i] = desc->dims[i];
+        if (ctx->scene.spacing[i] < min_spacing) min_spacing = ctx->scene.spacing[i];
+    }
+    ctx->scene.gpu.cell_size[3] = min_spacing;
+    ctx->scene.gpu.box_size[3] = 0.5f * (float)picvr_len3(ctx->scene.gpu.box_size);
+    picvr_shader_value_map(ctx, desc, fmt, m);
+    ctx->scene.has_volume = 1;
+    ctx->pipes.descriptors_dirty = 1;
+    s = picvr_update_majorant(ctx);
+    if (!s) s = picvr_cache_clear(ctx);
+    if (!s) s = picvr_clear_accumulation(ctx);
+    return s;
+}
+
+picvr_status picvr_volume_box(const picvr_context *ctx, float box_min[3], float box_max[3]) {
+    if (!ctx || !box_min || !box_max) return PICVR_ERROR_NULL_POINTER;
+    if (!ctx->scene.has_volume) return PICVR_ERROR_NOT_READY;
+    for (int i = 0; i < 3; i++) {
+        box_min[i] = ctx->scene.gpu.box_min[i];
+        box_max[i] = ctx->scene.gpu.box_min[i] + ctx->scene.gpu.box_size[i];
+    }
+    return PICVR_OK;
+}
