@@ -48,8 +48,9 @@
  *     for (int i = 0; i < 20; i++) picvr_step(ctx, 100.0);   // about 2 s of rendering
  *     picvr_stats st; picvr_get_stats(ctx, &st);
  *     printf("%u iterations, relative error %.3f\n", st.iterations, st.est_rel_error);
- *     uint8_t *rgba = malloc(512 * 512 * 4);
+ *     uint8_t *rgba = (uint8_t *)malloc(512 * 512 * 4);   // C and C++
  *     picvr_read_rgba8(ctx, rgba, 512 * 512 * 4, 1.0f);
+ *     free(rgba);
  *     picvr_destroy(ctx);
  *
  * ---------------------------------------------------------------------------------
@@ -574,3 +575,13 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *stats);
 }
 #endif
 #endif /* PICVR_H */
+
+/* One-file inclusion (stb style): in exactly one C or C++ file of the application,
+       #define PICVR_IMPLEMENTATION
+       #include "picvr.h"
+   compiles the library there (picvr_vk.c, host/ and picvr_shaders.h must sit beside
+   this header).  Every private name is prefixed picvr_ / PICVR_ and static. */
+#if defined(PICVR_IMPLEMENTATION) && !defined(PICVR_IMPLEMENTATION_INCLUDED)
+#define PICVR_IMPLEMENTATION_INCLUDED
+#include "picvr_vk.c"
+#endif

@@ -7,7 +7,7 @@
  * (§4.4).  Part of picvr_vk.c; uses util, vulkan, schedule. */
 
 /* Fills in the Table 1 defaults and validates. */
-static picvr_status picvr_resolve_cache_config(picvr_context *ctx, const picvr_cache_config *in, picvr_cache_config *c) {
+static picvr_status picvr_resolve_cache_config(const picvr_cache_config *in, picvr_cache_config *c) {
     *c = *in;
     if ((unsigned)c->mode > PICVR_CACHE_SCREEN_SPACE) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->mode == PICVR_CACHE_DEFAULT) c->mode = PICVR_CACHE_NONE;   /* until issue 3 is validated */
@@ -20,11 +20,8 @@ static picvr_status picvr_resolve_cache_config(picvr_context *ctx, const picvr_c
     float *f[7] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels,
                    &c->update_threshold, &c->rebuild_interval_ms};
     const float def[7] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f, 0.1f, 1000.0f};
-    for (int i = 0; i < 7; i++) {
-        if (!isfinite(*f[i])) return PICVR_ERROR_NON_FINITE;
-        if (*f[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
-        if (*f[i] == 0.0f) *f[i] = def[i];
-    }
+    picvr_status s = picvr_resolve_floats(f, def, 7);
+    if (s) return s;
     if (c->epsilon >= 1.0f || c->radius_max_voxels < c->radius_min_voxels) return PICVR_ERROR_INVALID_ARGUMENT;
     if (!c->max_entries) c->max_entries = 65536;
     if (c->max_entries > (1u << 24)) return PICVR_ERROR_SIZE_OVERFLOW;   /* indices pass through floats */
@@ -130,7 +127,7 @@ static picvr_status picvr_cache_clear(picvr_context *ctx) {
     uint32_t count = 0, level = 1;
     for (uint32_t d = 0; d <= depth; d++, level *= 8) count += level;
     uint32_t inner = count - level / 8;            /* nodes above the deepest level */
-    uint32_t *nodes = picvr_host_alloc(&ctx->alloc, (size_t)count * PICVR_CACHE_NODE_BYTES);
+    uint32_t *nodes = (uint32_t *)picvr_host_alloc(&ctx->alloc, (size_t)count * PICVR_CACHE_NODE_BYTES);
     if (!nodes) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(nodes, 0, (size_t)count * PICVR_CACHE_NODE_BYTES);
     for (uint32_t i = 0; i < inner; i++) nodes[i * 4] = 8 * i + 1;

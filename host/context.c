@@ -29,16 +29,22 @@ static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *c
     }
     ctx->vk.float_volume_format = picvr_format_filters(ctx, VK_FORMAT_R32_SFLOAT) ? VK_FORMAT_R32_SFLOAT : VK_FORMAT_R16_UNORM;
 
-    VkCommandPoolCreateInfo pi = {VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    VkCommandPoolCreateInfo pi;
+    memset(&pi, 0, sizeof pi);
+    pi.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
     pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
     pi.queueFamilyIndex = ctx->vk.queue_family;
     PICVR_VK_TRY(ctx, vkCreateCommandPool(ctx->vk.device, &pi, NULL, &ctx->vk.cmd_pool));
-    VkCommandBufferAllocateInfo ai = {VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    VkCommandBufferAllocateInfo ai;
+    memset(&ai, 0, sizeof ai);
+    ai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
     ai.commandPool = ctx->vk.cmd_pool;
     ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
     ai.commandBufferCount = 1;
     PICVR_VK_TRY(ctx, vkAllocateCommandBuffers(ctx->vk.device, &ai, &ctx->vk.cmd));
-    VkFenceCreateInfo fi = {VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    VkFenceCreateInfo fi;
+    memset(&fi, 0, sizeof fi);
+    fi.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     PICVR_VK_TRY(ctx, vkCreateFence(ctx->vk.device, &fi, NULL, &ctx->vk.fence));
 
     if ((s = picvr_create_pipelines(ctx)) || (s = picvr_create_sampler(ctx)) || (s = picvr_create_timestamps(ctx))) return s;
@@ -49,7 +55,7 @@ static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *c
     if ((s = picvr_buffer_create(ctx, &ctx->scene.ubo, sizeof(picvr_gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
     if ((s = picvr_image_create(ctx, &ctx->scene.tf_image, VK_IMAGE_TYPE_1D, VK_FORMAT_R32G32B32A32_SFLOAT, PICVR_TF_SIZE, 1, 1))) return s;
     if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_staging, sizeof ctx->scene.tf_table, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1))) return s;
-    if (!(ctx->scene.tf_rm = picvr_host_alloc(&ctx->alloc, sizeof *ctx->scene.tf_rm))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    if (!(ctx->scene.tf_rm = (picvr_range_max *)picvr_host_alloc(&ctx->alloc, sizeof *ctx->scene.tf_rm))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_range_max, sizeof *ctx->scene.tf_rm,
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
     return picvr_default_transfer_function(ctx);
@@ -66,7 +72,7 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     if (ext != 0 && ext != 4) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.log_level > PICVR_LOG_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.validation > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
-    picvr_context *ctx = picvr_host_alloc(&cfg.allocator, sizeof *ctx);
+    picvr_context *ctx = (picvr_context *)picvr_host_alloc(&cfg.allocator, sizeof *ctx);
     if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(ctx, 0, sizeof *ctx);
     ctx->config = cfg;
@@ -76,7 +82,7 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     ctx->log_level = cfg.log_level ? cfg.log_level : PICVR_LOG_WARNING;
     ctx->seed = cfg.seed;
     ctx->cache.requests_set = cfg.cache.max_requests != 0;
-    picvr_status s = picvr_resolve_cache_config(ctx, &cfg.cache, &ctx->cache.cfg);
+    picvr_status s = picvr_resolve_cache_config(&cfg.cache, &ctx->cache.cfg);
     if (!s) s = picvr_resolve_scheduler_config(&cfg.scheduler, &ctx->sched.cfg);
     ctx->cache.on = ctx->cache.cfg.mode != PICVR_CACHE_NONE;
     ctx->sched.use_priorities = ctx->sched.cfg.priorities == PICVR_SWITCH_ON;
@@ -172,7 +178,8 @@ void picvr_destroy(picvr_context *ctx) {
 picvr_status picvr_set_scheduler(picvr_context *ctx, const picvr_scheduler_config *cfg) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
-    const picvr_scheduler_config zero = {0};
+    picvr_scheduler_config zero;
+    memset(&zero, 0, sizeof zero);
     picvr_scheduler_config c;
     picvr_status s = picvr_resolve_scheduler_config(cfg ? cfg : &zero, &c);
     if (s) return s;

@@ -36,7 +36,7 @@ picvr_status picvr_read_sample_counts(picvr_context *ctx, uint32_t *counts, size
     picvr_status s = picvr_check_image_read(ctx, counts, bytes, 4);
     if (!s) s = picvr_read_plane(ctx, 2);
     if (s) return s;
-    const uint32_t *src = ctx->results.readback.mapped;     /* vec4 per pixel, z = n as uint bits */
+    const uint32_t *src = (const uint32_t *)ctx->results.readback.mapped;     /* vec4 per pixel, z = n as uint bits */
     size_t n = (size_t)ctx->scene.camera.width * ctx->scene.camera.height;
     for (size_t i = 0; i < n; i++) counts[i] = src[i * 4 + 2];
     return PICVR_OK;
@@ -55,7 +55,7 @@ picvr_status picvr_read_rgba8(picvr_context *ctx, uint8_t *pixels, size_t size, 
     if (!s) s = picvr_read_plane(ctx, 0);
     if (s) return s;
     double e = (isfinite(exposure) && exposure > 0.0f) ? exposure : 1.0;
-    const float *src = ctx->results.readback.mapped;
+    const float *src = (const float *)ctx->results.readback.mapped;
     size_t n = (size_t)ctx->scene.camera.width * ctx->scene.camera.height;
     for (size_t i = 0; i < n; i++) {
         for (int c = 0; c < 3; c++) pixels[i * 4 + c] = picvr_to_srgb8(1.0 - exp(-e * src[i * 4 + c]));
@@ -84,7 +84,7 @@ static picvr_status picvr_stats_pass(picvr_context *ctx, float rel_floor, double
     picvr_barrier_all(ctx);
     if ((s = picvr_cmd_submit_wait(ctx))) return s;
     picvr_buffer_invalidate(ctx, &ctx->results.partials);
-    const picvr_gpu_partial *p = ctx->results.partials.mapped;
+    const picvr_gpu_partial *p = (const picvr_gpu_partial *)ctx->results.partials.mapped;
     for (int i = 0; i < 4; i++) { sums[i] = 0.0; counts[i] = 0; }
     counts[0] = UINT32_MAX;
     for (uint32_t g = 0; g < groups; g++) {
@@ -102,14 +102,15 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
         picvr_stats st;
         memset(&st, 0, sizeof st);
         if (ctx->scene.has_volume && ctx->scene.has_camera && ctx->image.block_samples > 0) {
-            picvr_status s = picvr_upload_scene(ctx);
             double sums[4];
             uint64_t counts[4];
+            picvr_status s = picvr_upload_scene(ctx);
             if (!s) s = picvr_stats_pass(ctx, 0.0f, sums, counts);
+            if (s) return s;
             double pixels = (double)counts[3];
             double mean_lum = pixels > 0 ? sums[0] / pixels : 0.0;
-            if (!s) s = picvr_stats_pass(ctx, (float)(0.01 * mean_lum), sums, counts);
-            if (s) return s;
+            /* the second pass: the relative error's floor is 1 % of the mean luminance */
+            if ((s = picvr_stats_pass(ctx, (float)(0.01 * mean_lum), sums, counts))) return s;
             st.mean_luminance = mean_lum;
             st.iterations_min = (uint32_t)counts[0];
             st.iterations_mean = pixels > 0 ? (double)counts[1] / pixels : 0.0;

@@ -12,11 +12,8 @@ static picvr_status picvr_resolve_scheduler_config(const picvr_scheduler_config 
     float *f[7] = {&c->create_min, &c->create_max, &c->update_min, &c->update_max, &c->exponent,
                    &c->rounds_per_second, &c->hit_rate_window_ms};
     const float def[7] = {0.05f, 0.15f, 0.01f, 0.02f, 3.0f, 20.0f, 100.0f};
-    for (int i = 0; i < 7; i++) {
-        if (!isfinite(*f[i])) return PICVR_ERROR_NON_FINITE;
-        if (*f[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
-        if (*f[i] == 0.0f) *f[i] = def[i];
-    }
+    picvr_status s = picvr_resolve_floats(f, def, 7);
+    if (s) return s;
     /* a pair given as (min, 0) keeps max at its default only if that is >= min */
     if (c->create_min > c->create_max || c->update_min > c->update_max) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->create_max + c->update_max > 0.9f) return PICVR_ERROR_INVALID_ARGUMENT;  /* rendering keeps >= 10% */

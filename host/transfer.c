@@ -21,9 +21,10 @@ static picvr_status picvr_upload_tf_table(picvr_context *ctx) {
     picvr_status s = picvr_cmd_begin(ctx);
     if (s) return s;
     picvr_image_barrier(ctx, ctx->scene.tf_image.img, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
-    VkBufferImageCopy region = {0};
-    region.imageSubresource = (VkImageSubresourceLayers){VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = (VkExtent3D){PICVR_TF_SIZE, 1, 1};
+    VkBufferImageCopy region;
+    memset(&region, 0, sizeof region);
+    region.imageSubresource = picvr_color_layers();
+    region.imageExtent = picvr_extent(PICVR_TF_SIZE, 1, 1);
     vkCmdCopyBufferToImage(ctx->vk.cmd, ctx->scene.tf_staging.buf, ctx->scene.tf_image.img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
     picvr_image_barrier(ctx, ctx->scene.tf_image.img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
     s = picvr_cmd_submit_wait(ctx);

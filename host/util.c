@@ -74,3 +74,14 @@ static void picvr_normalize3(float v[3]) {
 static void picvr_pack4(float d[4], const float s[3], float w) { d[0] = s[0]; d[1] = s[1]; d[2] = s[2]; d[3] = w; }
 
 static double picvr_luminance(const float c[3]) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
+
+/* The rule of every float in a config struct: zero means its default def[i], anything
+   else must be finite (PICVR_ERROR_NON_FINITE) and >= 0 (PICVR_ERROR_INVALID_ARGUMENT). */
+static picvr_status picvr_resolve_floats(float *const *f, const float *def, int n) {
+    for (int i = 0; i < n; i++) {
+        if (!isfinite(*f[i])) return PICVR_ERROR_NON_FINITE;
+        if (*f[i] < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+        if (*f[i] == 0.0f) *f[i] = def[i];
+    }
+    return PICVR_OK;
+}

@@ -55,7 +55,7 @@ static picvr_status picvr_volume_range(const picvr_volume_desc *d, size_t n, pic
         return PICVR_OK;
     }
     /* float32: always scanned, every voxel must be finite */
-    const float *f = d->data;
+    const float *f = (const float *)d->data;
     double lo = INFINITY, hi = -INFINITY;
     for (size_t i = 0; i < n; i++) {
         if (!isfinite(f[i])) return PICVR_ERROR_NON_FINITE;
@@ -72,8 +72,8 @@ static picvr_status picvr_volume_range(const picvr_volume_desc *d, size_t n, pic
 static picvr_status picvr_build_bricks(picvr_context *ctx, const picvr_volume_desc *d, picvr_value_map m,
                                  uint32_t brick, const uint32_t grid[3], float **bmin_out, float **bmax_out) {
     size_t cells = (size_t)grid[0] * grid[1] * grid[2];
-    float *bmin = picvr_host_alloc(&ctx->alloc, cells * sizeof(float));
-    float *bmax = picvr_host_alloc(&ctx->alloc, cells * sizeof(float));
+    float *bmin = (float *)picvr_host_alloc(&ctx->alloc, cells * sizeof(float));
+    float *bmax = (float *)picvr_host_alloc(&ctx->alloc, cells * sizeof(float));
     if (!bmin || !bmax) { picvr_host_free(&ctx->alloc, bmin); picvr_host_free(&ctx->alloc, bmax); return PICVR_ERROR_OUT_OF_HOST_MEMORY; }
     const uint32_t *dim = d->dims;
     for (uint32_t cz = 0; cz < grid[2]; cz++)
@@ -122,7 +122,7 @@ static picvr_status picvr_upload_voxels(picvr_context *ctx, picvr_image *im, con
         uint32_t nz = d->dims[2] - z0 < slab ? d->dims[2] - z0 : slab;
         const uint8_t *src = (const uint8_t *)d->data + (size_t)z0 * slice_in;
         if (convert) {
-            uint16_t *dst = staging.mapped;
+            uint16_t *dst = (uint16_t *)staging.mapped;
             const float *f = (const float *)src;
             size_t cnt = (size_t)nz * d->dims[0] * d->dims[1];
             for (size_t i = 0; i < cnt; i++) dst[i] = (uint16_t)lrint(picvr_normalize_value(m, f[i]) * 65535.0);
@@ -133,10 +133,11 @@ static picvr_status picvr_upload_voxels(picvr_context *ctx, picvr_image *im, con
         if ((s = picvr_cmd_begin(ctx))) break;
         picvr_image_barrier(ctx, im->img, z0 == 0 ? VK_IMAGE_LAYOUT_UNDEFINED : VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
-        VkBufferImageCopy region = {0};
-        region.imageSubresource = (VkImageSubresourceLayers){VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-        region.imageOffset = (VkOffset3D){0, 0, (int32_t)z0};
-        region.imageExtent = (VkExtent3D){d->dims[0], d->dims[1], nz};
+        VkBufferImageCopy region;
+        memset(&region, 0, sizeof region);
+        region.imageSubresource = picvr_color_layers();
+        region.imageOffset.z = (int32_t)z0;
+        region.imageExtent = picvr_extent(d->dims[0], d->dims[1], nz);
         vkCmdCopyBufferToImage(ctx->vk.cmd, staging.buf, im->img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
         if (z0 + nz >= d->dims[2])
             picvr_image_barrier(ctx, im->img, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);

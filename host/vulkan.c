@@ -3,6 +3,20 @@
  * validation layer, choosing and probing the device.  No procedure of the paper lives
  * here.  Part of picvr_vk.c; uses host/util.c. */
 
+/* The one mip level and layer of a colour image (C and C++ alike: no compound literals). */
+static VkImageSubresourceRange picvr_color_range(void) {
+    VkImageSubresourceRange r = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    return r;
+}
+static VkImageSubresourceLayers picvr_color_layers(void) {
+    VkImageSubresourceLayers l = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    return l;
+}
+static VkExtent3D picvr_extent(uint32_t w, uint32_t h, uint32_t d) {
+    VkExtent3D e = {w, h, d};
+    return e;
+}
+
 /* Maps a VkResult to a status; logs the call that failed. */
 static picvr_status picvr_vk_status(picvr_context *ctx, VkResult r, const char *what) {
     if (r == VK_SUCCESS) return PICVR_OK;
@@ -53,7 +67,9 @@ static void picvr_buffer_destroy(picvr_context *ctx, picvr_buffer *b) {
 static picvr_status picvr_buffer_create(picvr_context *ctx, picvr_buffer *b, VkDeviceSize size,
                                   VkBufferUsageFlags usage, int host) {
     memset(b, 0, sizeof *b);
-    VkBufferCreateInfo bi = {VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+    VkBufferCreateInfo bi;
+    memset(&bi, 0, sizeof bi);
+    bi.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
     bi.size = size;
     bi.usage = usage;
     bi.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
@@ -98,10 +114,12 @@ static void picvr_image_destroy(picvr_context *ctx, picvr_image *im) {
 static picvr_status picvr_image_create(picvr_context *ctx, picvr_image *im, VkImageType type, VkFormat fmt,
                                  uint32_t w, uint32_t h, uint32_t d) {
     memset(im, 0, sizeof *im);
-    VkImageCreateInfo ii = {VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    VkImageCreateInfo ii;
+    memset(&ii, 0, sizeof ii);
+    ii.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
     ii.imageType = type;
     ii.format = fmt;
-    ii.extent = (VkExtent3D){w, h, d};
+    ii.extent = picvr_extent(w, h, d);
     ii.mipLevels = 1;
     ii.arrayLayers = 1;
     ii.samples = VK_SAMPLE_COUNT_1_BIT;
@@ -116,11 +134,13 @@ static picvr_status picvr_image_create(picvr_context *ctx, picvr_image *im, VkIm
     picvr_status s = picvr_alloc_memory(ctx, req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, &im->mem, NULL);
     if (!s) s = picvr_vk_status(ctx, vkBindImageMemory(ctx->vk.device, im->img, im->mem, 0), "vkBindImageMemory");
     if (!s) {
-        VkImageViewCreateInfo vi = {VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+        VkImageViewCreateInfo vi;
+        memset(&vi, 0, sizeof vi);
+        vi.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
         vi.image = im->img;
         vi.viewType = type == VK_IMAGE_TYPE_3D ? VK_IMAGE_VIEW_TYPE_3D : VK_IMAGE_VIEW_TYPE_1D;
         vi.format = fmt;
-        vi.subresourceRange = (VkImageSubresourceRange){VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        vi.subresourceRange = picvr_color_range();
         s = picvr_vk_status(ctx, vkCreateImageView(ctx->vk.device, &vi, NULL, &im->view), "vkCreateImageView");
     }
     if (s) picvr_image_destroy(ctx, im);
@@ -130,7 +150,9 @@ static picvr_status picvr_image_create(picvr_context *ctx, picvr_image *im, VkIm
 static picvr_status picvr_cmd_begin(picvr_context *ctx) {
     if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
     PICVR_VK_TRY(ctx, vkResetCommandBuffer(ctx->vk.cmd, 0));
-    VkCommandBufferBeginInfo bi = {VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    VkCommandBufferBeginInfo bi;
+    memset(&bi, 0, sizeof bi);
+    bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     PICVR_VK_TRY(ctx, vkBeginCommandBuffer(ctx->vk.cmd, &bi));
     return PICVR_OK;
@@ -138,7 +160,9 @@ static picvr_status picvr_cmd_begin(picvr_context *ctx) {
 
 /* A full compute/transfer memory barrier: earlier writes visible to later accesses. */
 static void picvr_barrier_all(picvr_context *ctx) {
-    VkMemoryBarrier mb = {VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    VkMemoryBarrier mb;
+    memset(&mb, 0, sizeof mb);
+    mb.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
     mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
     mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
                        VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT | VK_ACCESS_UNIFORM_READ_BIT |
@@ -152,7 +176,9 @@ static void picvr_barrier_all(picvr_context *ctx) {
 static picvr_status picvr_cmd_submit_wait(picvr_context *ctx) {
     PICVR_VK_TRY(ctx, vkEndCommandBuffer(ctx->vk.cmd));
     PICVR_VK_TRY(ctx, vkResetFences(ctx->vk.device, 1, &ctx->vk.fence));
-    VkSubmitInfo si = {VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    VkSubmitInfo si;
+    memset(&si, 0, sizeof si);
+    si.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
     si.commandBufferCount = 1;
     si.pCommandBuffers = &ctx->vk.cmd;
     PICVR_VK_TRY(ctx, vkQueueSubmit(ctx->vk.queue, 1, &si, ctx->vk.fence));
@@ -161,14 +187,16 @@ static picvr_status picvr_cmd_submit_wait(picvr_context *ctx) {
 }
 
 static void picvr_image_barrier(picvr_context *ctx, VkImage img, VkImageLayout from, VkImageLayout to) {
-    VkImageMemoryBarrier b = {VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+    VkImageMemoryBarrier b;
+    memset(&b, 0, sizeof b);
+    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
     b.srcAccessMask = from == VK_IMAGE_LAYOUT_UNDEFINED ? 0 : VK_ACCESS_TRANSFER_WRITE_BIT;
     b.dstAccessMask = to == VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL ? VK_ACCESS_TRANSFER_WRITE_BIT : VK_ACCESS_SHADER_READ_BIT;
     b.oldLayout = from;
     b.newLayout = to;
     b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     b.image = img;
-    b.subresourceRange = (VkImageSubresourceRange){VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    b.subresourceRange = picvr_color_range();
     VkPipelineStageFlags src = from == VK_IMAGE_LAYOUT_UNDEFINED ? VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT : VK_PIPELINE_STAGE_TRANSFER_BIT;
     VkPipelineStageFlags dst = to == VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL ? VK_PIPELINE_STAGE_TRANSFER_BIT : VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
     vkCmdPipelineBarrier(ctx->vk.cmd, src, dst, 0, 0, NULL, 0, NULL, 1, &b);
@@ -197,7 +225,7 @@ static VKAPI_ATTR VkBool32 VKAPI_CALL picvr_validation_callback(VkDebugUtilsMess
                                                      VkDebugUtilsMessageTypeFlagsEXT type,
                                                      const VkDebugUtilsMessengerCallbackDataEXT *data,
                                                      void *user) {
-    picvr_context *ctx = user;
+    picvr_context *ctx = (picvr_context *)user;
     if (severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) {
         ctx->vk.validation_messages++;
         picvr_log_message(ctx, PICVR_LOG_ERROR, "validation: %s", data && data->pMessage ? data->pMessage : "?");
@@ -227,16 +255,22 @@ static int picvr_want_validation(const picvr_config *cfg) {
 }
 
 static picvr_status picvr_create_instance(picvr_context *ctx, int validation) {
-    VkApplicationInfo app = {VK_STRUCTURE_TYPE_APPLICATION_INFO};
+    VkApplicationInfo app;
+    memset(&app, 0, sizeof app);
+    app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
     app.pApplicationName = "picvr";
     app.pEngineName = "picvr";
     app.apiVersion = VK_API_VERSION_1_1;
-    VkInstanceCreateInfo ci = {VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+    VkInstanceCreateInfo ci;
+    memset(&ci, 0, sizeof ci);
+    ci.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
     ci.pApplicationInfo = &app;
     const char *layer = "VK_LAYER_KHRONOS_validation";
     const char *exts[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
     VkValidationFeatureEnableEXT enables[] = {VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT};
-    VkValidationFeaturesEXT features = {VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+    VkValidationFeaturesEXT features;
+    memset(&features, 0, sizeof features);
+    features.sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT;
     features.enabledValidationFeatureCount = 1;
     features.pEnabledValidationFeatures = enables;
     if (validation && !picvr_has_layer(layer)) {
@@ -260,7 +294,9 @@ static picvr_status picvr_create_instance(picvr_context *ctx, int validation) {
     if (validation) {
         PFN_vkCreateDebugUtilsMessengerEXT create = (PFN_vkCreateDebugUtilsMessengerEXT)
             vkGetInstanceProcAddr(ctx->vk.instance, "vkCreateDebugUtilsMessengerEXT");
-        VkDebugUtilsMessengerCreateInfoEXT mi = {VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+        VkDebugUtilsMessengerCreateInfoEXT mi;
+        memset(&mi, 0, sizeof mi);
+        mi.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
         mi.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
         mi.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                          VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
@@ -348,11 +384,15 @@ static picvr_status picvr_pick_device(picvr_context *ctx, const char *want) {
 
 static picvr_status picvr_create_device(picvr_context *ctx) {
     float prio = 1.0f;
-    VkDeviceQueueCreateInfo qi = {VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+    VkDeviceQueueCreateInfo qi;
+    memset(&qi, 0, sizeof qi);
+    qi.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
     qi.queueFamilyIndex = ctx->vk.queue_family;
     qi.queueCount = 1;
     qi.pQueuePriorities = &prio;
-    VkDeviceCreateInfo di = {VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+    VkDeviceCreateInfo di;
+    memset(&di, 0, sizeof di);
+    di.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
     di.queueCreateInfoCount = 1;
     di.pQueueCreateInfos = &qi;
     PICVR_VK_TRY(ctx, vkCreateDevice(ctx->vk.phys, &di, NULL, &ctx->vk.device));
@@ -371,8 +411,13 @@ static int picvr_format_filters(picvr_context *ctx, VkFormat f) {
 /* The smaller of one allocation's limit (maxMemoryAllocationSize) and the largest
    device-local heap; 0 when neither is known. */
 static VkDeviceSize picvr_volume_alloc_limit(const picvr_context *ctx) {
-    VkPhysicalDeviceMaintenance3Properties m3 = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES};
-    VkPhysicalDeviceProperties2 p2 = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, &m3};
+    VkPhysicalDeviceMaintenance3Properties m3;
+    memset(&m3, 0, sizeof m3);
+    m3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
+    VkPhysicalDeviceProperties2 p2;
+    memset(&p2, 0, sizeof p2);
+    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    p2.pNext = &m3;
     vkGetPhysicalDeviceProperties2(ctx->vk.phys, &p2);
     VkDeviceSize heap = 0;
     for (uint32_t i = 0; i < ctx->vk.mem_props.memoryHeapCount; i++)
@@ -388,7 +433,7 @@ static VkDeviceSize picvr_volume_alloc_limit(const picvr_context *ctx) {
 static int picvr_device_has_extension(const picvr_context *ctx, const char *name) {
     uint32_t n = 0;
     if (vkEnumerateDeviceExtensionProperties(ctx->vk.phys, NULL, &n, NULL) != VK_SUCCESS || n == 0) return 0;
-    VkExtensionProperties *props = picvr_host_alloc(&ctx->alloc, (size_t)n * sizeof *props);
+    VkExtensionProperties *props = (VkExtensionProperties *)picvr_host_alloc(&ctx->alloc, (size_t)n * sizeof *props);
     if (!props) return 0;
     int found = 0;
     if (vkEnumerateDeviceExtensionProperties(ctx->vk.phys, NULL, &n, props) == VK_SUCCESS)
@@ -403,8 +448,13 @@ static int picvr_device_has_extension(const picvr_context *ctx, const char *name
 static uint32_t picvr_gpu_resident_groups(const picvr_context *ctx) {
     if (picvr_on_cpu_device(ctx)) return 0;
     if (!picvr_device_has_extension(ctx, VK_NV_SHADER_SM_BUILTINS_EXTENSION_NAME)) return 256;
-    VkPhysicalDeviceShaderSMBuiltinsPropertiesNV sm = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_SM_BUILTINS_PROPERTIES_NV};
-    VkPhysicalDeviceProperties2 p2 = {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, &sm};
+    VkPhysicalDeviceShaderSMBuiltinsPropertiesNV sm;
+    memset(&sm, 0, sizeof sm);
+    sm.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_SM_BUILTINS_PROPERTIES_NV;
+    VkPhysicalDeviceProperties2 p2;
+    memset(&p2, 0, sizeof p2);
+    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    p2.pNext = &sm;
     vkGetPhysicalDeviceProperties2(ctx->vk.phys, &p2);
     uint64_t warps_per_group = (PICVR_CACHE_CREATE_GROUP + 31) / 32;
     uint64_t groups = (uint64_t)sm.shaderSMCount * sm.shaderWarpsPerSM / warps_per_group;

@@ -3,13 +3,15 @@
 # first: the EXAMPLE at the top of picvr.h and the C block under "Using the library" in
 # README.md.  Each is cut out of its document as written, wrapped in a main() that
 # supplies what the text leaves to the reader (the voxels: a ball; the pixel buffer),
-# compiled with -Wall -Wextra -Werror and run with the validation layer on.  It fails if
+# compiled as C11 and as C++17 with -Wall -Wextra -Wpedantic -Wshadow -Werror and run
+# with the validation layer on.  It fails if
 # an example does not compile against the current API, does not return 0, renders no
 # iteration, gives a non-finite error estimate, or draws a validation message.
 set -eu
 B=$1
 LIB=$2
 CC=${CC:-cc}
+CXX=${CXX:-c++}
 mkdir -p "$B/examples-check"
 D=$B/examples-check
 
@@ -48,8 +50,15 @@ int main(void) {
     return st.iterations > 0 && isfinite(st.est_rel_error) && st.validation_messages == 0 ? 0 : 1;
 }
 WRAP
-    $CC -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -Wall -Wextra -Werror -I. -I"$D" \
+    $CC -O2 -std=c11 -Wall -Wextra -Wpedantic -Wshadow -Werror -I. -I"$D" \
         -o "$D/$name" "$D/$name.c" "$LIB" -lvulkan -lm
     PICVR_VALIDATION=1 "$D/$name" > "$D/$name.out"
+    # The same text as C++17.  `= {0}` zeroes a picvr struct in C++ too (no picvr struct
+    # starts with an enum), but g++ and clang++ flag it under -Wextra; C++ code may write
+    # `= {}` instead.
+    cp "$D/$name.c" "$D/$name.cpp"
+    $CXX -O2 -std=c++17 -Wall -Wextra -Wpedantic -Wshadow -Wno-missing-field-initializers -Werror \
+        -I. -I"$D" -o "$D/$name-cpp" "$D/$name.cpp" "$LIB" -lvulkan -lm
+    PICVR_VALIDATION=1 "$D/$name-cpp" > "$D/$name-cpp.out"
 done
-echo "check_examples: the header's and the README's examples compile and run"
+echo "check_examples: the header's and the README's examples compile and run, as C and as C++"

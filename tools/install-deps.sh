@@ -1,6 +1,7 @@
 #!/bin/sh
 # Installs the Debian packages picvr needs, only those that are missing.
 # Uses apt-get as root, or through sudo when not root.  Safe to run repeatedly.
+# g++ and clang: `make test` compiles the library with both compilers, as C and C++.
 # Extra packages may be named as arguments (make bench: gnuplot-nox for the plots);
 # `install-deps.sh robust` adds the tools of the robustness targets (make test-asan,
 # valgrind, fuzz, soak): clang with its libFuzzer/sanitizer runtimes, and valgrind.
@@ -12,7 +13,7 @@ for a in "$@"; do
     *) extra="$extra $a" ;;
   esac
 done
-PKGS="gcc make pkg-config mesa-vulkan-drivers libvulkan-dev glslang-tools \
+PKGS="gcc g++ clang make pkg-config mesa-vulkan-drivers libvulkan-dev glslang-tools \
 vulkan-validationlayers vulkan-tools libstb-dev libcmocka-dev zlib1g-dev$extra"
 missing=""
 for p in $PKGS; do
