@@ -91,31 +91,32 @@ static uint32_t picvr_creation_batch(const picvr_context *ctx) {
    entries be created in parallel from the start under object-space locking. */
 static uint32_t picvr_cache_scene_params(picvr_context *ctx) {
     picvr_gpu_scene *g = &ctx->scene.gpu;
-    float voxel = ctx->scene.has_volume ? g->cell_size[3] : 1.0f;
-    g->cache_params[0] = ctx->cache.cfg.gamma;
-    g->cache_params[1] = ctx->cache.cfg.epsilon;
-    g->cache_params[2] = ctx->cache.cfg.delta_voxels * voxel;
-    g->cache_params[3] = ctx->cache.cfg.update_threshold;
-    g->cache_radii[0] = ctx->cache.cfg.radius_min_voxels * voxel;
-    g->cache_radii[1] = ctx->cache.cfg.radius_max_voxels * voxel;
-    g->cache_radii[2] = ctx->cache.cfg.curvature_limit == PICVR_SWITCH_ON ? 1.0f : 0.0f;
-    g->cache_radii[3] = ctx->cache.cfg.medium_model == PICVR_SWITCH_ON ? 1.0f : 0.0f;
-    g->cache_caps[0] = ctx->cache.cfg.max_entries;
-    g->cache_caps[1] = ctx->cache.cfg.max_nodes;
-    g->cache_caps[2] = ctx->cache.cfg.max_refs;
-    g->cache_caps[3] = ctx->cache.cfg.max_requests;
+    const picvr_cache_config *c = &ctx->cache.cfg;
+    float voxel = ctx->scene.has_volume ? g->min_spacing : 1.0f;
+    g->gamma = c->gamma;
+    g->epsilon = c->epsilon;
+    g->delta = c->delta_voxels * voxel;
+    g->update_threshold = c->update_threshold;
+    g->radius_min = c->radius_min_voxels * voxel;
+    g->radius_max = c->radius_max_voxels * voxel;
+    g->curvature_limit = c->curvature_limit == PICVR_SWITCH_ON;
+    g->medium_model = c->medium_model == PICVR_SWITCH_ON;
+    g->max_entries = c->max_entries;
+    g->max_nodes = c->max_nodes;
+    g->max_refs = c->max_refs;
+    g->max_requests = c->max_requests;
     if (ctx->scene.has_camera) {
         uint32_t side = ctx->cache.cfg.superpixel_size;
-        g->cache_screen[0] = side;
-        g->cache_screen[1] = (ctx->scene.camera.width + side - 1) / side;
-        g->cache_screen[2] = ctx->cache.superpixel_count;
-        g->cache_screen[3] = ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE;
+        g->superpixel_side = side;
+        g->superpixels_per_row = (ctx->scene.camera.width + side - 1) / side;
+        g->superpixel_count = ctx->cache.superpixel_count;
+        g->screen_locking = c->mode == PICVR_CACHE_SCREEN_SPACE;
     }
     float edge = g->box_size[0];
     if (g->box_size[1] < edge) edge = g->box_size[1];
     if (g->box_size[2] < edge) edge = g->box_size[2];
     uint32_t depth = 0;
-    while (depth < PICVR_CACHE_PREBUILT_MAX_DEPTH && edge * 0.5f >= PICVR_CACHE_NODE_RADII * g->cache_radii[1]) { edge *= 0.5f; depth++; }
+    while (depth < PICVR_CACHE_PREBUILT_MAX_DEPTH && edge * 0.5f >= PICVR_CACHE_NODE_RADII * g->radius_max) { edge *= 0.5f; depth++; }
     return depth;
 }
 
@@ -167,4 +168,11 @@ static void picvr_cache_take_counters(picvr_context *ctx, const picvr_cache_coun
     ctx->cache.counts = *got;
     ctx->cache.requests_issued += got->requests;
     ctx->cache.requests_pending = got->dispatch[0];   /* valid requests queued for the next round */
+}
+
+/* The cache's pools (zeroed buffers when the cache is off: no-ops). */
+static void picvr_cache_destroy(picvr_context *ctx) {
+    picvr_buffer *b[] = {&ctx->cache.entries, &ctx->cache.nodes, &ctx->cache.refs, &ctx->cache.counters,
+                         &ctx->cache.requests, &ctx->cache.prebuilt_nodes, &ctx->cache.superpixels};
+    for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) picvr_buffer_destroy(ctx, b[i]);
 }

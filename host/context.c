@@ -108,66 +108,46 @@ picvr_status picvr_get_config(const picvr_context *ctx, picvr_config *out) {
     return PICVR_OK;
 }
 
-void picvr_destroy(picvr_context *ctx) {
-    if (!ctx) return;
-    if (ctx->vk.device) {
-        vkDeviceWaitIdle(ctx->vk.device);
-        picvr_buffer_destroy(ctx, &ctx->scene.ubo);
-        picvr_buffer_destroy(ctx, &ctx->scene.tf_staging);
-        picvr_buffer_destroy(ctx, &ctx->scene.tf_range_max);
-        picvr_buffer_destroy(ctx, &ctx->scene.majorant);
-        picvr_buffer_destroy(ctx, &ctx->results.readback);
-        picvr_buffer_destroy(ctx, &ctx->results.partials);
-        for (int i = 0; i < 3; i++) picvr_buffer_destroy(ctx, &ctx->image.planes[i]);
-        picvr_image_destroy(ctx, &ctx->scene.tf_image);
-        picvr_image_destroy(ctx, &ctx->scene.volume);
-        VkDevice d = ctx->vk.device;
-        if (ctx->pipes.linear_sampler) vkDestroySampler(d, ctx->pipes.linear_sampler, NULL);
-        for (int p = 0; p < 3; p++)
-            for (uint32_t i = 0; i < PICVR_VARIANT_SLOTS; i++)
-                for (int k = 0; k < PICVR_KERNELS; k++)
-                    if (ctx->pipes.variants[p][i].pipe[k]) vkDestroyPipeline(d, ctx->pipes.variants[p][i].pipe[k], NULL);
-        if (ctx->pipes.rebuild_pipe) vkDestroyPipeline(d, ctx->pipes.rebuild_pipe, NULL);
-        if (ctx->pipes.select_pipe) vkDestroyPipeline(d, ctx->pipes.select_pipe, NULL);
-        if (ctx->pipes.priority_pipe) vkDestroyPipeline(d, ctx->pipes.priority_pipe, NULL);
-        if (ctx->pipes.select_module) vkDestroyShaderModule(d, ctx->pipes.select_module, NULL);
-        if (ctx->pipes.priority_module) vkDestroyShaderModule(d, ctx->pipes.priority_module, NULL);
-        if (ctx->rounds.timestamps) vkDestroyQueryPool(d, ctx->rounds.timestamps, NULL);
-        picvr_buffer_destroy(ctx, &ctx->image.render_queue);
-        picvr_buffer_destroy(ctx, &ctx->image.shade_queue);
-        picvr_buffer_destroy(ctx, &ctx->image.lookup_queue);
-        picvr_buffer_destroy(ctx, &ctx->rounds.readback);
-        if (ctx->pipes.update_module) vkDestroyShaderModule(d, ctx->pipes.update_module, NULL);
-        if (ctx->pipes.rebuild_module) vkDestroyShaderModule(d, ctx->pipes.rebuild_module, NULL);
-        picvr_buffer_destroy(ctx, &ctx->cache.prebuilt_nodes);
-        picvr_buffer_destroy(ctx, &ctx->cache.superpixels);
-        if (ctx->pipes.lookup_module) vkDestroyShaderModule(d, ctx->pipes.lookup_module, NULL);
-        if (ctx->pipes.create_module) vkDestroyShaderModule(d, ctx->pipes.create_module, NULL);
-        picvr_buffer_destroy(ctx, &ctx->cache.entries);
-        picvr_buffer_destroy(ctx, &ctx->cache.nodes);
-        picvr_buffer_destroy(ctx, &ctx->cache.refs);
-        picvr_buffer_destroy(ctx, &ctx->cache.counters);
-        picvr_buffer_destroy(ctx, &ctx->cache.requests);
-        if (ctx->pipes.stats_pipe) vkDestroyPipeline(d, ctx->pipes.stats_pipe, NULL);
-        if (ctx->pipes.track_module) vkDestroyShaderModule(d, ctx->pipes.track_module, NULL);
-        if (ctx->pipes.shade_module) vkDestroyShaderModule(d, ctx->pipes.shade_module, NULL);
-        if (ctx->pipes.stats_module) vkDestroyShaderModule(d, ctx->pipes.stats_module, NULL);
-        if (ctx->pipes.desc_pool) vkDestroyDescriptorPool(d, ctx->pipes.desc_pool, NULL);
-        if (ctx->pipes.layout) vkDestroyPipelineLayout(d, ctx->pipes.layout, NULL);
-        if (ctx->pipes.stats_layout) vkDestroyPipelineLayout(d, ctx->pipes.stats_layout, NULL);
-        if (ctx->pipes.set_layout) vkDestroyDescriptorSetLayout(d, ctx->pipes.set_layout, NULL);
+/* The scene's device objects and host tables. */
+static void picvr_scene_destroy(picvr_context *ctx) {
+    picvr_buffer_destroy(ctx, &ctx->scene.ubo);
+    picvr_buffer_destroy(ctx, &ctx->scene.tf_staging);
+    picvr_buffer_destroy(ctx, &ctx->scene.tf_range_max);
+    picvr_buffer_destroy(ctx, &ctx->scene.majorant);
+    picvr_image_destroy(ctx, &ctx->scene.tf_image);
+    picvr_image_destroy(ctx, &ctx->scene.volume);
+}
+
+/* The device, the instance and their debug messenger, unless they are the
+   application's. */
+static void picvr_device_destroy(picvr_context *ctx) {
+    VkDevice d = ctx->vk.device;
+    if (d) {
         if (ctx->vk.fence) vkDestroyFence(d, ctx->vk.fence, NULL);
         if (ctx->vk.cmd_pool) vkDestroyCommandPool(d, ctx->vk.cmd_pool, NULL);
         if (!ctx->vk.external) vkDestroyDevice(d, NULL);
     }
-    if (!ctx->vk.external && ctx->vk.instance) {
-        if (ctx->vk.messenger) {
-            PFN_vkDestroyDebugUtilsMessengerEXT destroy = (PFN_vkDestroyDebugUtilsMessengerEXT)
-                vkGetInstanceProcAddr(ctx->vk.instance, "vkDestroyDebugUtilsMessengerEXT");
-            if (destroy) destroy(ctx->vk.instance, ctx->vk.messenger, NULL);
-        }
-        vkDestroyInstance(ctx->vk.instance, NULL);
+    if (ctx->vk.external || !ctx->vk.instance) return;
+    if (ctx->vk.messenger) {
+        PFN_vkDestroyDebugUtilsMessengerEXT destroy = (PFN_vkDestroyDebugUtilsMessengerEXT)
+            vkGetInstanceProcAddr(ctx->vk.instance, "vkDestroyDebugUtilsMessengerEXT");
+        if (destroy) destroy(ctx->vk.instance, ctx->vk.messenger, NULL);
     }
+    vkDestroyInstance(ctx->vk.instance, NULL);
+}
+
+void picvr_destroy(picvr_context *ctx) {
+    if (!ctx) return;
+    if (ctx->vk.device) {
+        vkDeviceWaitIdle(ctx->vk.device);
+        picvr_scene_destroy(ctx);
+        picvr_image_buffers_destroy(ctx);
+        picvr_cache_destroy(ctx);
+        picvr_rounds_destroy(ctx);
+        picvr_results_destroy(ctx);
+        picvr_pipelines_destroy(ctx);
+    }
+    picvr_device_destroy(ctx);
     picvr_host_free(&ctx->alloc, ctx->scene.brick_min);
     picvr_host_free(&ctx->alloc, ctx->scene.brick_max);
     picvr_host_free(&ctx->alloc, ctx->scene.tf_rm);

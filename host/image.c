@@ -32,7 +32,7 @@ picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view) {
     if ((unsigned)view > PICVR_VIEW_CACHE_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
     if (view != PICVR_VIEW_IMAGE && !ctx->cache.on) return PICVR_ERROR_NOT_READY;
     if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
-    ctx->scene.gpu.view[0] = (uint32_t)view;
+    ctx->scene.gpu.debug_view = (uint32_t)view;
     return picvr_clear_accumulation(ctx);
 }
 
@@ -149,8 +149,10 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
     picvr_normalize3(r);
     picvr_cross3(r, f, u);
     picvr_gpu_scene *g = &ctx->scene.gpu;
-    picvr_pack4(g->cam_pos, c.position, (float)tan(0.5 * c.fov_y_degrees * PICVR_PI / 180.0));
-    picvr_pack4(g->cam_fwd, f, (float)c.width / (float)c.height);
+    memcpy(g->cam_pos, c.position, sizeof g->cam_pos);
+    g->tan_half_fov = (float)tan(0.5 * c.fov_y_degrees * PICVR_PI / 180.0);
+    memcpy(g->cam_fwd, f, sizeof g->cam_fwd);
+    g->aspect = (float)c.width / (float)c.height;
     picvr_pack4(g->cam_right, r, 0.0f);
     picvr_pack4(g->cam_up, u, 0.0f);
     g->image[0] = c.width;
@@ -166,4 +168,12 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
         if ((s = picvr_cmd_submit_wait(ctx))) return s;
     }
     return picvr_clear_accumulation(ctx);
+}
+
+/* The accumulation planes and the rendering procedure's queues. */
+static void picvr_image_buffers_destroy(picvr_context *ctx) {
+    for (int i = 0; i < 3; i++) picvr_buffer_destroy(ctx, &ctx->image.planes[i]);
+    picvr_buffer_destroy(ctx, &ctx->image.render_queue);
+    picvr_buffer_destroy(ctx, &ctx->image.shade_queue);
+    picvr_buffer_destroy(ctx, &ctx->image.lookup_queue);
 }

@@ -107,17 +107,33 @@ typedef struct picvr_variant_slot {
 #define PICVR_PI 3.14159265358979323846
 
 /* ---- host mirror of the std140 uniform block in shaders/common.glsl ---- */
-typedef struct picvr_gpu_light { float p0[4], p1[4], p2[4], p3[4], p4[4]; } picvr_gpu_light;
+typedef struct picvr_gpu_light {
+    float pos[3];
+    int32_t type;
+    float radiance[3], pmf;
+    float edge_u[3], size;
+    float edge_v[3], area;
+    float cdf, unused[3];
+} picvr_gpu_light;
 
 typedef struct picvr_gpu_scene {
-    float cam_pos[4], cam_fwd[4], cam_right[4], cam_up[4];
-    float box_min[4], box_size[4], cell_size[4];
-    uint32_t grid[4], image[4], dims[4];
-    float background[4];
+    float cam_pos[3], tan_half_fov;
+    float cam_fwd[3], aspect;
+    float cam_right[4], cam_up[4];
+    float box_min[3], density;
+    float box_size[3], bound_radius;
+    float cell_size[3], min_spacing;
+    uint32_t grid[3], light_count;
+    uint32_t image[4], dims[4];
+    float background[3], background_pmf;
     float value_map[4];
-    float cache_params[4], cache_radii[4];
-    uint32_t cache_caps[4], cache_screen[4], view[4];
-    float light_mono[4];
+    float gamma, epsilon, delta, update_threshold;
+    float radius_min, radius_max;
+    uint32_t curvature_limit, medium_model;
+    uint32_t max_entries, max_nodes, max_refs, max_requests;
+    uint32_t superpixel_side, superpixels_per_row, superpixel_count, screen_locking;
+    uint32_t debug_view, view_unused[3];
+    float light_log_k[3], mono_channel;
     picvr_gpu_light lights[PICVR_MAX_LIGHTS];
 } picvr_gpu_scene;
 

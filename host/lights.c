@@ -40,37 +40,38 @@ static void picvr_pack_light(const picvr_light *l, picvr_gpu_light *g) {
     memset(g, 0, sizeof *g);
     float rad[3];
     for (int c = 0; c < 3; c++) rad[c] = l->color[c] * l->intensity;
-    picvr_pack4(g->p0, l->position, (float)l->type);
-    picvr_pack4(g->p1, rad, 0.0f);
-    if (l->type == PICVR_LIGHT_SPHERE) g->p2[3] = l->radius;
+    memcpy(g->pos, l->position, sizeof g->pos);
+    g->type = (int32_t)l->type;
+    memcpy(g->radiance, rad, sizeof rad);
+    if (l->type == PICVR_LIGHT_SPHERE) g->size = l->radius;
     if (l->type == PICVR_LIGHT_RECT) {
         float n[3];
         picvr_cross3(l->edge_u, l->edge_v, n);
-        picvr_pack4(g->p2, l->edge_u, 0.0f);
-        picvr_pack4(g->p3, l->edge_v, (float)picvr_len3(n));
+        memcpy(g->edge_u, l->edge_u, sizeof g->edge_u);
+        memcpy(g->edge_v, l->edge_v, sizeof g->edge_v);
+        g->area = (float)picvr_len3(n);
     }
     if (l->type == PICVR_LIGHT_DIRECTIONAL) {
         double inv = 1.0 / picvr_len3(l->direction);
         float dir[3] = {(float)(l->direction[0] * inv), (float)(l->direction[1] * inv), (float)(l->direction[2] * inv)};
-        picvr_pack4(g->p0, dir, (float)l->type);
+        memcpy(g->pos, dir, sizeof g->pos);
         /* 1 - cos(half angle) = 2 sin^2(half angle / 2), without cancellation.  Rule:
            cones below 1e-12 sr/(2 pi) are delta lights (their radiance would overflow). */
         double s = sin(0.25 * l->angular_diameter), omc = 2.0 * s * s;
         if (omc < 1e-12) omc = 0.0;
-        g->p2[3] = (float)omc;
+        g->size = (float)omc;
         /* colour * intensity is the irradiance on a plane facing the sun:
            E = L * pi sin^2(h), so L = E / (pi omc (2 - omc)). */
         if (omc > 0.0)
-            for (int c = 0; c < 3; c++) g->p1[c] = (float)(rad[c] / (PICVR_PI * omc * (2.0 - omc)));
+            for (int c = 0; c < 3; c++) g->radiance[c] = (float)(rad[c] / (PICVR_PI * omc * (2.0 - omc)));
     }
 }
 
 static int picvr_light_is_delta(const picvr_gpu_light *g) {
-    int type = (int)g->p0[3];
-    return type == PICVR_LIGHT_POINT || (type == PICVR_LIGHT_DIRECTIONAL && g->p2[3] == 0.0f);
+    return g->type == PICVR_LIGHT_POINT || (g->type == PICVR_LIGHT_DIRECTIONAL && g->size == 0.0f);
 }
 
-/* scene.light_mono: whether every emitter (a light or the background with power) has
+/* scene.gpu.light_log_k and .mono_channel: whether every emitter (a light or the background with power) has
    one chromaticity k, as white lights do.  Transmittance and the phase function are
    scalars, so the irradiance is then k times one scalar field: an entry's three rates
    and radii agree, and a cache lookup extrapolates only channel m (k's largest) and
@@ -82,7 +83,7 @@ static int picvr_light_is_delta(const picvr_gpu_light *g) {
    emitter at all: channel 0 with k = (1, 1, 1) (the image is black anyway). */
 static int picvr_emits_light(const float e[3]) { return e[0] > 0.0f || e[1] > 0.0f || e[2] > 0.0f; }
 
-static void picvr_light_chromaticity(const float (*emit)[3], uint32_t n, float out[4]) {
+static void picvr_light_chromaticity(const float (*emit)[3], uint32_t n, float log_k[3], float *channel) {
     const float *k = NULL;
     for (uint32_t i = 0; i < n && !k; i++)
         if (picvr_emits_light(emit[i])) k = emit[i];
@@ -95,15 +96,15 @@ static void picvr_light_chromaticity(const float (*emit)[3], uint32_t n, float o
         if (!picvr_emits_light(e)) continue;
         for (int c = 0; c < 3; c++)
             if (fabs((double)e[c] * k[m] - (double)k[c] * e[m]) > 1e-6 * (double)e[m] * k[m]) {
-                out[0] = out[1] = out[2] = 0.0f;
-                out[3] = 3.0f;
+                log_k[0] = log_k[1] = log_k[2] = 0.0f;
+                *channel = 3.0f;
                 return;
             }
     }
     /* ln(k_c / k_m) > ln(1e-45 / FLT_MAX) > -193: a float; k_c = 0 -> below the code for 0 */
     for (int c = 0; c < 3; c++)
-        out[c] = k[c] > 0.0f ? (float)log((double)k[c] / k[m]) : -138.2f;
-    out[3] = (float)m;
+        log_k[c] = k[c] > 0.0f ? (float)log((double)k[c] / k[m]) : -138.2f;
+    *channel = (float)m;
 }
 
 picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uint32_t count,
@@ -124,7 +125,7 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
     }
     /* Scene radius for the power of lights at infinity: the volume's bounding sphere
        (1 before a volume is uploaded; only the ratios matter). */
-    double R = ctx->scene.has_volume ? ctx->scene.gpu.box_size[3] : 1.0;
+    double R = ctx->scene.has_volume ? ctx->scene.gpu.bound_radius : 1.0;
     double power[PICVR_MAX_LIGHTS + 1], total = 0.0;
     for (uint32_t i = 0; i < count; i++) total += power[i] = picvr_light_power(&lights[i], R);
     double bg_power = bg ? picvr_luminance(bg->color) * bg->intensity * 4.0 * PICVR_PI * PICVR_PI * R * R : 0.0;
@@ -138,20 +139,22 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
         /* Rule: with zero total power every probability is 0 and nothing is sampled. */
         double pmf = total > 0.0 ? power[i] / total : 0.0;
         cdf += pmf;
-        g->p1[3] = (float)pmf;
-        g->p4[0] = (float)cdf;
+        g->pmf = (float)pmf;
+        g->cdf = (float)cdf;
         if (!picvr_light_is_delta(g) && pmf > 0.0) mis = 1;
     }
     float bgr[3] = {0, 0, 0};
     if (bg) for (int c = 0; c < 3; c++) bgr[c] = bg->color[c] * bg->intensity;
-    picvr_pack4(ctx->scene.gpu.background, bgr, total > 0.0 ? (float)(bg_power / total) : 0.0f);
+    memcpy(ctx->scene.gpu.background, bgr, sizeof bgr);
+    ctx->scene.gpu.background_pmf = total > 0.0 ? (float)(bg_power / total) : 0.0f;
     if (bg_power > 0.0) mis = 1;
     float emit[PICVR_MAX_LIGHTS + 1][3];
     for (uint32_t i = 0; i < count; i++)
-        for (int c = 0; c < 3; c++) emit[i][c] = power[i] > 0.0 ? ctx->scene.gpu.lights[i].p1[c] : 0.0f;
+        for (int c = 0; c < 3; c++) emit[i][c] = power[i] > 0.0 ? ctx->scene.gpu.lights[i].radiance[c] : 0.0f;
     for (int c = 0; c < 3; c++) emit[count][c] = bg_power > 0.0 ? bgr[c] : 0.0f;
-    picvr_light_chromaticity((const float (*)[3])emit, count + 1, ctx->scene.gpu.light_mono);
-    ctx->scene.gpu.grid[3] = count;
+    picvr_light_chromaticity((const float (*)[3])emit, count + 1, ctx->scene.gpu.light_log_k,
+                             &ctx->scene.gpu.mono_channel);
+    ctx->scene.gpu.light_count = count;
     ctx->scene.use_phase_mis = mis;
     picvr_status s = picvr_cache_clear(ctx);
     return s ? s : picvr_clear_accumulation(ctx);

@@ -51,7 +51,7 @@ static picvr_status picvr_create_priority_pipeline(picvr_context *ctx) {
 
 /* True when the cached rendering procedure runs its debug-view variant. */
 static int picvr_debug_view_on(const picvr_context *ctx) {
-    return ctx->cache.on && ctx->scene.gpu.view[0] != PICVR_VIEW_IMAGE;
+    return ctx->cache.on && ctx->scene.gpu.debug_view != PICVR_VIEW_IMAGE;
 }
 
 /* The key of procedure proc's variant for the current scene.  Only the constants a
@@ -64,7 +64,7 @@ static int picvr_debug_view_on(const picvr_context *ctx) {
    a new variant, and a pause, whenever an application turns a light of a new type on. */
 static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
     uint32_t mis = ctx->scene.use_phase_mis ? PICVR_KEY_PHASE_MIS : 0u, fine = ctx->scene.use_fine ? PICVR_KEY_FINE : 0u;
-    uint32_t mono = (uint32_t)ctx->scene.gpu.light_mono[3] << PICVR_KEY_MONO_SHIFT;
+    uint32_t mono = (uint32_t)ctx->scene.gpu.mono_channel << PICVR_KEY_MONO_SHIFT;
     if (proc == PICVR_PROC_CREATE) return mis | fine;
     if (proc == PICVR_PROC_UPDATE) return fine | mono;
     if (!ctx->cache.on) return mis | fine;
@@ -268,4 +268,27 @@ static void picvr_update_descriptors(picvr_context *ctx) {
     }
     vkUpdateDescriptorSets(ctx->vk.device, n, w, 0, NULL);
     ctx->pipes.descriptors_dirty = 0;
+}
+
+/* Every pipeline, shader module, the descriptor pool and layouts, the sampler. */
+static void picvr_pipelines_destroy(picvr_context *ctx) {
+    VkDevice d = ctx->vk.device;
+    picvr_pipelines *p = &ctx->pipes;
+    for (int proc = 0; proc < 3; proc++)
+        for (uint32_t i = 0; i < PICVR_VARIANT_SLOTS; i++)
+            for (int k = 0; k < PICVR_KERNELS; k++)
+                if (p->variants[proc][i].pipe[k]) vkDestroyPipeline(d, p->variants[proc][i].pipe[k], NULL);
+    VkPipeline pipes[] = {p->rebuild_pipe, p->select_pipe, p->priority_pipe, p->stats_pipe};
+    for (size_t i = 0; i < sizeof pipes / sizeof pipes[0]; i++)
+        if (pipes[i]) vkDestroyPipeline(d, pipes[i], NULL);
+    VkShaderModule modules[] = {p->select_module, p->priority_module, p->update_module, p->rebuild_module,
+                                p->lookup_module, p->create_module, p->track_module, p->shade_module,
+                                p->stats_module};
+    for (size_t i = 0; i < sizeof modules / sizeof modules[0]; i++)
+        if (modules[i]) vkDestroyShaderModule(d, modules[i], NULL);
+    if (p->linear_sampler) vkDestroySampler(d, p->linear_sampler, NULL);
+    if (p->desc_pool) vkDestroyDescriptorPool(d, p->desc_pool, NULL);
+    if (p->layout) vkDestroyPipelineLayout(d, p->layout, NULL);
+    if (p->stats_layout) vkDestroyPipelineLayout(d, p->stats_layout, NULL);
+    if (p->set_layout) vkDestroyDescriptorSetLayout(d, p->set_layout, NULL);
 }

@@ -160,3 +160,8 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
     out->device_type = picvr_device_type_of(ctx->vk.props.deviceType);
     return PICVR_OK;
 }
+
+static void picvr_results_destroy(picvr_context *ctx) {
+    picvr_buffer_destroy(ctx, &ctx->results.readback);
+    picvr_buffer_destroy(ctx, &ctx->results.partials);
+}

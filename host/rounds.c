@@ -256,3 +256,8 @@ static picvr_status picvr_run_round(picvr_context *ctx, const picvr_round_plan *
     if ((s = picvr_cmd_submit_wait(ctx))) return s;
     return picvr_finish_round(ctx, p, picvr_clock_ms() - t0, created);
 }
+
+static void picvr_rounds_destroy(picvr_context *ctx) {
+    picvr_buffer_destroy(ctx, &ctx->rounds.readback);
+    if (ctx->rounds.timestamps) vkDestroyQueryPool(ctx->vk.device, ctx->rounds.timestamps, NULL);
+}

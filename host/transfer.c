@@ -52,7 +52,7 @@ static picvr_status picvr_validate_tf(const picvr_tf_point *p, uint32_t n, float
 static picvr_status picvr_apply_tf(picvr_context *ctx, const picvr_tf_point *p, uint32_t n, float density) {
     for (int i = 0; i < PICVR_TF_SIZE; i++) picvr_tf_eval(p, n, (float)i / (PICVR_TF_SIZE - 1), &ctx->scene.tf_table[i * 4]);
     ctx->scene.density = density;
-    ctx->scene.gpu.box_min[3] = density;
+    ctx->scene.gpu.density = density;
     picvr_range_max_build(ctx->scene.tf_rm, ctx->scene.tf_table);
     picvr_status s = picvr_upload_tf_table(ctx);
     if (!s) s = picvr_upload_buffer(ctx, &ctx->scene.tf_range_max, ctx->scene.tf_rm, sizeof *ctx->scene.tf_rm);

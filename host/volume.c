@@ -230,8 +230,8 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
         ctx->scene.gpu.dims[i] = desc->dims[i];
         if (ctx->scene.spacing[i] < min_spacing) min_spacing = ctx->scene.spacing[i];
     }
-    ctx->scene.gpu.cell_size[3] = min_spacing;
-    ctx->scene.gpu.box_size[3] = 0.5f * (float)picvr_len3(ctx->scene.gpu.box_size);
+    ctx->scene.gpu.min_spacing = min_spacing;
+    ctx->scene.gpu.bound_radius = 0.5f * (float)picvr_len3(ctx->scene.gpu.box_size);
     picvr_shader_value_map(ctx, desc, fmt, m);
     ctx->scene.has_volume = 1;
     ctx->pipes.descriptors_dirty = 1;

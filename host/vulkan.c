@@ -408,17 +408,23 @@ static int picvr_format_filters(picvr_context *ctx, VkFormat f) {
     return (p.optimalTilingFeatures & need) == need;
 }
 
+/* Fills one extension's properties struct (its sType set, pNext NULL) through
+   vkGetPhysicalDeviceProperties2. */
+static void picvr_query_properties(const picvr_context *ctx, void *properties) {
+    VkPhysicalDeviceProperties2 p2;
+    memset(&p2, 0, sizeof p2);
+    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    p2.pNext = properties;
+    vkGetPhysicalDeviceProperties2(ctx->vk.phys, &p2);
+}
+
 /* The smaller of one allocation's limit (maxMemoryAllocationSize) and the largest
    device-local heap; 0 when neither is known. */
 static VkDeviceSize picvr_volume_alloc_limit(const picvr_context *ctx) {
     VkPhysicalDeviceMaintenance3Properties m3;
     memset(&m3, 0, sizeof m3);
     m3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
-    VkPhysicalDeviceProperties2 p2;
-    memset(&p2, 0, sizeof p2);
-    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
-    p2.pNext = &m3;
-    vkGetPhysicalDeviceProperties2(ctx->vk.phys, &p2);
+    picvr_query_properties(ctx, &m3);
     VkDeviceSize heap = 0;
     for (uint32_t i = 0; i < ctx->vk.mem_props.memoryHeapCount; i++)
         if ((ctx->vk.mem_props.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) && ctx->vk.mem_props.memoryHeaps[i].size > heap)
@@ -451,11 +457,7 @@ static uint32_t picvr_gpu_resident_groups(const picvr_context *ctx) {
     VkPhysicalDeviceShaderSMBuiltinsPropertiesNV sm;
     memset(&sm, 0, sizeof sm);
     sm.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_SM_BUILTINS_PROPERTIES_NV;
-    VkPhysicalDeviceProperties2 p2;
-    memset(&p2, 0, sizeof p2);
-    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
-    p2.pNext = &sm;
-    vkGetPhysicalDeviceProperties2(ctx->vk.phys, &p2);
+    picvr_query_properties(ctx, &sm);
     uint64_t warps_per_group = (PICVR_CACHE_CREATE_GROUP + 31) / 32;
     uint64_t groups = (uint64_t)sm.shaderSMCount * sm.shaderWarpsPerSM / warps_per_group;
     return groups < 256 ? 256u : groups > 65536 ? 65536u : (uint32_t)groups;

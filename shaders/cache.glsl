@@ -11,7 +11,7 @@
 #define CACHE_NO_NODE 0xffffffffu  // descend_create failed (node 0 is the root)
 
 // Specialization (picvr_vk.c, variant_key): the lights' channel when they share one
-// chromaticity (scene.light_mono; 3: colours differ, every channel is extrapolated),
+// chromaticity (scene.light_log_k; 3: colours differ, every channel is extrapolated),
 // and the locking mode, fixed per context (true: screen space, §5.2).
 layout(constant_id = 4) const uint MONO_CHANNEL = 3u;
 layout(constant_id = 5) const bool SCREEN_LOCKING = false;
@@ -68,11 +68,11 @@ float entry_medium_fraction(uint e, bool neg) {
 }
 // The entry's minimum radius, scaled like its offset (cache_math.glsl, entry_r_min).
 float entry_r_min_of(uint e) {
-    return CM_FN(entry_r_min)(scene.cache_radii.x, entries[e].e0.w, scene.cache_params.z);
+    return CM_FN(entry_r_min)(scene.radius_min, entries[e].e0.w, scene.delta);
 }
 // Its maximum radius (cache_math.glsl, entry_r_max).
 float entry_r_max_of(uint e) {
-    return CM_FN(entry_r_max)(scene.cache_radii.y, entries[e].e0.w, scene.cache_params.z);
+    return CM_FN(entry_r_max)(scene.radius_max, entries[e].e0.w, scene.delta);
 }
 
 // ---- local frame: n is the normalized gradient of extinction (central differences of
@@ -86,12 +86,12 @@ float entry_r_max_of(uint e) {
 // rendering time on lavapipe with only 100 entries (measured 2026-11-28, bonsai), and
 // more as the cache grows.  t and b are recomputed from the stored n bit for bit.
 vec3 entry_normal(vec3 p) {
-    vec3 h = scene.box_size.xyz / vec3(scene.dims.xyz);
+    vec3 h = scene.box_size / vec3(scene.dims.xyz);
     vec3 g = vec3(sigma_t_in_box(p + vec3(h.x, 0, 0)) - sigma_t_in_box(p - vec3(h.x, 0, 0)),
                   sigma_t_in_box(p + vec3(0, h.y, 0)) - sigma_t_in_box(p - vec3(0, h.y, 0)),
                   sigma_t_in_box(p + vec3(0, 0, h.z)) - sigma_t_in_box(p - vec3(0, 0, h.z))) / (2.0 * h);
     float gl = length(g);
-    if (!(gl > 1e-6 * scene.box_min.w / scene.cell_size.w)) return vec3(0, 0, 1);
+    if (!(gl > 1e-6 * scene.density / scene.min_spacing)) return vec3(0, 0, 1);
     return g / gl;
 }
 
@@ -162,7 +162,7 @@ Prediction predict(uint e, vec3 x) {
     bool stretched = u.z > a.z;
     float d1u = CM_FN(length1)(u.x, u.y, u.z);
     float rmin_e = entry_r_min_of(e), rmax_e = entry_r_max_of(e);
-    // Lights of one chromaticity (scene.light_mono): only their channel m is
+    // Lights of one chromaticity (scene.light_log_k): only their channel m is
     // extrapolated, the others follow below.  A specialization constant.
     const uint m = MONO_CHANNEL;
     uint c_end = m < 3u ? m + 1u : 3u;
@@ -173,12 +173,12 @@ Prediction predict(uint e, vec3 x) {
         float s = CM_FN(sigma_interp)(sx, sy, sz, u.x, u.y, u.z);        // Eq. 8
         // Fig. 4: discard beyond the validity radius of the interpolated sigma_v.
         if (!(d1 <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, delta_e,
-                                                  scene.cache_params.y, rmin_e,
+                                                  scene.epsilon, rmin_e,
                                                   rmax_e))) return pr;
         float lnE = CM_FN(log_extrapolate)(entries[e].e0[c], s, d1u);  // Eq. 7 in log space
         if (stretched)
             lnE = CM_FN(medium_bound)(lnE, CM_FN(ln_irradiance)(entries[e].e0[c]), sx, sy, sz,
-                                      delta_e, scene.cache_params.y);
+                                      delta_e, scene.epsilon);
         pr.lnE[c] = lnE;
     }
     // E_c = (k_c / k_m) E_m at every point, so ln E_c = ln E_m + ln(k_c / k_m), clamped
@@ -186,7 +186,7 @@ Prediction predict(uint e, vec3 x) {
     // zero E_m give the code for 0, as the three-channel path does.
     if (m < 3u)
         for (uint c = 0u; c < 3u; c++)
-            if (c != m) pr.lnE[c] = CM_FN(san_ln)(pr.lnE[m] + scene.light_mono[c]);
+            if (c != m) pr.lnE[c] = CM_FN(san_ln)(pr.lnE[m] + scene.light_log_k[c]);
     pr.w = w;
     return pr;
 }
@@ -231,8 +231,8 @@ CacheWalk walk_start() {
     w.node = 0u;
     w.ref = nodes[0].refs;
     w.visited = 0u;
-    w.lo = scene.box_min.xyz;
-    w.size = scene.box_size.xyz;
+    w.lo = scene.box_min;
+    w.size = scene.box_size;
     return w;
 }
 
@@ -273,7 +273,7 @@ uint walk_deepest(inout CacheWalk w, vec3 x) {
 // Whether x lies within a voxel of entry e's centre (VIEW_CACHE marks the centres).
 bool near_entry_centre(uint e, vec3 x) {
     vec3 d = x - entries[e].pos_rmax.xyz;
-    return dot(d, d) < scene.cell_size.w * scene.cell_size.w;
+    return dot(d, d) < scene.min_spacing * scene.min_spacing;
 }
 
 // The entries on x's walk whose zone holds x, in walk order: candidate[0, n).  In
@@ -296,7 +296,7 @@ bool zone_candidates(vec3 x, inout CacheWalk w, out uint candidate[LOOKUP_CANDID
     n = 0u;
     bool spilled = false;
     while (walk_next(w, x, next)) {
-        if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE) near_centre = near_centre || near_entry_centre(next, x);
+        if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE) near_centre = near_centre || near_entry_centre(next, x);
         if (!sphere_holds(next, x)) continue;
         if (n == LOOKUP_CANDIDATES) { spilled = true; break; }
         candidate[n++] = next;
@@ -322,7 +322,7 @@ bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
     for (uint i = 0u; i < n; i++) eval_entry(candidate[i], x, sum_w, sum_wlog);
     if (spilled)
         do {
-            if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE) near_centre = near_centre || near_entry_centre(e, x);
+            if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE) near_centre = near_centre || near_entry_centre(e, x);
             eval_entry(e, x, sum_w, sum_wlog);
         } while (walk_next(w, x, e));
     deepest = walk_deepest(w, x);
@@ -345,7 +345,7 @@ void queue_request(vec3 x, uint locked, uint cap) {
         return;
     }
     uint slot = atomicAdd(cache_counters.request_count, 1u);
-    if (slot >= min(cap, scene.cache_caps.w)) {
+    if (slot >= min(cap, scene.max_requests)) {
         cache_unlock(locked);
         return;
     }
@@ -356,13 +356,13 @@ void queue_request(vec3 x, uint locked, uint cap) {
 }
 
 uint superpixel_of(uvec2 px) {
-    uvec2 sp = px / scene.cache_screen.x;
-    return sp.y * scene.cache_screen.y + sp.x;
+    uvec2 sp = px / scene.superpixel_side;
+    return sp.y * scene.superpixels_per_row + sp.x;
 }
 
 // Counts a scatter event of this round in its superpixel (screen-space locking).
 void count_ray(uvec2 px, bool miss, uint round) {
-    uint n = scene.cache_screen.z;
+    uint n = scene.superpixel_count;
     uint base = n + 2u * n * (round & 1u) + 2u * superpixel_of(px);
     atomicAdd(superpixels[base], 1u);
     if (miss) atomicAdd(superpixels[base + 1u], 1u);
@@ -380,14 +380,14 @@ void cache_request(vec3 x, uint node, uvec2 px, uint round, float u, uint cap) {
     // queued, or the node is locked - the common case for a miss - no atomic is spent.
     // Both reads may be stale; the atomics below decide, so this only saves work
     // (measured on lavapipe: the three atomics per miss cost 20 % of the render time).
-    if (cache_counters.request_count >= min(cap, scene.cache_caps.w)) return;
+    if (cache_counters.request_count >= min(cap, scene.max_requests)) return;
     if (!SCREEN_LOCKING) {
         if (nodes[node].lock != 0u) return;
         if (atomicCompSwap(nodes[node].lock, 0u, 1u) != 0u) return;
         queue_request(x, node, cap);
         return;
     }
-    uint n = scene.cache_screen.z, sp = superpixel_of(px);
+    uint n = scene.superpixel_count, sp = superpixel_of(px);
     uint prev = n + 2u * n * ((round + 1u) & 1u) + 2u * sp;
     uint rays = superpixels[prev], misses = superpixels[prev + 1u];
     float ratio = rays > 0u ? float(misses) / float(rays) : 1.0;
@@ -422,7 +422,7 @@ uint insertion_depth(float rmax) {
 // Integer cell of point q at `depth` (clamped to the box).
 uvec3 cell_at(vec3 q, uint depth) {
     float n = float(1u << depth);
-    vec3 f = (q - scene.box_min.xyz) / scene.box_size.xyz * n;
+    vec3 f = (q - scene.box_min) / scene.box_size * n;
     return uvec3(clamp(f, vec3(0.0), vec3(n - 1.0)));
 }
 
@@ -438,7 +438,7 @@ uint descend_create(uvec3 cell, uint depth) {
         uint ch = nodes[node].children;
         if (ch == CACHE_NIL) {
             uint base = atomicAdd(cache_counters.node_count, 8u);
-            if (base + 8u > scene.cache_caps.y) { atomicExchange(cache_counters.full, 1u); return CACHE_NO_NODE; }
+            if (base + 8u > scene.max_nodes) { atomicExchange(cache_counters.full, 1u); return CACHE_NO_NODE; }
             uint prev = atomicCompSwap(nodes[node].children, CACHE_NIL, base);
             ch = prev == CACHE_NIL ? base : prev;
         }
@@ -456,7 +456,7 @@ uint descend_create(uvec3 cell, uint depth) {
 // barrier.
 void push_ref(uint node, uint e) {
     uint r = atomicAdd(cache_counters.ref_count, 1u) + 1u;    // ref 0 is NIL
-    if (r >= scene.cache_caps.z) { atomicExchange(cache_counters.full, 1u); return; }
+    if (r >= scene.max_refs) { atomicExchange(cache_counters.full, 1u); return; }
     refs[r].entry = e;
     refs[r].next = atomicExchange(nodes[node].refs, r);
 }
@@ -498,8 +498,8 @@ void insert_cell(uint e, vec3 x0, vec3 n, vec3 r_pos, vec3 r_neg, uint k) {
     uvec3 lo = cell_at(x0 - vec3(rmax), depth), hi = cell_at(x0 + vec3(rmax), depth);
     uvec3 cell = lo + uvec3(k % 3u, (k / 3u) % 3u, k / 9u);
     if (any(greaterThan(cell, hi))) return;
-    vec3 size = scene.box_size.xyz / float(1u << depth);
-    vec3 bmin = scene.box_min.xyz + vec3(cell) * size;
+    vec3 size = scene.box_size / float(1u << depth);
+    vec3 bmin = scene.box_min + vec3(cell) * size;
     vec3 t, b;
     basis(n, t, b);
     if (!zone_reaches(x0, rmax, mat3(t, b, n), r_pos, r_neg, bmin, size)) return;

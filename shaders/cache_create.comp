@@ -94,10 +94,10 @@ void main() {
     // paths of the densest of the centre and the six Table 1 offset points if shorter.
     float sigma_local = sigma_t_in_box(x0);
     for (uint k = 0u; k < 3u; k++) {
-        sigma_local = max(sigma_local, sigma_t_in_box(x0 + scene.cache_params.z * axis[k]));
-        sigma_local = max(sigma_local, sigma_t_in_box(x0 - scene.cache_params.z * axis[k]));
+        sigma_local = max(sigma_local, sigma_t_in_box(x0 + scene.delta * axis[k]));
+        sigma_local = max(sigma_local, sigma_t_in_box(x0 - scene.delta * axis[k]));
     }
-    float delta = CM_FN(entry_delta)(scene.cache_params.z, sigma_local);
+    float delta = CM_FN(entry_delta)(scene.delta, sigma_local);
     vec3 p[7];
     p[0] = x0;
     for (uint k = 0u; k < 3u; k++) { p[1u + 2u * k] = x0 + delta * axis[k]; p[2u + 2u * k] = x0 - delta * axis[k]; }
@@ -107,7 +107,7 @@ void main() {
     // (the paper's secant) when the medium model is off.
     if (lid < 2u) {
         float f = 1.0;
-        if (scene.cache_radii.w != 0.0) {
+        if (scene.medium_model != 0u) {
             vec3 dir = lid == 0u ? n : -n;
             float n_in = 0.0;
             for (uint k = 0u; k < 8u; k++)
@@ -131,7 +131,7 @@ void main() {
     for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lmean[k] = 0.0; lm2[k] = 0.0; }
     uint truncated = 0u;             // this thread's samples with a truncated estimate
     bool converged = false;
-    float gamma = scene.cache_params.x;
+    float gamma = scene.gamma;
     uint point_rounds[7];            // rounds each point took (uniform over the workgroup)
     for (uint k = 0u; k < 7u; k++) point_rounds[k] = 0u;
     if (lid < 7u) s_point_done[lid] = false;
@@ -191,7 +191,7 @@ void main() {
 
     if (lid == 0u) {
         uint e = atomicAdd(cache_counters.entry_count, 1u);
-        if (e >= scene.cache_caps.x) {
+        if (e >= scene.max_entries) {
             atomicExchange(cache_counters.full, 1u);
             s_done = false;                              // no insertion
         } else {
@@ -202,9 +202,9 @@ void main() {
             // RM_MAX_ORDER (biased; stats.cache_samples, cache_samples_truncated).
             atomicAdd(cache_counters.point_rounds, point_rounds_sum);
             if (s_truncated > 0u) atomicAdd(cache_counters.truncated, s_truncated);
-            float eps = scene.cache_params.y;
-            float rmin = CM_FN(entry_r_min)(scene.cache_radii.x, delta, scene.cache_params.z);
-            float rmax_cap = CM_FN(entry_r_max)(scene.cache_radii.y, delta, scene.cache_params.z);
+            float eps = scene.epsilon;
+            float rmin = CM_FN(entry_r_min)(scene.radius_min, delta, scene.delta);
+            float rmax_cap = CM_FN(entry_r_max)(scene.radius_max, delta, scene.delta);
             float rmax = 0.0;
             for (uint h = 0u; h < 6u; h++) {
                 float r = rmax_cap;
@@ -212,7 +212,7 @@ void main() {
                     float e0 = s_E[0][c], ed = s_E[1u + h][c];
                     entries[e].sigma_v[h * 3u + c] = CM_FN(sigma_v)(e0, ed, delta);          // Eq. 6
                     r = min(r, CM_FN(validity_radius)(e0, ed, delta, eps, rmin, rmax_cap)); // Eq. 9, 10
-                    if (scene.cache_radii.z != 0.0) {   // the curvature limit of this axis
+                    if (scene.curvature_limit != 0u) {   // the curvature limit of this axis
                         uint ax = h / 2u;
                         r = min(r, CM_FN(curvature_radius)(CM_FN(ln_irradiance)(s_E[2u + 2u * ax][c]),
                                                            CM_FN(ln_irradiance)(e0),

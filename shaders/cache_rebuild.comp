@@ -11,7 +11,7 @@ layout(local_size_x = 64) in;
 
 void main() {
     uint e = gl_GlobalInvocationID.x;
-    if (e >= min(cache_counters.entry_count, scene.cache_caps.x)) return;
+    if (e >= min(cache_counters.entry_count, scene.max_entries)) return;
     // The radii may have shrunk: recompute the largest, the lookup's sphere test.
     vec3 r_pos = vec3(entry_radius(e, 0u), entry_radius(e, 2u), entry_radius(e, 4u));
     vec3 r_neg = vec3(entry_radius(e, 1u), entry_radius(e, 3u), entry_radius(e, 5u));

@@ -34,7 +34,7 @@ void main() {
                      (block / blocks_x) * 8u + min(uint(rnd(rng) * 8.0), 7u));
     if (px.x >= scene.image.x || px.y >= scene.image.y) return;   // no barriers below
 
-    vec3 ro = scene.cam_pos.xyz;
+    vec3 ro = scene.cam_pos;
     vec3 rd = camera_ray(px, rng);
     float t0, t1;
     if (!box_interval(ro, rd, t0, t1)) return;
@@ -71,7 +71,7 @@ void main() {
     }
 
     // Resolve conflicts: at most count - 1 removals.
-    float ln_threshold = log(1.0 + scene.cache_params.w);
+    float ln_threshold = log(1.0 + scene.update_threshold);
     for (uint iter = 0u; iter < UPDATE_MAX_CANDIDATES && count > 1u; iter++) {
         float lmin = 1e30, lmax = -1e30, wmin = 2.0;
         uint kmin = 0u;

@@ -27,39 +27,48 @@ layout(constant_id = 0) const bool USE_PHASE_MIS = true;
 #define LIGHT_DIRECTIONAL 3
 #define LIGHT_POINT 4
 
-// One light, packed by picvr_vk.c (pack_light):
-//   p0.xyz position (sphere/rect centre, point) or unit direction toward the light
-//          (directional); p0.w type
-//   p1.xyz radiance (area; directional: E / (pi sin^2 half angle)), irradiance
-//          (delta directional) or intensity (point); p1.w selection probability
-//   p2.xyz rect edge_u; p2.w sphere radius, or 1 - cos(half angle) for directional
-//   p3.xyz rect edge_v; p3.w rect area
-//   p4.x   cumulative selection probability (upper end of this light's interval)
-struct Light { vec4 p0; vec4 p1; vec4 p2; vec4 p3; vec4 p4; };
+// One light, packed by host/lights.c (picvr_pack_light); host mirror picvr_gpu_light.
+struct Light {
+    vec3 pos;      int type;     // position (sphere/rect centre, point) or unit direction
+                                 // toward the light (directional); LIGHT_*
+    vec3 radiance; float pmf;    // radiance (area; directional: E / (pi sin^2 half angle)),
+                                 // irradiance (delta directional) or intensity (point);
+                                 // the probability of choosing this light
+    vec3 edge_u;   float size;   // rect edge_u; sphere radius, or 1 - cos(half angle) for
+                                 // directional (0: a delta light)
+    vec3 edge_v;   float area;   // rect edge_v and area
+    float cdf; float unused0; float unused1; float unused2; // upper end of its interval
+};
 
+// The scene (host mirror: picvr_gpu_scene in host/internal.h; `make check-layout`
+// compares every member's offset).  Each line is one 16-byte std140 slot.
 layout(set = 0, binding = 0, std140) uniform Scene {
-    vec4 cam_pos;      // xyz, w = tan(fov_y / 2)
-    vec4 cam_fwd;      // xyz, w = aspect
-    vec4 cam_right;
-    vec4 cam_up;
-    vec4 box_min;      // xyz world box min, w = density factor D
-    vec4 box_size;     // xyz world box size, w = radius of the bounding sphere
-    vec4 cell_size;    // xyz world size of one majorant cell, w = smallest spacing
-    uvec4 grid;        // xyz majorant grid dims, w = number of lights
-    uvec4 image;       // x width, y height
-    uvec4 dims;        // xyz voxel dims
-    vec4 background;   // rgb radiance, w = selection probability
-    vec4 value_map;    // x scale, y offset: normalized value = clamp(texel * x + y, 0, 1)
-    vec4 cache_params; // x gamma (Eq. 5), y epsilon (Eq. 10), z Delta (world), w update threshold
-    vec4 cache_radii;  // x minimum, y maximum validity radius (world), z 1: curvature limit on,
-                       // w 1: medium model on (cache_math.glsl, medium_fraction)
-    uvec4 cache_caps;  // pool capacities: entries, nodes, refs, requests
-    uvec4 cache_screen;// x superpixel side, y superpixels per row, z superpixel count,
-                       // w locking: 0 object space, 1 screen space (SCREEN_LOCKING)
-    uvec4 view;        // x: 0 image, 1 cache debug view
-    vec4 light_mono;   // lights of one chromaticity (picvr_vk.c, light_chromaticity): xyz
-                       // ln(k_c / k_m) of their colour k (CM_LN_E_MIN - CM_LN_E_MAX where
-                       // k_c = 0); w the channel m, which the kernels read as MONO_CHANNEL
+    vec3 cam_pos;    float tan_half_fov;      // tan(fov_y / 2)
+    vec3 cam_fwd;    float aspect;            // width / height
+    vec4 cam_right;                           // xyz; w unused
+    vec4 cam_up;                              // xyz; w unused
+    vec3 box_min;    float density;           // world box min; density factor D (Fig. 9)
+    vec3 box_size;   float bound_radius;      // world box size; radius of its bounding sphere
+    vec3 cell_size;  float min_spacing;       // world size of a majorant cell; smallest spacing
+    uvec3 grid;      uint light_count;        // majorant grid dims; number of lights
+    uvec4 image;                              // x width, y height
+    uvec4 dims;                               // xyz voxel dims
+    vec3 background; float background_pmf;    // rgb radiance; probability of choosing it
+    vec4 value_map;                           // normalized value = clamp(texel * x + y, 0, 1)
+    float gamma; float epsilon; float delta; float update_threshold;
+                                              // Eq. 5's gamma, Eq. 10's epsilon, Delta (world),
+                                              // §4.3's conflict threshold
+    float radius_min; float radius_max;       // validity radius bounds (world)
+    uint curvature_limit; uint medium_model;  // 1: on (cache_math.glsl, curvature_radius and
+                                              // medium_fraction)
+    uint max_entries; uint max_nodes; uint max_refs; uint max_requests; // pool capacities
+    uint superpixel_side; uint superpixels_per_row; uint superpixel_count;
+    uint screen_locking;                      // 0 object space (§5.1), 1 screen space (§5.2)
+    uint debug_view; uint view_unused0; uint view_unused1; uint view_unused2; // VIEW_*
+    vec3 light_log_k; float mono_channel;     // lights of one chromaticity k (host/lights.c,
+                                              // picvr_light_chromaticity): ln(k_c / k_m)
+                                              // (CM_LN_E_MIN - CM_LN_E_MAX where k_c = 0);
+                                              // the channel m, also MONO_CHANNEL
     Light lights[MAX_LIGHTS];
 } scene;
 
@@ -129,8 +138,8 @@ vec3 safe_inverse(vec3 d) {
 // Ray / volume box: [t0, t1] clipped to t >= 0; false when missed.
 bool box_interval(vec3 ro, vec3 rd, out float t0, out float t1) {
     vec3 inv = safe_inverse(rd);
-    vec3 a = (scene.box_min.xyz - ro) * inv;
-    vec3 b = (scene.box_min.xyz + scene.box_size.xyz - ro) * inv;
+    vec3 a = (scene.box_min - ro) * inv;
+    vec3 b = (scene.box_min + scene.box_size - ro) * inv;
     vec3 lo = min(a, b), hi = max(a, b);
     t0 = max(max(lo.x, lo.y), max(lo.z, 0.0));
     t1 = min(min(hi.x, hi.y), hi.z);
@@ -157,11 +166,11 @@ vec4 transfer(float v) {
 }
 
 float data_value(vec3 x) {
-    float texel = texture(volume_tex, (x - scene.box_min.xyz) / scene.box_size.xyz).r;
+    float texel = texture(volume_tex, (x - scene.box_min) / scene.box_size).r;
     return clamp(texel * scene.value_map.x + scene.value_map.y, 0.0, 1.0);
 }
 
-float sigma_t(vec3 x) { return scene.box_min.w * transfer(data_value(x)).a; }
+float sigma_t(vec3 x) { return scene.density * transfer(data_value(x)).a; }
 
 // sigma_t with nothing outside the volume's box, as the tracking loops see it (they
 // clip every ray to the box).  sigma_t alone reads the texture clamped to its edge, so
@@ -169,8 +178,8 @@ float sigma_t(vec3 x) { return scene.box_min.w * transfer(data_value(x)).a; }
 // there: the cache's probes around an entry (its normal, Delta and medium fractions)
 // use this one.
 float sigma_t_in_box(vec3 x) {
-    vec3 hi = scene.box_min.xyz + scene.box_size.xyz;
-    return all(greaterThanEqual(x, scene.box_min.xyz)) && all(lessThanEqual(x, hi)) ? sigma_t(x) : 0.0;
+    vec3 hi = scene.box_min + scene.box_size;
+    return all(greaterThanEqual(x, scene.box_min)) && all(lessThanEqual(x, hi)) ? sigma_t(x) : 0.0;
 }
 
 vec3 albedo_at(vec3 x) { return transfer(data_value(x)).rgb; }
@@ -212,14 +221,14 @@ Dda dda_start(vec3 ro, vec3 rd, float t, vec3 origin, vec3 cs, ivec3 hi) {
 }
 
 Dda coarse_start(vec3 ro, vec3 rd, float t) {
-    return dda_start(ro, rd, t, scene.box_min.xyz, scene.cell_size.xyz, ivec3(scene.grid.xyz) - 1);
+    return dda_start(ro, rd, t, scene.box_min, scene.cell_size, ivec3(scene.grid) - 1);
 }
 
 // Fine cells are shifted by half a voxel (dual grid), so cell j spans voxel centres
 // j-1 .. j (texels clamped at the border); there are dims + 1 of them per axis.
 Dda fine_start(vec3 ro, vec3 rd, float t) {
-    vec3 spacing = scene.box_size.xyz / vec3(scene.dims.xyz);
-    return dda_start(ro, rd, t, scene.box_min.xyz - 0.5 * spacing, spacing, ivec3(scene.dims.xyz));
+    vec3 spacing = scene.box_size / vec3(scene.dims.xyz);
+    return dda_start(ro, rd, t, scene.box_min - 0.5 * spacing, spacing, ivec3(scene.dims.xyz));
 }
 
 uint cell_index(Dda d) {
@@ -253,7 +262,7 @@ float fine_majorant(Dda f) {
     float h = texel_value(j + ivec3(0, 1, 1)), k = texel_value(j + ivec3(1, 1, 1));
     float vmin = min(min(min(a, b), min(c, d)), min(min(e, g), min(h, k)));
     float vmax = max(max(max(a, b), max(c, d)), max(max(e, g), max(h, k)));
-    return scene.box_min.w * opacity_range_max(vmin, vmax) * 1.001;
+    return scene.density * opacity_range_max(vmin, vmax) * 1.001;
 }
 
 // Empty-space skipping.  The second half of the majorant buffer holds, per empty
@@ -266,7 +275,7 @@ float empty_skip(Dda d, vec3 rd) {
     uint cells = scene.grid.x * scene.grid.y * scene.grid.z;
     float m = majorant[cells + cell_index(d)] - 1.0;
     if (m < 1.0) return 0.0;
-    vec3 speed = abs(rd) / scene.cell_size.xyz;     // cells per unit of t, per axis
+    vec3 speed = abs(rd) / scene.cell_size;     // cells per unit of t, per axis
     return m / max(max(speed.x, speed.y), max(speed.z, 1e-30));
 }
 
@@ -419,7 +428,7 @@ float comb_optical_depth(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, in
                          uint limit, inout bool truncated) {
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, tau = 0.0;
-    float h_min = max(scene.cell_size.w, (t1 - t0) / RM_COMB_SAMPLES);
+    float h_min = max(scene.min_spacing, (t1 - t0) / RM_COMB_SAMPLES);
     while (true) {
         if (steps >= limit) { truncated = true; break; }
         steps++;
@@ -506,15 +515,15 @@ float transmittance(vec3 x, vec3 w, float dist, inout Rng rng, inout bool trunca
 int nearest_area_light(vec3 x, vec3 w, float tmax, out float t_hit) {
     int hit = -1;
     t_hit = tmax;
-    for (uint i = 0u; i < scene.grid.w; i++) {
+    for (uint i = 0u; i < scene.light_count; i++) {
         Light l = scene.lights[i];
-        int type = int(l.p0.w);
+        int type = l.type;
         if (type == LIGHT_SPHERE) {
             // Numerically stable ray/sphere test (Haines et al., Ray Tracing Gems
             // ch. 7): the discriminant from the closest-approach vector, not b^2 - c,
             // which loses r^2 against |oc|^2 for distant lights in float.
-            float r = l.p2.w;
-            vec3 oc = x - l.p0.xyz;
+            float r = l.size;
+            vec3 oc = x - l.pos;
             float b = dot(oc, w);
             vec3 f = oc - b * w;
             float disc = r * r - dot(f, f);
@@ -526,17 +535,17 @@ int nearest_area_light(vec3 x, vec3 w, float tmax, out float t_hit) {
             float t = c > 0.0 ? min(r1, r2) : max(r1, r2);   // outside: near hit; inside: exit
             if (t > 0.0 && t < t_hit) { t_hit = t; hit = int(i); }
         } else if (type == LIGHT_RECT) {
-            vec3 n = cross(l.p2.xyz, l.p3.xyz);
+            vec3 n = cross(l.edge_u, l.edge_v);
             float denom = dot(n, w);
             if (abs(denom) < 1e-30) continue;
-            float t = dot(l.p0.xyz - x, n) / denom;
+            float t = dot(l.pos - x, n) / denom;
             if (t <= 0.0 || t >= t_hit) continue;
             // Parallelogram coordinates in the dual basis (edges need not be
             // perpendicular): q = su U + sv V with |n|^2 = dot(n, U x V).
-            vec3 q = x + w * t - l.p0.xyz;
+            vec3 q = x + w * t - l.pos;
             float nn = dot(n, n);
-            float su = dot(q, cross(l.p3.xyz, n)) / nn;
-            float sv = dot(q, cross(n, l.p2.xyz)) / nn;
+            float su = dot(q, cross(l.edge_v, n)) / nn;
+            float sv = dot(q, cross(n, l.edge_u)) / nn;
             if (abs(su) <= 0.5 && abs(sv) <= 0.5) { t_hit = t; hit = int(i); }
         }
     }
@@ -546,29 +555,29 @@ int nearest_area_light(vec3 x, vec3 w, float tmax, out float t_hit) {
 // Radiance leaving area light i toward -w at its hit point (rects are one-sided).
 vec3 area_light_radiance(uint i, vec3 w) {
     Light l = scene.lights[i];
-    if (int(l.p0.w) == LIGHT_RECT && dot(cross(l.p2.xyz, l.p3.xyz), w) >= 0.0) return vec3(0.0);
-    return l.p1.xyz;
+    if (l.type == LIGHT_RECT && dot(cross(l.edge_u, l.edge_v), w) >= 0.0) return vec3(0.0);
+    return l.radiance;
 }
 
 // Solid-angle pdf of light i's sampling strategy for direction w from x, with the
 // hit distance t (sphere, rect).  Capped at PDF_CAP.
 float light_pdf(uint i, vec3 x, vec3 w, float t) {
     Light l = scene.lights[i];
-    int type = int(l.p0.w);
+    int type = l.type;
     if (type == LIGHT_SPHERE) {
-        vec3 oc = l.p0.xyz - x;
-        float d2 = dot(oc, oc), r2 = l.p2.w * l.p2.w;
+        vec3 oc = l.pos - x;
+        float d2 = dot(oc, oc), r2 = l.size * l.size;
         if (d2 <= r2) return INV_4PI;                 // inside: uniform sphere sampling
         float sin2 = r2 / d2;
         float omc = sin2 / (1.0 + sqrt(max(0.0, 1.0 - sin2)));  // 1 - cos, no cancellation
         return min(1.0 / (2.0 * PI * max(omc, 1e-30)), PDF_CAP);
     }
     if (type == LIGHT_RECT) {
-        vec3 n = normalize(cross(l.p2.xyz, l.p3.xyz));
+        vec3 n = normalize(cross(l.edge_u, l.edge_v));
         float cos_l = abs(dot(n, w));
-        return min(t * t / max(l.p3.w * cos_l, 1e-30), PDF_CAP);
+        return min(t * t / max(l.area * cos_l, 1e-30), PDF_CAP);
     }
-    if (type == LIGHT_DIRECTIONAL) return min(1.0 / (2.0 * PI * max(l.p2.w, 1e-30)), PDF_CAP);
+    if (type == LIGHT_DIRECTIONAL) return min(1.0 / (2.0 * PI * max(l.size, 1e-30)), PDF_CAP);
     return 0.0;
 }
 
@@ -583,18 +592,18 @@ float power_weight(float a, float b) {
 // Picks one light (or the background, index MAX_LIGHTS) by the precomputed
 // power-proportional probabilities.
 uint select_light(float u) {
-    for (uint i = 0u; i < scene.grid.w; i++)
-        if (u < scene.lights[i].p4.x) return i;
+    for (uint i = 0u; i < scene.light_count; i++)
+        if (u < scene.lights[i].cdf) return i;
     return uint(MAX_LIGHTS);
 }
 
 // ---- camera: the pinhole model documented in picvr.h ----
 vec3 camera_ray(uvec2 px, inout Rng rng) {
     float jx = rnd(rng), jy = rnd(rng);
-    float h = scene.cam_pos.w, aspect = scene.cam_fwd.w;
+    float h = scene.tan_half_fov, aspect = scene.aspect;
     float sx = (2.0 * (float(px.x) + jx) / float(scene.image.x) - 1.0) * h * aspect;
     float sy = (1.0 - 2.0 * (float(px.y) + jy) / float(scene.image.y)) * h;
-    return normalize(scene.cam_fwd.xyz + sx * scene.cam_right.xyz + sy * scene.cam_up.xyz);
+    return normalize(scene.cam_fwd + sx * scene.cam_right.xyz + sy * scene.cam_up.xyz);
 }
 
 // ---- direct lighting at a point (Eq. 4 integrand, single scattering) ----
@@ -609,19 +618,19 @@ vec3 sample_one_light(vec3 x, inout Rng rng, inout bool truncated) {
     float a;            // pmf * solid-angle pdf; 0 marks a delta light
     float pmf;
     if (li == uint(MAX_LIGHTS)) {
-        pmf = scene.background.w;
+        pmf = scene.background_pmf;
         if (pmf <= 0.0) return vec3(0.0);
         w = uniform_sphere(u1, u2);
-        L = scene.background.rgb;
+        L = scene.background;
         a = pmf * INV_4PI;
     } else {
         Light l = scene.lights[li];
-        int type = int(l.p0.w);
-        pmf = l.p1.w;
-        L = l.p1.xyz;
+        int type = l.type;
+        pmf = l.pmf;
+        L = l.radiance;
         if (type == LIGHT_SPHERE) {
-            vec3 to = l.p0.xyz - x;
-            float d2 = dot(to, to), r2 = l.p2.w * l.p2.w;
+            vec3 to = l.pos - x;
+            float d2 = dot(to, to), r2 = l.size * l.size;
             if (d2 <= r2) {
                 w = uniform_sphere(u1, u2);
             } else {
@@ -633,7 +642,7 @@ vec3 sample_one_light(vec3 x, inout Rng rng, inout bool truncated) {
             if (h != int(li)) return vec3(0.0);      // occluded by another light (or grazing miss)
             a = pmf * light_pdf(li, x, w, dist);
         } else if (type == LIGHT_RECT) {
-            vec3 q = l.p0.xyz + (u1 - 0.5) * l.p2.xyz + (u2 - 0.5) * l.p3.xyz;
+            vec3 q = l.pos + (u1 - 0.5) * l.edge_u + (u2 - 0.5) * l.edge_v;
             vec3 to = q - x;
             float d = length(to);
             if (d <= 0.0) return vec3(0.0);
@@ -641,30 +650,30 @@ vec3 sample_one_light(vec3 x, inout Rng rng, inout bool truncated) {
             L = area_light_radiance(li, w);
             // Rule: grazing samples (cos < 1e-7) carry vanishing solid angle; drop them
             // rather than divide by ~0.
-            vec3 n = normalize(cross(l.p2.xyz, l.p3.xyz));
+            vec3 n = normalize(cross(l.edge_u, l.edge_v));
             if (abs(dot(n, w)) < 1e-7 || all(equal(L, vec3(0.0)))) return vec3(0.0);
             float th;
             if (nearest_area_light(x, w, d * (1.0 - 1e-4), th) >= 0) return vec3(0.0);
             dist = d;
             a = pmf * light_pdf(li, x, w, d);
         } else if (type == LIGHT_DIRECTIONAL) {
-            float omc = l.p2.w;
-            w = omc > 0.0 ? sample_cone(l.p0.xyz, omc, u1, u2) : l.p0.xyz;
+            float omc = l.size;
+            w = omc > 0.0 ? sample_cone(l.pos, omc, u1, u2) : l.pos;
             a = omc > 0.0 ? pmf * light_pdf(li, x, w, 0.0) : 0.0;
             float th;
             if (nearest_area_light(x, w, 1e30, th) >= 0) return vec3(0.0);
         } else {   // point light: intensity / d^2
-            vec3 to = l.p0.xyz - x;
+            vec3 to = l.pos - x;
             // Rule: the distance is clamped to 1e-3 of the smallest voxel spacing so a
             // light on a scatter point gives a large but finite value.
-            float min_d = 1e-3 * scene.cell_size.w;
+            float min_d = 1e-3 * scene.min_spacing;
             float d2 = max(dot(to, to), min_d * min_d);
             float d = sqrt(d2);
             w = to / d;
             float th;
             if (nearest_area_light(x, w, d, th) >= 0) return vec3(0.0);
             dist = d;
-            L = l.p1.xyz / d2;
+            L = l.radiance / d2;
             a = 0.0;
         }
     }
@@ -686,14 +695,14 @@ vec3 sample_phase(vec3 x, inout Rng rng, inout bool truncated) {
     if (hit >= 0) {
         uint i = uint(hit);
         Le = area_light_radiance(i, w) *
-             power_weight(INV_4PI, scene.lights[i].p1.w * light_pdf(i, x, w, t_hit));
+             power_weight(INV_4PI, scene.lights[i].pmf * light_pdf(i, x, w, t_hit));
     } else {
-        Le = scene.background.rgb * power_weight(INV_4PI, scene.background.w * INV_4PI);
-        for (uint i = 0u; i < scene.grid.w; i++) {
+        Le = scene.background * power_weight(INV_4PI, scene.background_pmf * INV_4PI);
+        for (uint i = 0u; i < scene.light_count; i++) {
             Light l = scene.lights[i];
-            if (int(l.p0.w) != LIGHT_DIRECTIONAL || l.p2.w <= 0.0) continue;
-            if (1.0 - dot(w, l.p0.xyz) <= l.p2.w)
-                Le += l.p1.xyz * power_weight(INV_4PI, l.p1.w * light_pdf(i, x, w, 0.0));
+            if (l.type != LIGHT_DIRECTIONAL || l.size <= 0.0) continue;
+            if (1.0 - dot(w, l.pos) <= l.size)
+                Le += l.radiance * power_weight(INV_4PI, l.pmf * light_pdf(i, x, w, 0.0));
         }
     }
     if (all(equal(Le, vec3(0.0)))) return vec3(0.0);

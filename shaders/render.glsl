@@ -104,7 +104,7 @@ ScatterEvent unpack_event(uint idx, uint t_bits, uint w) {
     e.rng = pixel_rng(idx);
     vec3 rd = camera_ray(e.px, e.rng);
     e.t = uintBitsToFloat(t_bits);
-    e.x = scene.cam_pos.xyz + rd * e.t;
+    e.x = scene.cam_pos + rd * e.t;
     e.rng.counter = w & 0x7fffffffu;
     e.truncated = (w & 0x80000000u) != 0u;
     return e;

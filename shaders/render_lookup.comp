@@ -40,9 +40,9 @@ void main() {
         Ls = direct_light(e.x, e.rng, e.truncated);
     }
     vec3 radiance = albedo_at(e.x) * Ls;
-    if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE)
+    if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE)
         radiance = near_centre ? vec3(1.0) : hit ? vec3(0.1, 0.8, 0.2) : vec3(0.8, 0.1, 0.1);
-    if (USE_DEBUG_VIEW && scene.view.x == VIEW_CACHE_ERROR)
+    if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE_ERROR)
         radiance = hit ? cache_error_sample(e.x, radiance, e.rng, e.truncated) : vec3(0.0);
     accumulate_sample(e.idx, radiance, 1.0, e.truncated);
 }

@@ -13,7 +13,7 @@ void main() {
     if (px.x >= scene.image.x || px.y >= scene.image.y) return;
     uint idx = px.y * scene.image.x + px.x;
     Rng rng = pixel_rng(idx);
-    vec3 ro = scene.cam_pos.xyz;
+    vec3 ro = scene.cam_pos;
     vec3 rd = camera_ray(px, rng);
     bool truncated = false;
 
@@ -33,8 +33,8 @@ void main() {
         return;
     }
     vec3 radiance;
-    if (USE_DEBUG_VIEW && scene.view.x != VIEW_IMAGE) radiance = vec3(0.0);   // the debug views show scatter events only
+    if (USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE) radiance = vec3(0.0);   // the debug views show scatter events only
     else if (light_hit >= 0) radiance = area_light_radiance(uint(light_hit), rd);
-    else radiance = scene.background.rgb;
+    else radiance = scene.background;
     accumulate_sample(idx, radiance, 0.0, truncated);
 }

@@ -5,7 +5,8 @@
 #   buffer blocks: the size glslang's reflection gives for each block of
 #                  shaders/cache_create.comp (one array element for the pools) against
 #                  the host's sizeof / byte constants, and the offset of every member
-#                  of the cache's counter block against picvr_cache_counters;
+#                  of the cache's counter block and of the Scene uniform block against
+#                  picvr_cache_counters and picvr_gpu_scene;
 #   constants:     the VIEW_* numbers of shaders/common.glsl against picvr.h's
 #                  picvr_debug_view, CACHE_NODE_RADII of shaders/cache.glsl against
 #                  host/internal.h's, EVENT_WORDS and EVENT_GROUP of shaders/render.glsl
@@ -20,10 +21,11 @@ trap 'rm -rf "$tmp"' EXIT
 "$GLSLANG" -V --target-env vulkan1.1 -Ishaders -q -o "$tmp/x.spv" shaders/cache_create.comp > "$tmp/refl"
 # "Block: offset -1, type ffffffff, size N, ..." -> "Block N"
 sed -n 's/^\([A-Za-z]*\): offset -1, type ffffffff, size \([0-9]*\),.*/\1 \2/p' "$tmp/refl" > "$tmp/shader"
-# the counter block's members: each kernel reflects those it uses, so all kernels
+# the members of the counter block and of the scene's uniform block: each kernel
+# reflects those it uses, so all kernels
 for f in shaders/*.comp; do
     "$GLSLANG" -V --target-env vulkan1.1 -Ishaders -q -o "$tmp/y.spv" "$f"
-done | sed -n 's/^\(CacheCounters\.[a-z_]*\): offset \([0-9]*\),.*/\1 \2/p' | sort -u >> "$tmp/shader"
+done | sed -n 's/^\(CacheCounters\.[a-z_]*\|Scene\.[a-z_0-9.]*\): offset \([0-9]*\),.*/\1 \2/p' | sort -u >> "$tmp/shader"
 for v in VIEW_IMAGE VIEW_CACHE VIEW_CACHE_ERROR; do
     sed -n "s/^#define $v \([0-9]*\)u.*/$v \1/p" shaders/common.glsl
 done >> "$tmp/shader"

@@ -6,6 +6,54 @@
 int main(void)
 {
     printf("Scene %zu\n", sizeof(picvr_gpu_scene));
+    /* the members the kernels read (glslang reflects only those) */
+#define PICVR_SCENE(m) printf("Scene.%s %u\n", #m, (unsigned)offsetof(picvr_gpu_scene, m))
+    PICVR_SCENE(cam_pos);
+    PICVR_SCENE(tan_half_fov);
+    PICVR_SCENE(cam_fwd);
+    PICVR_SCENE(aspect);
+    PICVR_SCENE(cam_right);
+    PICVR_SCENE(cam_up);
+    PICVR_SCENE(box_min);
+    PICVR_SCENE(density);
+    PICVR_SCENE(box_size);
+    PICVR_SCENE(cell_size);
+    PICVR_SCENE(min_spacing);
+    PICVR_SCENE(grid);
+    PICVR_SCENE(light_count);
+    PICVR_SCENE(image);
+    PICVR_SCENE(dims);
+    PICVR_SCENE(background);
+    PICVR_SCENE(background_pmf);
+    PICVR_SCENE(value_map);
+    PICVR_SCENE(gamma);
+    PICVR_SCENE(epsilon);
+    PICVR_SCENE(delta);
+    PICVR_SCENE(update_threshold);
+    PICVR_SCENE(radius_min);
+    PICVR_SCENE(radius_max);
+    PICVR_SCENE(curvature_limit);
+    PICVR_SCENE(medium_model);
+    PICVR_SCENE(max_entries);
+    PICVR_SCENE(max_nodes);
+    PICVR_SCENE(max_refs);
+    PICVR_SCENE(max_requests);
+    PICVR_SCENE(superpixel_side);
+    PICVR_SCENE(superpixels_per_row);
+    PICVR_SCENE(superpixel_count);
+    PICVR_SCENE(debug_view);
+    PICVR_SCENE(light_log_k);
+#define PICVR_LIGHT(m) \
+    printf("Scene.lights.%s %u\n", #m, (unsigned)(offsetof(picvr_gpu_scene, lights) + offsetof(picvr_gpu_light, m)))
+    PICVR_LIGHT(pos);
+    PICVR_LIGHT(type);
+    PICVR_LIGHT(radiance);
+    PICVR_LIGHT(pmf);
+    PICVR_LIGHT(edge_u);
+    PICVR_LIGHT(size);
+    PICVR_LIGHT(edge_v);
+    PICVR_LIGHT(area);
+    PICVR_LIGHT(cdf);
     printf("CacheEntries %u\n", PICVR_CACHE_ENTRY_BYTES);
     printf("CacheNodes %u\n", PICVR_CACHE_NODE_BYTES);
     printf("CacheRefs %u\n", PICVR_CACHE_REF_BYTES);
