@@ -8,11 +8,18 @@
  * Volume Rendering", EuroVis 2014) improve while you watch.  The irradiance cache
  * and the three-procedure scheduler of that paper are built on top of this API.
  *
- * One header (this file), one implementation file (picvr_vk.c) and the SPIR-V of its
- * compute kernels (picvr_shaders.h, generated from shaders/ and committed), MIT
- * licensed.  Link with -lvulkan -lm.  No global state: everything lives in a
- * picvr_context.  Every function returns a picvr_status; picvr_status_string()
- * names it.  All config structs mean "the documented default" when zeroed.
+ * BUILDING.  One header (this file), one implementation file (picvr_vk.c, which
+ * includes the parts in host/) and the SPIR-V of its compute kernels (picvr_shaders.h,
+ * generated from shaders/ and committed); MIT licensed.  Either
+ *   - in exactly one C or C++ file:  #define PICVR_IMPLEMENTATION
+ *                                    #include "picvr.h"
+ *   - or compile picvr_vk.c on its own (cc -c picvr_vk.c) and link it.
+ * Link with -lvulkan -lm.  It compiles as C99, C11 or C++17 with gcc or clang, with no
+ * warning under -Wall -Wextra -Wpedantic -Wshadow and no feature macro of the
+ * application's.  No global state: everything lives in a picvr_context.  Every
+ * function returns a picvr_status; picvr_status_string() names it.  A config struct
+ * means "the documented default" when zeroed: `= {0}` in C (and C++; there `= {}` also
+ * keeps -Wextra quiet).
  *
  * ---------------------------------------------------------------------------------
  * EXAMPLE
@@ -164,8 +171,8 @@ typedef struct picvr_allocator {
 
 /* The irradiance cache (paper §4-5).  Zero fields mean the Table 1 values. */
 typedef enum picvr_cache_mode {
-    PICVR_CACHE_DEFAULT = 0,       /* currently PICVR_CACHE_NONE: the cache is being built
-                                      (issue 3) and becomes the default once validated */
+    PICVR_CACHE_DEFAULT = 0,       /* PICVR_CACHE_NONE: at equal time the cache does not
+                                      yet beat plain Monte Carlo (docs/error.md) */
     PICVR_CACHE_NONE,              /* plain Monte Carlo, the baseline */
     PICVR_CACHE_OBJECT_SPACE,      /* cache, object-space locking (§5.1) */
     PICVR_CACHE_SCREEN_SPACE       /* cache, screen-space locking (§5.2) */
@@ -182,33 +189,28 @@ typedef struct picvr_cache_config {
     float gamma;               /* Eq. 5 estimation accuracy; 0: 0.1 */
     float epsilon;             /* Eq. 10 validity radius threshold; 0: 0.1 */
     float delta_voxels;        /* position offset Delta in voxels (of the smallest
-                                  spacing); 0: 2.  It sets a full cache's error floor
-                                  (the zones are about Delta wide): on the cloud 1, with
-                                  radius_max_voxels 4, cut it 3x (docs/cache.md, "A full
-                                  cache's error floor") */
+                                  spacing); 0: 2.  The zones of a full cache are about
+                                  Delta wide, so Delta sets its error floor
+                                  (docs/cache.md, "A full cache's error floor") */
     float radius_min_voxels;   /* 0: 0.01 */
     float radius_max_voxels;   /* 0: 16.  Where the medium is denser than 2 / delta_voxels
                                   extinction per voxel, an entry's offset is two mean free
-                                  paths and both radius bounds shrink in proportion
-                                  (README, "Robustness") */
-    uint32_t max_samples;      /* Eq. 5's cap: MIS samples per point at most (rounded up to
-                                  a multiple of 128, one round of the creation workgroup);
-                                  0: 768.  At most PICVR_CACHE_MAX_SAMPLES (8192), and
-                                  PICVR_CACHE_MAX_SAMPLES_CPU (768) on a CPU device
-                                  (lavapipe: its loop bound), PICVR_ERROR_INVALID_ARGUMENT
-                                  beyond.
+                                  paths and both radius bounds shrink in proportion */
+    uint32_t max_samples;      /* Eq. 5's cap: MIS samples per point at most, rounded up to
+                                  a multiple of 128 (one round of the creation workgroup);
+                                  0: 768.  At most PICVR_CACHE_MAX_SAMPLES, and
+                                  PICVR_CACHE_MAX_SAMPLES_CPU on a CPU device (the loop
+                                  bound of llvmpipe); PICVR_ERROR_INVALID_ARGUMENT beyond.
                                   Entries stored at the cap are counted in
-                                  stats.cache_entries_capped.  Lower caps create entries
-                                  faster but noisier (bonsai, 128: 4.3x as many in 20 s;
-                                  docs/cache.md) */
+                                  stats.cache_entries_capped.  A lower cap creates entries
+                                  faster but noisier */
     float update_threshold;    /* §4.3: predictions conflict when they differ by more than
                                   this relative amount; 0: 0.1 */
     float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */
     uint32_t superpixel_size;  /* screen-space locking: side of a square superpixel in
                                   pixels; 0: 32 */
-    uint32_t max_entries;      /* entry pool; 0: 65536 (144 B each; an H200 fills it in
-                                  5 s on bonsai at 512x512: raise it for large images
-                                  on a GPU) */
+    uint32_t max_entries;      /* entry pool; 0: 65536 (144 bytes each).  Large images on a
+                                  fast GPU fill it: stats.cache_full says so */
     uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries */
     uint32_t max_refs;         /* reference pool; 0: 16 * max_entries */
     uint32_t max_requests;     /* creation requests in flight at most (the request queue;
@@ -219,37 +221,26 @@ typedef struct picvr_cache_config {
     picvr_switch curvature_limit; /* ON: also shrink an entry's radii where its seven
                                   points show that the field is not exponential across
                                   Delta (lit faces, shadow edges; cache_math.glsl,
-                                  curvature_radius).  Default OFF: Eq. 9, 10 alone, as in
-                                  the paper.  Measured on bonsai, one area light (README
-                                  "The irradiance cache"): with medium_model OFF it takes
-                                  a full cache from 10-11 % too dark at a hit rate of
-                                  0.89-0.93 to 1.1 % at 0.46, but the hit rate stays below
-                                  0.6 even with 50,000 entries; with the medium model (the
-                                  default) the mean is within 0.6 % without it at a
-                                  hit rate of 0.86; README) */
+                                  curvature_radius): less bias, a far lower hit rate.
+                                  Default OFF: Eq. 9, 10 alone, as in the paper */
     picvr_switch medium_model; /* ON (default): along an entry's normal axis, where the
                                   offset point lies beyond the medium's face, Eq. 6's change
                                   is placed over the part of Delta inside the medium (the
                                   light is attenuated there only) and the field is flat
-                                  beyond (8 probes along the offset count the part in
-                                  the medium: cache_math.glsl, medium_fraction).  Entries whose
+                                  beyond (8 probes along the offset count the part in the
+                                  medium: cache_math.glsl, medium_fraction).  Entries whose
                                   axis stays in the medium are unchanged.  OFF: the paper's
                                   Eq. 6, 7 literally, whose one-sided secant undershoots at
-                                  every lit face: a full cache on a dense cube under a sun
-                                  darkened the image by 8-12 % (under 1 % with it; tests/
-                                  test_cache.c, test_cache_full_dense_lit_face); on bonsai
-                                  9.75 % too dark without the model at a hit rate of
-                                  0.89, -0.57 % +- 0.04 % with it at 0.86 and -1.99 % at
-                                  0.97 (README "The irradiance cache") */
+                                  every lit face (a full cache then darkens lit faces;
+                                  tests/test_cache.c, test_cache_full_dense_lit_face) */
     uint32_t max_lookup_refs;  /* the references one octree walk (a lookup of rendering or
                                   of the update procedure) visits at most; those beyond
                                   are ignored and the walk counted in
-                                  stats.cache_lookups_cut.  0: PICVR_CACHE_MAX_LOOKUP_REFS
-                                  (8192), also the largest allowed (llvmpipe's loop
-                                  bound; PICVR_ERROR_INVALID_ARGUMENT beyond).  A lower
-                                  bound caps a lookup's cost where lists grow long, at the
-                                  price of the entries it ignores (bonsai's longest lists
-                                  hold about 200 references) */
+                                  stats.cache_lookups_cut.  0: PICVR_CACHE_MAX_LOOKUP_REFS,
+                                  also the largest allowed (llvmpipe's loop bound;
+                                  PICVR_ERROR_INVALID_ARGUMENT beyond).  A lower bound caps
+                                  a lookup's cost where lists grow long, at the price of
+                                  the entries it ignores */
     picvr_cache_mode mode;     /* DEFAULT: NONE */
 } picvr_cache_config;
 
@@ -421,14 +412,14 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera);
    the cache) and rendering adds one sample to some 16x8-pixel blocks - chosen by the
    Eq. 12 priorities, or round robin with priorities off - so pixels may hold different
    sample counts (stats.iterations_min/_mean).  At least one round runs, even for 0 ms.
-   Budgets of 50 ms and more are kept to within about 10% (one round's misestimate). */
+   A budget is kept to within about one round's misestimate of the device time. */
 picvr_status picvr_step(picvr_context *ctx, double milliseconds);
 
 /* Makes the pipelines that the current volume, transfer function, lights, cache mode
    and view need, which the next picvr_step would otherwise make first: call it while a
    scene loads to keep that pause out of interaction.  Needs a volume; renders nothing.
-   (On lavapipe it takes 0.2 s for a cached context, 0.05 s for a plain one; lavapipe
-   compiles the machine code at a pipeline's first dispatch, which this cannot move.) */
+   (A driver may still compile machine code at a pipeline's first dispatch, as lavapipe
+   does; this cannot move that.) */
 picvr_status picvr_prepare(picvr_context *ctx);
 
 /* Renders exactly `iterations` samples per pixel, whole passes over the image
@@ -465,7 +456,7 @@ picvr_status picvr_set_scheduler(picvr_context *ctx, const picvr_scheduler_confi
 
 /* Selects what picvr_step renders; resets accumulation.  The debug views are a
    pipeline variant of their own, made by the next step (the image's variant leaves
-   their code out: about 8 % faster on lavapipe). */
+   their code out). */
 picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view);
 
 /* Discards the accumulated image (iterations back to 0). */
@@ -487,8 +478,8 @@ picvr_status picvr_read_rgba32f(picvr_context *ctx, float *pixels, size_t size);
 picvr_status picvr_read_sample_counts(picvr_context *ctx, uint32_t *counts, size_t count);
 
 /* The kind of device a context runs on (VkPhysicalDeviceType).  On PICVR_DEVICE_CPU
-   (Mesa's lavapipe) the cache does not yet pay for itself (README "Error against run
-   time"), and cache.max_samples is capped at 768 (llvmpipe's loop bound). */
+   (Mesa's lavapipe) cache.max_samples is capped at PICVR_CACHE_MAX_SAMPLES_CPU
+   (llvmpipe's loop bound) and the creation batch is one entry per thread. */
 typedef enum picvr_device_type {
     PICVR_DEVICE_OTHER = 0,
     PICVR_DEVICE_INTEGRATED_GPU,
@@ -521,8 +512,8 @@ typedef struct picvr_stats {
     double cache_refs_per_entry; /* references / entries (the paper measured 6 to 7) */
     uint32_t cache_entries_capped; /* entries stored although Eq. 5 still failed at the
                                     sample cap (cache.max_samples per point, 768 by
-                                    default): their relative error may exceed gamma's 9 %
-                                    (README "The irradiance cache") */
+                                    default): their relative error may exceed the
+                                    accuracy gamma asks for */
     uint64_t cache_samples;      /* irradiance samples the stored entries took (each of an
                                     entry's seven points: 128 per round until its own
                                     Eq. 5 holds or the cap; each sample has a light and a
@@ -532,23 +523,19 @@ typedef struct picvr_stats {
                                     share above ~1e-4 says the rays are too long for the
                                     creation procedure's budget) */
     uint64_t cache_lookups_cut;  /* scatter events whose octree walk (rendering or update)
-                                    stopped at its bound (cache.max_lookup_refs, 8192 by
-                                    default) and ignored the entries beyond; 0 unless a
-                                    node's list is pathologically long (bonsai: at most
-                                    ~200) */
+                                    stopped at its bound (cache.max_lookup_refs) and
+                                    ignored the entries beyond; 0 unless a node's list is
+                                    pathologically long */
     uint64_t cache_lookups_spilled; /* scatter events whose octree walk (rendering or
                                     update) found more than 64 entries whose bounding
                                     sphere holds the point; those past the 64th were
                                     evaluated one at a time (the same result, slower on
-                                    SIMD hardware).  Rare: at most
-                                    0.7 % of the lookups on the cloud of ../shared/data,
-                                    0.02 % on bonsai, 1.7 % on bonsai with screen-space
-                                    locking (2026-11-30) */
+                                    SIMD hardware; rare) */
     uint32_t cache_max_samples;  /* that cap in force: cache.max_samples after its default
                                     and the rounding to a multiple of 128 */
     uint32_t cache_requests;     /* creation requests issued in the last step */
-    uint32_t cache_pending;      /* requests and locks outstanding when the step ended
-                                    (0 today: each iteration completes its requests) */
+    uint32_t cache_pending;      /* creation requests the last round queued, each holding
+                                    its lock, for the next round's creation procedure */
     uint64_t cache_bytes;        /* device memory of the cache: its pools, locks and the
                                     rendering procedure's lookup queue (12 bytes a pixel) */
     double cache_hit_rate;       /* fraction of scatter events served by the cache in

@@ -10,7 +10,7 @@
 static picvr_status picvr_resolve_cache_config(const picvr_cache_config *in, picvr_cache_config *c) {
     *c = *in;
     if ((unsigned)c->mode > PICVR_CACHE_SCREEN_SPACE) return PICVR_ERROR_INVALID_ARGUMENT;
-    if (c->mode == PICVR_CACHE_DEFAULT) c->mode = PICVR_CACHE_NONE;   /* until issue 3 is validated */
+    if (c->mode == PICVR_CACHE_DEFAULT) c->mode = PICVR_CACHE_NONE;   /* picvr.h: plain until the cache pays */
     if (!c->superpixel_size) c->superpixel_size = 32;
     if (c->superpixel_size > 4096) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)c->curvature_limit > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
@@ -64,14 +64,14 @@ static picvr_status picvr_create_cache_buffers(picvr_context *ctx) {
    full one does.  So creation waits until it is owed a full batch, and its cost per
    entry is measured as if every dispatch were full (picvr_finish_round).
    - A CPU driver (lavapipe) runs one workgroup per thread, one thread per core: with one
-     entry per dispatch (a 20 ms entry against a 7.5 ms share per round, bonsai) half of
-     the creation share was idle time on 2 cores.  The batch is one entry per thread
-     (LP_NUM_THREADS, lavapipe's own setting, else the online cores; at most 64).
+     entry per dispatch most of the creation share would be idle cores.  The batch is one
+     entry per thread (LP_NUM_THREADS, lavapipe's own setting, else the online cores; at
+     most 64).
    - A GPU runs thousands of workgroups at once, and one entry takes milliseconds of
-     sequential sampling: with the batch at 1 an H200 created about 50 entries per 50 ms
-     round in 6 ms of creation share, the cost model took 0.12 ms per entry, and bonsai's
-     hit rate was 0.69 after 10 s (2026-11-30).  The batch is the resident workgroups
-     (picvr_gpu_resident_groups), at most the request queue (cache.max_requests). */
+     sequential sampling: small dispatches would leave it idle and teach the cost model a
+     per-entry cost far below the truth (docs/gpu.md).  The batch is the resident
+     workgroups (picvr_gpu_resident_groups), at most the request queue
+     (cache.max_requests). */
 static uint32_t picvr_creation_batch(const picvr_context *ctx) {
     uint32_t gpu = picvr_gpu_resident_groups(ctx);
     if (gpu) return gpu < ctx->cache.cfg.max_requests ? gpu : ctx->cache.cfg.max_requests;
@@ -110,7 +110,6 @@ static uint32_t picvr_cache_scene_params(picvr_context *ctx) {
         g->superpixel_side = side;
         g->superpixels_per_row = (ctx->scene.camera.width + side - 1) / side;
         g->superpixel_count = ctx->cache.superpixel_count;
-        g->screen_locking = c->mode == PICVR_CACHE_SCREEN_SPACE;
     }
     float edge = g->box_size[0];
     if (g->box_size[1] < edge) edge = g->box_size[1];

@@ -131,7 +131,7 @@ typedef struct picvr_gpu_scene {
     float radius_min, radius_max;
     uint32_t curvature_limit, medium_model;
     uint32_t max_entries, max_nodes, max_refs, max_requests;
-    uint32_t superpixel_side, superpixels_per_row, superpixel_count, screen_locking;
+    uint32_t superpixel_side, superpixels_per_row, superpixel_count, superpixel_unused;
     uint32_t debug_view, view_unused[3];
     float light_log_k[3], mono_channel;
     picvr_gpu_light lights[PICVR_MAX_LIGHTS];
@@ -230,7 +230,7 @@ typedef struct picvr_scene {
     picvr_buffer majorant;           /* majorant grid, then the empty-space distances */
     uint32_t dims[3];
     float spacing[3];
-    uint32_t brick, grid[3];
+    uint32_t grid[3];
     float *brick_min, *brick_max;    /* normalized data range per brick, with apron */
     int use_fine;                    /* some brick needs voxel-level majorants */
     picvr_image tf_image;

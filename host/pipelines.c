@@ -57,11 +57,10 @@ static int picvr_debug_view_on(const picvr_context *ctx) {
 /* The key of procedure proc's variant for the current scene.  Only the constants a
    procedure reads are in its key, so that a change elsewhere makes no new variant:
    creation samples light but looks nothing up, the update procedure tracks and looks
-   up but samples no light, plain Monte Carlo looks nothing up.  Not specialized,
-   because measured without gain: the light types present (their code compiled out for
-   bonsai under one sphere light: cached 32.6 / 37.8 iterations a second of rendering
-   time against 35.4 / 41.5 without, plain +0-3 %; 2026-11-30), which would have made
-   a new variant, and a pause, whenever an application turns a light of a new type on. */
+   up but samples no light, plain Monte Carlo looks nothing up.  The light types present
+   are not specialized: compiling them out gained nothing measurable (docs/cache.md),
+   and each new combination would cost a new variant, and a pause, whenever an
+   application turns a light of a new type on. */
 static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
     uint32_t mis = ctx->scene.use_phase_mis ? PICVR_KEY_PHASE_MIS : 0u, fine = ctx->scene.use_fine ? PICVR_KEY_FINE : 0u;
     uint32_t mono = (uint32_t)ctx->scene.gpu.mono_channel << PICVR_KEY_MONO_SHIFT;

@@ -164,7 +164,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     size_t bytes;
     picvr_status s = picvr_validate_volume(ctx, desc, &bytes);
     if (s) return s;
-    {   /* issue 6: the world box (dims * spacing, and its diagonal) must fit a float */
+    {   /* the world box (dims * spacing, and its diagonal) must fit a float */
         double diag2 = 0.0;
         for (int i = 0; i < 3; i++) {
             double size = (double)desc->dims[i] * (desc->spacing[i] > 0.0f ? desc->spacing[i] : 1.0f);
@@ -172,7 +172,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
         }
         if (!(sqrt(diag2) < FLT_MAX)) return PICVR_ERROR_INVALID_ARGUMENT;
     }
-    {   /* issue 6: a volume larger than the device can allocate (picvr_volume_alloc_limit) is
+    {   /* a volume larger than the device can allocate (picvr_volume_alloc_limit) is
            refused before anything is allocated */
         VkDeviceSize dev = (VkDeviceSize)(bytes / picvr_voxel_bytes(desc->type)) *
             (desc->type == PICVR_VOXEL_FLOAT32 && ctx->vk.float_volume_format == VK_FORMAT_R16_UNORM ? 2 : picvr_voxel_bytes(desc->type));
@@ -186,7 +186,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
 
     uint32_t maxdim = desc->dims[0];
     for (int i = 1; i < 3; i++) if (desc->dims[i] > maxdim) maxdim = desc->dims[i];
-    uint32_t brick = 8;   /* measured on bonsai: 8 beats 4 (DDA steps) and 16 (null collisions) */
+    uint32_t brick = 8;   /* smaller bricks cost DDA steps, larger ones null collisions (docs/performance.md) */
     while ((maxdim + brick - 1) / brick > PICVR_MAX_GRID) brick *= 2;
     uint32_t grid[3];
     for (int i = 0; i < 3; i++) grid[i] = (desc->dims[i] + brick - 1) / brick;
@@ -216,7 +216,6 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     ctx->scene.majorant = maj;
     ctx->scene.brick_min = bmin;
     ctx->scene.brick_max = bmax;
-    ctx->scene.brick = brick;
     float min_spacing = FLT_MAX;
     for (int i = 0; i < 3; i++) {
         ctx->scene.dims[i] = desc->dims[i];

@@ -449,8 +449,8 @@ static int picvr_device_has_extension(const picvr_context *ctx, const char *name
 }
 
 /* Creation workgroups a GPU runs side by side: SMs x warps per SM over the warps of one
-   workgroup (VK_NV_shader_sm_builtins; 132 x 64 / 4 = 2112 on an H200); other GPUs
-   report nothing comparable, so a modest 256.  0 on a CPU device. */
+   workgroup (VK_NV_shader_sm_builtins); other GPUs report nothing comparable, so a
+   modest 256.  0 on a CPU device. */
 static uint32_t picvr_gpu_resident_groups(const picvr_context *ctx) {
     if (picvr_on_cpu_device(ctx)) return 0;
     if (!picvr_device_has_extension(ctx, VK_NV_SHADER_SM_BUILTINS_EXTENSION_NAME)) return 256;

@@ -10,7 +10,7 @@
 #define CACHE_NIL 0u               // index 0 of the ref pool, and as a child index, means "none"
 #define CACHE_NO_NODE 0xffffffffu  // descend_create failed (node 0 is the root)
 
-// Specialization (picvr_vk.c, variant_key): the lights' channel when they share one
+// Specialization (host/pipelines.c, picvr_variant_key): the lights' channel when they share one
 // chromaticity (scene.light_log_k; 3: colours differ, every channel is extrapolated),
 // and the locking mode, fixed per context (true: screen space, §5.2).
 layout(constant_id = 4) const uint MONO_CHANNEL = 3u;
@@ -81,10 +81,9 @@ float entry_r_max_of(uint e) {
 // below 1e-6 of D per voxel, e.g. a homogeneous region or D = 0) n = +z, whose basis is
 // the world axes.
 // §4.2 recomputes the frame at every lookup to save memory; picvr computes it once, at
-// creation, and stores n (16 bytes of the entry's 144): the six extinction lookups
-// (trilinear volume + transfer-function fetches) per candidate entry cost 25 % of the
-// rendering time on lavapipe with only 100 entries (measured 2026-11-28, bonsai), and
-// more as the cache grows.  t and b are recomputed from the stored n bit for bit.
+// creation, and stores n (16 bytes of the entry's 144): six extinction lookups per
+// candidate entry cost a large share of the rendering time, growing with the cache
+// (docs/cache.md, "What it does").  t and b are recomputed from the stored n bit for bit.
 vec3 entry_normal(vec3 p) {
     vec3 h = scene.box_size / vec3(scene.dims.xyz);
     vec3 g = vec3(sigma_t_in_box(p + vec3(h.x, 0, 0)) - sigma_t_in_box(p - vec3(h.x, 0, 0)),
@@ -218,11 +217,10 @@ uint child_containing(uint ch, vec3 x, inout vec3 lo, inout vec3 size) {
 // lookup's two passes over its candidates (cache_lookup).  A walk
 // that reaches the bound with references left says so in cache_counters.lookups_cut
 // (stats.cache_lookups_cut) and ignores the rest.  The bound is cache.max_lookup_refs
-// (a specialization constant, at most the default; picvr.h).  The bound was 64 per node until
-// 2026-11-29, cut silently: on bonsai lists grew to 205 references at 13,000 entries
-// (entries flat along n but wide along t, b sit high in the tree), lookups missed the
-// entries beyond the 64th, and their misses created redundant ones (docs/cache.md,
-// "Long lists").
+// (a specialization constant, at most the default; picvr.h).  Not per node: lists grow
+// long (entries flat along n but wide along t, b sit high in the tree), and a lookup that
+// missed the entries past a per-node bound created redundant ones (docs/cache.md,
+// "Long lists and the oriented bounding box").
 layout(constant_id = 6) const uint CACHE_MAX_LOOKUP_REFS = 8192u;
 struct CacheWalk { uint node; uint ref; uint visited; vec3 lo; vec3 size; };
 
@@ -281,10 +279,8 @@ bool near_entry_centre(uint e, vec3 x) {
 // pass's work together: the walk keeps the entries whose bounding sphere holds x (up
 // to LOOKUP_CANDIDATES), a second pass those whose zone holds it, and the caller
 // extrapolates only those.  Done per reference, the lanes waited for any one lane's
-// prediction at most steps: timed in one process on one cache, the passes made the
-// lookup 1.78x faster on the cloud (hit rate 0.93, 8,000-8,600 entries), 1.18-1.24x on
-// bonsai and 1.06-1.10x on the engine (0.31; 1,300 entries, short lists), 2026-11-30
-// (docs/cache.md, "The lookup in three passes").  Returns true when more entries'
+// prediction at most steps (docs/cache.md, "The lookup in three passes").  Returns
+// true when more entries'
 // spheres hold x than the buffer takes: then `next` is the first of them past the
 // buffer and w goes on after it, for the caller to take one at a time, after the
 // buffer's, so that it sees them in walk order either way (stats.cache_lookups_spilled).
@@ -378,8 +374,8 @@ void count_ray(uvec2 px, bool miss, uint round) {
 void cache_request(vec3 x, uint node, uvec2 px, uint round, float u, uint cap) {
     // Plain reads first (test and test-and-set): once this round's requests are all
     // queued, or the node is locked - the common case for a miss - no atomic is spent.
-    // Both reads may be stale; the atomics below decide, so this only saves work
-    // (measured on lavapipe: the three atomics per miss cost 20 % of the render time).
+    // Both reads may be stale; the atomics below decide, so this only saves work (on
+    // lavapipe three atomics per miss are a large share of the render time).
     if (cache_counters.request_count >= min(cap, scene.max_requests)) return;
     if (!SCREEN_LOCKING) {
         if (nodes[node].lock != 0u) return;
@@ -400,17 +396,12 @@ void cache_request(vec3 x, uint node, uvec2 px, uint round, float u, uint cap) {
 // ---- insertion (creation procedure) ----
 // The depth whose nodes are at least CACHE_NODE_RADII times the entry's largest radius
 // along every axis.  With 1, the entry's bounding box (2 rmax wide) overlaps at most
-// 3 x 3 x 3 nodes there.  Why not 2 (at most 2 x 2 x 2 nodes, 4.7 references per entry on
-// bonsai, close to the paper's 6-7): a lookup visits every reference of the nodes on its
-// path, and with nodes twice as large those lists held 4x more entries that do not
-// cover the point; on lavapipe the visits grew to 20 per scatter event at 1200 entries
-// (18 % of them inside the entry's sphere) and made the cached renderer slower as the
-// cache grew: 20 iterations per second at 700 entries, 12 at 6,400, against 18-19
-// throughout with this rule (bonsai 128x128, 300 s runs, 2026-11-28); 9 visits at 1,200
-// entries.  The price: about 12 references per entry instead of 5 with the bounding
-// sphere alone; 8 since the oriented bounding box decides too (zone_reaches,
-// 2026-11-29).  picvr_vk.c mirrors this rule for the pre-built top of the tree
-// (prebuilt_depth).
+// 3 x 3 x 3 nodes there.  Why not 2 (at most 2 x 2 x 2 nodes, fewer references per
+// entry): a lookup visits every reference of the nodes on its path, and with nodes twice
+// as large those lists hold many more entries that do not cover the point, so the
+// cached renderer slowed down as the cache grew.  The price: more references per entry,
+// fewer since the oriented bounding box decides too (zone_reaches).  host/cache.c
+// (picvr_cache_scene_params) mirrors this rule for the pre-built top of the tree.
 #define CACHE_NODE_RADII 1.0
 uint insertion_depth(float rmax) {
     float edge = min(scene.box_size.x, min(scene.box_size.y, scene.box_size.z));

@@ -2,7 +2,7 @@
 // Eq. 6-11, the Fig. 4 discard radius and the Fig. 6 radius reduction), written once
 // in the common subset of C and GLSL.  The shaders compile it in float (this file
 // defines the GLSL side of its macros); the host tests compile it twice, in double and
-// in float, through the prelude tests/cache_math_host.h.
+// in float, through the prelude reference/cache_math_host.h.
 //
 // Common-subset rules: scalar code only; no out-parameters (a function returns one
 // scalar, several values mean one call per axis); no vectors, structs, arrays, casts or
@@ -64,7 +64,7 @@
 #else
 #if !defined(real) || !defined(CM_FN) || !defined(CM_API) || !defined(CM_REAL) || \
     !defined(cm_log) || !defined(cm_isfinite) || !defined(cm_clamp)
-#error "cache_math.glsl: include tests/cache_math_host.h (it defines the C side of the macros)"
+#error "cache_math.glsl: include reference/cache_math_host.h (it defines the C side of the macros)"
 #endif
 #endif
 

@@ -62,8 +62,8 @@ layout(set = 0, binding = 0, std140) uniform Scene {
     uint curvature_limit; uint medium_model;  // 1: on (cache_math.glsl, curvature_radius and
                                               // medium_fraction)
     uint max_entries; uint max_nodes; uint max_refs; uint max_requests; // pool capacities
-    uint superpixel_side; uint superpixels_per_row; uint superpixel_count;
-    uint screen_locking;                      // 0 object space (§5.1), 1 screen space (§5.2)
+    uint superpixel_side; uint superpixels_per_row; uint superpixel_count; // §5.2
+    uint superpixel_unused;                   // (the locking mode is SCREEN_LOCKING)
     uint debug_view; uint view_unused0; uint view_unused1; uint view_unused2; // VIEW_*
     vec3 light_log_k; float mono_channel;     // lights of one chromaticity k (host/lights.c,
                                               // picvr_light_chromaticity): ln(k_c / k_m)
