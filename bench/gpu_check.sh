@@ -1,11 +1,11 @@
 #!/bin/sh
 # bench/gpu_check.sh - the measurements issue 3 still needs from a real GPU, in one short
 # run (about 4 minutes with the default 20 s per run), for a session that is lent a
-# device machine (README "Measuring on a GPU" gives the whole recipe).
+# device machine (docs/gpu.md gives the whole recipe).
 #
 # Issue 3's open "Done means": on bonsai with one area light the hit rate is >= 0.8
 # "after a few seconds" under the scheduler's own (Table 1) shares.  On the 2-vCPU VM
-# that takes at least 6 minutes (README "The irradiance cache").  So, per size (128x128, as
+# that takes at least 6 minutes (docs/cache.md).  So, per size (128x128, as
 # on the VM, and 512x512): object- and screen-space locking (and object space with a
 # sample cap of 2048 instead of 768) and plain Monte Carlo, SECS
 # seconds each from an empty cache, with 1 s rounds of statistics; printed: the hit rate,

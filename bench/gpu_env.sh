@@ -1,7 +1,6 @@
 # bench/gpu_env.sh - sourced by gpu_check.sh and gpu_tests.sh on the device machine.
 # That machine is bare: the folder EXTRA (default .gpu/extra) holds the .deb files of
-# libstb0, libcmocka0 and vulkan-validationlayers, downloaded here (README "Measuring on
-# a GPU").  They are unpacked into /tmp/picvr-extra, not into / (which the device tool's
+# libstb0, libcmocka0 and vulkan-validationlayers, downloaded here (docs/gpu.md).  They are unpacked into /tmp/picvr-extra, not into / (which the device tool's
 # notes say they could break), and the dynamic linker and the Vulkan loader are pointed
 # there.  Nothing happens when EXTRA is absent (a machine with the packages installed).
 # Sourced again by a script the first one runs (gpu_session.sh runs gpu_check.sh and

@@ -1,6 +1,6 @@
 #!/bin/sh
 # bench/gpu_session.sh - everything a session lent the device machine measures, in one
-# call (README "Measuring on a GPU"): device time is short and each start costs minutes,
+# call (docs/gpu.md): device time is short and each start costs minutes,
 # so the stages run back to back, each bounded by a timeout and packed into its own
 # archive as soon as it ends (the device tool returns at most 8 files from OUT, and
 # what a stage finished survives a later one that runs out of time).

@@ -1,9 +1,8 @@
 #!/bin/sh
 # bench/gpu_tests.sh - the test suite (build/picvr-tests) on the device machine's GPU,
-# with the Khronos validation layer, for a session lent a device machine (README
-# "Measuring on a GPU").  lavapipe forgives what a GPU may not (memory ordering between
-# workgroups, barriers, uninitialised reads), so the suite's first run on a GPU is a check
-# of its own.  The libraries that bare machine lacks: bench/gpu_env.sh.
+# with the Khronos validation layer, for a session lent a device machine (docs/gpu.md).
+# lavapipe forgives what a GPU may not (memory ordering between workgroups, barriers,
+# uninitialised reads), so the suite's first run on a GPU is a check of its own.  The libraries that bare machine lacks: bench/gpu_env.sh.
 # Writes OUT/gpu_tests.txt (the whole output); prints the device, the summary and any
 # failed test; exits with the suite's status.  Tests that assume a CPU device check
 # stats.device_type, so on a GPU they test the GPU's limits instead.

@@ -30,21 +30,18 @@ static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *c
     ctx->vk.float_volume_format = picvr_format_filters(ctx, VK_FORMAT_R32_SFLOAT) ? VK_FORMAT_R32_SFLOAT : VK_FORMAT_R16_UNORM;
 
     VkCommandPoolCreateInfo pi;
-    memset(&pi, 0, sizeof pi);
-    pi.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    PICVR_VK_INIT(pi, VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
     pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
     pi.queueFamilyIndex = ctx->vk.queue_family;
     PICVR_VK_TRY(ctx, vkCreateCommandPool(ctx->vk.device, &pi, NULL, &ctx->vk.cmd_pool));
     VkCommandBufferAllocateInfo ai;
-    memset(&ai, 0, sizeof ai);
-    ai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    PICVR_VK_INIT(ai, VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
     ai.commandPool = ctx->vk.cmd_pool;
     ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
     ai.commandBufferCount = 1;
     PICVR_VK_TRY(ctx, vkAllocateCommandBuffers(ctx->vk.device, &ai, &ctx->vk.cmd));
     VkFenceCreateInfo fi;
-    memset(&fi, 0, sizeof fi);
-    fi.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    PICVR_VK_INIT(fi, VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
     PICVR_VK_TRY(ctx, vkCreateFence(ctx->vk.device, &fi, NULL, &ctx->vk.fence));
 
     if ((s = picvr_create_pipelines(ctx)) || (s = picvr_create_sampler(ctx)) || (s = picvr_create_timestamps(ctx))) return s;

@@ -326,6 +326,9 @@ struct picvr_context {
     picvr_results results;
 };
 
+/* Zeroes a Vulkan struct and sets its sType: C and C++ alike, and no
+   missing-initializer warning as `= {sType}` draws. */
+#define PICVR_VK_INIT(var, stype) (memset(&(var), 0, sizeof(var)), (var).sType = (stype))
 #define PICVR_VK_TRY(ctx, call) do { picvr_status s_ = picvr_vk_status((ctx), (call), #call); if (s_) return s_; } while (0)
 
 /* Binding layout shared by all kernels (see ARCHITECTURE.md): 0 scene UBO, 1 volume,

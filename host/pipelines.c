@@ -6,8 +6,7 @@
 
 static picvr_status picvr_create_shader(picvr_context *ctx, const uint32_t *code, size_t size, VkShaderModule *out) {
     VkShaderModuleCreateInfo ci;
-    memset(&ci, 0, sizeof ci);
-    ci.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+    PICVR_VK_INIT(ci, VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
     ci.codeSize = size;
     ci.pCode = code;
     PICVR_VK_TRY(ctx, vkCreateShaderModule(ctx->vk.device, &ci, NULL, out));
@@ -17,8 +16,7 @@ static picvr_status picvr_create_shader(picvr_context *ctx, const uint32_t *code
 static picvr_status picvr_create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPipelineLayout layout,
                                     const VkSpecializationInfo *spec, VkPipeline *out) {
     VkComputePipelineCreateInfo ci;
-    memset(&ci, 0, sizeof ci);
-    ci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+    PICVR_VK_INIT(ci, VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
     ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
     ci.stage.module = mod;
@@ -161,16 +159,14 @@ static picvr_status picvr_create_pipelines(picvr_context *ctx) {
         b[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
     }
     VkDescriptorSetLayoutCreateInfo li;
-    memset(&li, 0, sizeof li);
-    li.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+    PICVR_VK_INIT(li, VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
     li.bindingCount = PICVR_NUM_BINDINGS;
     li.pBindings = b;
     PICVR_VK_TRY(ctx, vkCreateDescriptorSetLayout(ctx->vk.device, &li, NULL, &ctx->pipes.set_layout));
 
     VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};   /* four words, every kernel */
     VkPipelineLayoutCreateInfo pl;
-    memset(&pl, 0, sizeof pl);
-    pl.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    PICVR_VK_INIT(pl, VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
     pl.setLayoutCount = 1;
     pl.pSetLayouts = &ctx->pipes.set_layout;
     pl.pushConstantRangeCount = 1;
@@ -182,15 +178,13 @@ static picvr_status picvr_create_pipelines(picvr_context *ctx) {
                                      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
                                      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, PICVR_NUM_BINDINGS - 3}};
     VkDescriptorPoolCreateInfo pi;
-    memset(&pi, 0, sizeof pi);
-    pi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    PICVR_VK_INIT(pi, VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
     pi.maxSets = 1;
     pi.poolSizeCount = 3;
     pi.pPoolSizes = sizes;
     PICVR_VK_TRY(ctx, vkCreateDescriptorPool(ctx->vk.device, &pi, NULL, &ctx->pipes.desc_pool));
     VkDescriptorSetAllocateInfo ai;
-    memset(&ai, 0, sizeof ai);
-    ai.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    PICVR_VK_INIT(ai, VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
     ai.descriptorPool = ctx->pipes.desc_pool;
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &ctx->pipes.set_layout;
@@ -224,8 +218,7 @@ static picvr_status picvr_create_pipelines(picvr_context *ctx) {
 
 static picvr_status picvr_create_sampler(picvr_context *ctx) {
     VkSamplerCreateInfo si;
-    memset(&si, 0, sizeof si);
-    si.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+    PICVR_VK_INIT(si, VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
     si.magFilter = si.minFilter = VK_FILTER_LINEAR;
     si.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
     si.addressModeU = si.addressModeV = si.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;

@@ -23,8 +23,7 @@ static picvr_status picvr_create_timestamps(picvr_context *ctx) {
     ctx->rounds.timestamp_ns = ctx->vk.props.limits.timestampPeriod;
     ctx->rounds.timestamp_mask = bits >= 64 ? UINT64_MAX : ((uint64_t)1 << bits) - 1;
     VkQueryPoolCreateInfo qi;
-    memset(&qi, 0, sizeof qi);
-    qi.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+    PICVR_VK_INIT(qi, VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO);
     qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
     qi.queryCount = PICVR_ROUND_TIMESTAMPS;
     PICVR_VK_TRY(ctx, vkCreateQueryPool(ctx->vk.device, &qi, NULL, &ctx->rounds.timestamps));

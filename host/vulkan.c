@@ -68,8 +68,7 @@ static picvr_status picvr_buffer_create(picvr_context *ctx, picvr_buffer *b, VkD
                                   VkBufferUsageFlags usage, int host) {
     memset(b, 0, sizeof *b);
     VkBufferCreateInfo bi;
-    memset(&bi, 0, sizeof bi);
-    bi.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    PICVR_VK_INIT(bi, VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
     bi.size = size;
     bi.usage = usage;
     bi.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
@@ -115,8 +114,7 @@ static picvr_status picvr_image_create(picvr_context *ctx, picvr_image *im, VkIm
                                  uint32_t w, uint32_t h, uint32_t d) {
     memset(im, 0, sizeof *im);
     VkImageCreateInfo ii;
-    memset(&ii, 0, sizeof ii);
-    ii.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    PICVR_VK_INIT(ii, VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
     ii.imageType = type;
     ii.format = fmt;
     ii.extent = picvr_extent(w, h, d);
@@ -135,8 +133,7 @@ static picvr_status picvr_image_create(picvr_context *ctx, picvr_image *im, VkIm
     if (!s) s = picvr_vk_status(ctx, vkBindImageMemory(ctx->vk.device, im->img, im->mem, 0), "vkBindImageMemory");
     if (!s) {
         VkImageViewCreateInfo vi;
-        memset(&vi, 0, sizeof vi);
-        vi.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+        PICVR_VK_INIT(vi, VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
         vi.image = im->img;
         vi.viewType = type == VK_IMAGE_TYPE_3D ? VK_IMAGE_VIEW_TYPE_3D : VK_IMAGE_VIEW_TYPE_1D;
         vi.format = fmt;
@@ -151,8 +148,7 @@ static picvr_status picvr_cmd_begin(picvr_context *ctx) {
     if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
     PICVR_VK_TRY(ctx, vkResetCommandBuffer(ctx->vk.cmd, 0));
     VkCommandBufferBeginInfo bi;
-    memset(&bi, 0, sizeof bi);
-    bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    PICVR_VK_INIT(bi, VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
     bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     PICVR_VK_TRY(ctx, vkBeginCommandBuffer(ctx->vk.cmd, &bi));
     return PICVR_OK;
@@ -161,8 +157,7 @@ static picvr_status picvr_cmd_begin(picvr_context *ctx) {
 /* A full compute/transfer memory barrier: earlier writes visible to later accesses. */
 static void picvr_barrier_all(picvr_context *ctx) {
     VkMemoryBarrier mb;
-    memset(&mb, 0, sizeof mb);
-    mb.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    PICVR_VK_INIT(mb, VK_STRUCTURE_TYPE_MEMORY_BARRIER);
     mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
     mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
                        VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT | VK_ACCESS_UNIFORM_READ_BIT |
@@ -177,8 +172,7 @@ static picvr_status picvr_cmd_submit_wait(picvr_context *ctx) {
     PICVR_VK_TRY(ctx, vkEndCommandBuffer(ctx->vk.cmd));
     PICVR_VK_TRY(ctx, vkResetFences(ctx->vk.device, 1, &ctx->vk.fence));
     VkSubmitInfo si;
-    memset(&si, 0, sizeof si);
-    si.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    PICVR_VK_INIT(si, VK_STRUCTURE_TYPE_SUBMIT_INFO);
     si.commandBufferCount = 1;
     si.pCommandBuffers = &ctx->vk.cmd;
     PICVR_VK_TRY(ctx, vkQueueSubmit(ctx->vk.queue, 1, &si, ctx->vk.fence));
@@ -188,8 +182,7 @@ static picvr_status picvr_cmd_submit_wait(picvr_context *ctx) {
 
 static void picvr_image_barrier(picvr_context *ctx, VkImage img, VkImageLayout from, VkImageLayout to) {
     VkImageMemoryBarrier b;
-    memset(&b, 0, sizeof b);
-    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    PICVR_VK_INIT(b, VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER);
     b.srcAccessMask = from == VK_IMAGE_LAYOUT_UNDEFINED ? 0 : VK_ACCESS_TRANSFER_WRITE_BIT;
     b.dstAccessMask = to == VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL ? VK_ACCESS_TRANSFER_WRITE_BIT : VK_ACCESS_SHADER_READ_BIT;
     b.oldLayout = from;
@@ -256,21 +249,18 @@ static int picvr_want_validation(const picvr_config *cfg) {
 
 static picvr_status picvr_create_instance(picvr_context *ctx, int validation) {
     VkApplicationInfo app;
-    memset(&app, 0, sizeof app);
-    app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+    PICVR_VK_INIT(app, VK_STRUCTURE_TYPE_APPLICATION_INFO);
     app.pApplicationName = "picvr";
     app.pEngineName = "picvr";
     app.apiVersion = VK_API_VERSION_1_1;
     VkInstanceCreateInfo ci;
-    memset(&ci, 0, sizeof ci);
-    ci.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+    PICVR_VK_INIT(ci, VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
     ci.pApplicationInfo = &app;
     const char *layer = "VK_LAYER_KHRONOS_validation";
     const char *exts[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
     VkValidationFeatureEnableEXT enables[] = {VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT};
     VkValidationFeaturesEXT features;
-    memset(&features, 0, sizeof features);
-    features.sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT;
+    PICVR_VK_INIT(features, VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT);
     features.enabledValidationFeatureCount = 1;
     features.pEnabledValidationFeatures = enables;
     if (validation && !picvr_has_layer(layer)) {
@@ -295,8 +285,7 @@ static picvr_status picvr_create_instance(picvr_context *ctx, int validation) {
         PFN_vkCreateDebugUtilsMessengerEXT create = (PFN_vkCreateDebugUtilsMessengerEXT)
             vkGetInstanceProcAddr(ctx->vk.instance, "vkCreateDebugUtilsMessengerEXT");
         VkDebugUtilsMessengerCreateInfoEXT mi;
-        memset(&mi, 0, sizeof mi);
-        mi.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
+        PICVR_VK_INIT(mi, VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT);
         mi.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
         mi.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                          VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
@@ -385,14 +374,12 @@ static picvr_status picvr_pick_device(picvr_context *ctx, const char *want) {
 static picvr_status picvr_create_device(picvr_context *ctx) {
     float prio = 1.0f;
     VkDeviceQueueCreateInfo qi;
-    memset(&qi, 0, sizeof qi);
-    qi.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+    PICVR_VK_INIT(qi, VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
     qi.queueFamilyIndex = ctx->vk.queue_family;
     qi.queueCount = 1;
     qi.pQueuePriorities = &prio;
     VkDeviceCreateInfo di;
-    memset(&di, 0, sizeof di);
-    di.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+    PICVR_VK_INIT(di, VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
     di.queueCreateInfoCount = 1;
     di.pQueueCreateInfos = &qi;
     PICVR_VK_TRY(ctx, vkCreateDevice(ctx->vk.phys, &di, NULL, &ctx->vk.device));
@@ -412,8 +399,7 @@ static int picvr_format_filters(picvr_context *ctx, VkFormat f) {
    vkGetPhysicalDeviceProperties2. */
 static void picvr_query_properties(const picvr_context *ctx, void *properties) {
     VkPhysicalDeviceProperties2 p2;
-    memset(&p2, 0, sizeof p2);
-    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    PICVR_VK_INIT(p2, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2);
     p2.pNext = properties;
     vkGetPhysicalDeviceProperties2(ctx->vk.phys, &p2);
 }
@@ -422,8 +408,7 @@ static void picvr_query_properties(const picvr_context *ctx, void *properties) {
    device-local heap; 0 when neither is known. */
 static VkDeviceSize picvr_volume_alloc_limit(const picvr_context *ctx) {
     VkPhysicalDeviceMaintenance3Properties m3;
-    memset(&m3, 0, sizeof m3);
-    m3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
+    PICVR_VK_INIT(m3, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES);
     picvr_query_properties(ctx, &m3);
     VkDeviceSize heap = 0;
     for (uint32_t i = 0; i < ctx->vk.mem_props.memoryHeapCount; i++)
@@ -455,8 +440,7 @@ static uint32_t picvr_gpu_resident_groups(const picvr_context *ctx) {
     if (picvr_on_cpu_device(ctx)) return 0;
     if (!picvr_device_has_extension(ctx, VK_NV_SHADER_SM_BUILTINS_EXTENSION_NAME)) return 256;
     VkPhysicalDeviceShaderSMBuiltinsPropertiesNV sm;
-    memset(&sm, 0, sizeof sm);
-    sm.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_SM_BUILTINS_PROPERTIES_NV;
+    PICVR_VK_INIT(sm, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_SM_BUILTINS_PROPERTIES_NV);
     picvr_query_properties(ctx, &sm);
     uint64_t warps_per_group = (PICVR_CACHE_CREATE_GROUP + 31) / 32;
     uint64_t groups = (uint64_t)sm.shaderSMCount * sm.shaderWarpsPerSM / warps_per_group;

@@ -220,7 +220,7 @@ uint child_containing(uint ch, vec3 x, inout vec3 lo, inout vec3 size) {
 // (a specialization constant, at most the default; picvr.h).  Not per node: lists grow
 // long (entries flat along n but wide along t, b sit high in the tree), and a lookup that
 // missed the entries past a per-node bound created redundant ones (docs/cache.md,
-// "Long lists and the oriented bounding box").
+// "Long lists").
 layout(constant_id = 6) const uint CACHE_MAX_LOOKUP_REFS = 8192u;
 struct CacheWalk { uint node; uint ref; uint visited; vec3 lo; vec3 size; };
 
@@ -440,7 +440,7 @@ uint descend_create(uvec3 cell, uint depth) {
 
 // Pushes a reference to entry e onto node's list with one atomic exchange: no retry
 // loop, so no reference is lost however many threads insert into the same node (a
-// bounded compare-and-swap loop dropped references when a whole workgroup hit one
+// bounded compare-and-swap loop drops references when a whole workgroup hits one
 // node at once).  The list is briefly inconsistent between the exchange and the write
 // of `next`, which is safe because nothing reads the lists while insertion runs: the
 // scheduler separates the creation and rebuild dispatches from every reader by a

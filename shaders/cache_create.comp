@@ -121,11 +121,10 @@ void main() {
     // Per point: the RGB sum (the stored mean) and, for Eq. 5, the luminance samples'
     // running mean and m2 (Welford; cache_math.glsl, "Eq. 5's sample statistics").
     // Eq. 5 is a rule per estimate, so a point stops sampling once its own estimate meets
-    // it (s_point_done) while the others go on.  On bonsai an entry took 2,250 samples on
-    // average when all seven waited for the last, and takes 1,500, for 1.3x the entries
-    // in the same time at a hit rate per entry at least as high (docs/cache.md, "Eq. 5 per
-    // point").  The common random numbers (below) still tie the points that sample in a
-    // round; a stopped point shares with the others the rounds it took.
+    // it (s_point_done) while the others go on: an entry costs fewer samples than when
+    // all seven wait for the last, at a hit rate per entry at least as high (docs/cache.md,
+    // "Eq. 5 per point").  The common random numbers (below) still tie the points that
+    // sample in a round; a stopped point shares with the others the rounds it took.
     vec3 sum[7];
     float lmean[7], lm2[7];
     for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lmean[k] = 0.0; lm2[k] = 0.0; }

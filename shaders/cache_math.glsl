@@ -304,8 +304,8 @@ CM_API real CM_FN(length3)(real x, real y, real z) {
 // of every smooth field.  The Euclidean |x| would multiply the exponent by
 // |x| / (|x| + |y| + |z|) off the axes, down to 1/sqrt(3) on a diagonal: a first-order
 // error that made the seven-point scheme less accurate than a single-gradient
-// extrapolation (bench/bench_fig9.c measured 0.040 against 0.0096 mean relative error;
-// 0.0059 with this distance).  The paper writes Eq. 7 for one dimension only.
+// extrapolation (docs/error.md, "Extrapolation accuracy").  The paper writes Eq. 7 for
+// one dimension only.
 // Rules: coordinates by san_coord, so the sum is at most 3 CM_LEN_MAX.
 CM_API real CM_FN(length1)(real x, real y, real z) {
     return CM_FN(san_coord)(x) + CM_FN(san_coord)(y) + CM_FN(san_coord)(z);
@@ -432,8 +432,8 @@ CM_API real CM_FN(reduced_radius)(real r, real f, real r_min) {
 // In a medium denser than one extinction per voxel it falls by e^-(sigma_t Delta) over
 // the offset: at 10 per voxel by e^-20, which a few hundred Monte-Carlo samples at the
 // offset point cannot resolve (the estimate E_delta is 0 or one lucky sample), so Eq. 6
-// and 10 got sigma_v and the radii wrong and the cache was biased by -45 % to +76 %
-// (tests/test_robust_sweep.c, measured 2026-11-22).  So each entry takes
+// and 10 get sigma_v and the radii wrong and bias the cache (tests/test_robust_sweep.c,
+// docs/robustness.md).  So each entry takes
 //   delta_e = min(Delta, CM_DELTA_MFP / sigma_local),
 // sigma_local the largest extinction at the centre and at the six Table 1 offset points:
 // at most two mean free paths, where E_delta / E_0 >= e^-2 for light along the axis.
@@ -469,8 +469,8 @@ CM_API real CM_FN(entry_r_min)(real r_min, real delta_e, real delta) {
 // arithmetic and rules).  Why: where the offset is two mean free paths, a flat estimate
 // along an axis says that the field is flat over those two mean free paths, not over
 // Table 1's 16 voxels - 160 to 1.6e6 mean free paths at 10 to 1e5 per voxel, across
-// which an entry at one face of a dense cube extrapolated into the next face, lit from
-// another side, and darkened it (tests/test_robust_sweep.c: -4 % to -13 % before).
+// which an entry at one face of a dense cube extrapolates into the next face, lit from
+// another side, and darkens it (tests/test_robust_sweep.c).
 // Equals r_max when delta_e = Delta (every scene up to one extinction per voxel).
 CM_API real CM_FN(entry_r_max)(real r_max, real delta_e, real delta) {
     return CM_FN(entry_r_min)(r_max, delta_e, delta);
@@ -492,13 +492,12 @@ CM_API real CM_FN(entry_r_max)(real r_max, real delta_e, real delta) {
 // half-axes of that axis get the radius at which the secant's error reaches L:
 //   kappa r (delta - r) / 2 = L   =>   r = delta (1 - sqrt(1 - 8 L / m)) / 2 < delta / 2,
 // computed as 4 delta L / (m (1 + sqrt(1 - 8 L / m))) (no cancellation for large m);
-// elsewhere no limit (r_max).  Why: with the paper's Eq. 6, 7 and Eq. 9, 10 alone the
-// cache darkened bonsai under one area light by 10-11 % at a hit rate of 0.89-0.93 (the
-// lit faces and shadow edges of every leaf); with this limit by 1.1 % at 0.46 - but the
+// elsewhere no limit (r_max).  Why: with the paper's Eq. 6, 7 and Eq. 9, 10 alone a full
+// cache darkens lit faces and shadow edges; the limit removes most of that bias, but the
 // entries shrink so much (a zero next to a lit estimate gives r_min) that the hit rate
-// stayed below 0.6 with 50,000 entries.  The medium model (medium_fraction) now removes
-// that bias without shrinking anything, so the limit is off by default
-// (cfg.cache.curvature_limit; README, "The irradiance cache").
+// stays low.  The medium model (medium_fraction) removes that bias without shrinking
+// anything, so the limit is off by default (cfg.cache.curvature_limit; docs/cache.md,
+// "The bias of a full cache").
 // Rules: logs by san_ln (E = 0 is ln 1e-30, so a zero next to a positive estimate gives
 // m >= 69 - |ln E|, hence r below 3e-3 delta: r_min in practice; all three zero: m = 0,
 // no limit); eps: NaN -> 0, clamped to [0, CM_EPS_MAX] (eps = 0: any curvature gives
@@ -528,15 +527,11 @@ CM_API real CM_FN(curvature_radius)(real lnEm, real lnE0, real lnEp, real delta,
 // t and b the extinction is constant to first order.
 // Why: with the paper's secant the lit faces of a dense object are extrapolated too
 // dark (the outward offset point in air makes the secant half as steep as the field
-// inside): a full cache darkened a dense cube under a sun by 8-12 %, under 1 % with it
-// (tests/test_cache.c, test_cache_full_dense_lit_face).
-// Why a count and not the optical depth: until 2026-11-29 f was tau / (sigma_0 delta),
-// the length of medium *of the centre's density*.  Entries sit at scatter events, which
-// fall where the extinction is high, so sigma_0 tends to exceed the extinction along the
-// axis; that f < 1 stretched axes that never leave the medium.  On bonsai with
-// noise-free entries (docs/cache.md, "Entry noise and the dark pot") the error per hit
-// went from +5.5 % / +7.1 % to +1.1 % / +1.3 % (2 seeds), the tree's from up to +19 % to
-// up to +11 %.
+// inside; tests/test_cache.c, test_cache_full_dense_lit_face).
+// Why a count and not the optical depth: f = tau / (sigma_0 delta), the length of medium
+// *of the centre's density*, would stretch axes that never leave the medium: entries
+// sit at scatter events, where the extinction is high, so sigma_0 tends to exceed the
+// extinction along the axis and f < 1 (docs/cache.md, "Entry noise and the dark pot").
 // Rules: n_in NaN or +inf -> 1 (the paper's secant), -inf -> CM_F_MIN; n_in >=
 // CM_F_PROBES -> exactly 1 (a homogeneous medium keeps Eq. 7 exact); n_in <= 0 (the axis
 // leaves the medium at once) -> CM_F_MIN; otherwise n_in / CM_F_PROBES, at least CM_F_MIN.

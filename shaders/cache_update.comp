@@ -15,10 +15,8 @@ layout(local_size_x = 16, local_size_y = 8) in;
 layout(push_constant) uniform Push { uint sched_round; uint seed; } pc;
 
 // The candidates an event collects (a per-invocation array, so bounded).  Entries past
-// the 16th would be left out of the conflict test; measured, an event's covering entries
-// (weight > 0) were at most 10 (bonsai, 13,541 entries), 8 (the cloud, 6,514) and 6
-// (the engine, screen space), by a throw-away atomicMax over 40-60 s runs at a 0.85
-// creation share (2026-11-30, docs/cache.md "The update procedure's candidates").
+// the 16th would be left out of the conflict test; the test scenes' events have fewer
+// (docs/cache.md, "The update procedure's candidates").
 #define UPDATE_MAX_CANDIDATES 16u
 
 void main() {

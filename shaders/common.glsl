@@ -151,9 +151,9 @@ bool box_interval(vec3 ro, vec3 rd, out float t0, out float t1) {
 #define VIEW_CACHE 1u
 #define VIEW_CACHE_ERROR 2u
 // Specialization: the debug views' code is compiled into the cached rendering procedure
-// only in the variant that renders them (picvr_set_view).  In every variant it made llvmpipe's
-// kernel about 8 % slower (bonsai, 13,000 entries, 2026-11-30): the error view inlines
-// a second copy of the direct-light sampling.
+// only in the variant that renders them (picvr_set_view): in every variant it would slow
+// llvmpipe's kernel, as the error view inlines a second copy of the direct-light
+// sampling (docs/performance.md, "Design choices, measured").
 layout(constant_id = 3) const bool USE_DEBUG_VIEW = false;
 
 // Rec. 709 luminance: the scalar of Eq. 5, Eq. 12, the update's conflicts and the
@@ -193,7 +193,7 @@ vec3 albedo_at(vec3 x) { return transfer(data_value(x)).rgb; }
 #define FINE_THRESHOLD 64.0
 // Specialization constant: the host turns the voxel-level path on only when some brick
 // needs it (majorant * brick diagonal > FINE_THRESHOLD).  Compiled out otherwise: its
-// eight texel fetches alone make llvmpipe's kernel 3x slower (measured on bonsai).
+// eight texel fetches alone make llvmpipe's kernel much slower (docs/performance.md).
 layout(constant_id = 1) const bool USE_FINE = true;
 
 layout(set = 0, binding = 8, std430) readonly buffer TfRangeMax { float tf_range_max[]; };
@@ -398,11 +398,11 @@ float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout boo
 // Kettunen et al. 2021, "An Unbiased Ray-Marching Transmittance Estimator", simplified.
 // Why, in creation only: ratio tracking against tight majorants is nearly a 0/1
 // estimate, so Eq. 5 needs thousands of samples wherever the light arrives through the
-// medium; at the 768-sample cap 81 % of bonsai's entries still missed it, and their
-// noise darkened the image where several entries meet (docs/cache.md, "Entry noise and
-// the dark pot").  This estimator is exact in a homogeneous medium and low-variance elsewhere:
-// 24 % of the entries miss Eq. 5.  It costs about 4x a ratio-tracking sample, so the
-// renderer keeps ratio tracking (one sample per pixel and iteration, no Eq. 5).
+// medium; most entries then miss it at the sample cap, and their noise darkens the image
+// where several entries meet (docs/cache.md, "Entry noise and the dark pot").  This
+// estimator is exact in a homogeneous medium and low-variance elsewhere, but costs
+// several ratio-tracking samples, so the renderer keeps ratio tracking (one sample per
+// pixel and iteration, no Eq. 5).
 // A kernel that defines TRANSMITTANCE_RAY_MARCHING defines RM_BUDGET, the most loop
 // iterations (DDA steps plus samples, all orders) one estimate may take, and sets the
 // pool rm_pool before its first estimate: the iterations all its estimates may still
@@ -410,8 +410,8 @@ float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout boo
 // truncated (biased, flagged like a tracking loop at its bound).  Why a pool:
 // llvmpipe's cap bounds the sum over an invocation, not each estimate, and most
 // estimates take a few dozen iterations, so a long ray through many bricks may use
-// what the short ones left (a fixed 640 per estimate cut 3e-4 of bonsai's creation
-// samples, clustered in 5 % of the entries).
+// what the short ones left, which a fixed share per estimate would cut (docs/cache.md,
+// "Guards on creation's estimates").
 #define RM_TAU_STEP 0.5     // majorant optical depth per stratum (at most one per voxel)
 #define RM_COMB_SAMPLES 192.0 // long rays: strata at least (t1 - t0) / this apart
 #define RM_DARK 6.9         // pivots darker than exp(-6.9) = 1e-3 go to Russian roulette

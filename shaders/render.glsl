@@ -7,9 +7,9 @@
 //                       the cache, a miss requests an entry and is queued for shading;
 //   render_shade.comp   one thread per queued event: plain Monte Carlo shading.
 // Split, the shading and lookup kernels see only live events (llvmpipe runs 8 lanes
-// under one mask, a GPU 32: one scattering or missing lane made the whole group run
-// the rays), and each kernel is smaller than the one it replaces.  Measured on
-// lavapipe (ARCHITECTURE.md, docs/cache.md "The rendering procedure as three kernels").
+// under one mask, a GPU 32: in one kernel a single scattering or missing lane makes the
+// whole group run the rays), and each kernel is smaller (docs/cache.md, "The rendering
+// procedure as three kernels").
 #include "common.glsl"
 #include "queue.glsl"
 

@@ -29,7 +29,7 @@ static void print_device(void) {
    When the last instance goes, the loader unloads the driver, and the next one loads it
    again; NVIDIA's driver takes static TLS each time it is loaded and never gives it back,
    so after a few dozen contexts no driver loads at all (PICVR_ERROR_NO_DEVICE, measured
-   on an H200, README "Measuring on a GPU").  An instance held for the whole run keeps the
+   on an H200, docs/gpu.md).  An instance held for the whole run keeps the
    driver loaded; it enables no layer and creates no device, so the tests see the same
    library.  PICVR_TEST_HOLD_INSTANCE=0 runs without it. */
 static VkInstance hold_driver_loaded(void) {
