@@ -12,9 +12,9 @@ SHADER_INC  := $(wildcard shaders/*.glsl)
 TEST_SRC    := $(wildcard tests/test_*.c)
 LIB_OBJ     := $(B)/picvr_vk.o
 # The implementation: picvr_vk.c includes the parts in host/.
-LIB_SRC     := picvr.h picvr_vk.c picvr_shaders.h $(wildcard host/*.h host/*.c)
+LIB_SRC     := picvr_vk.c picvr.h picvr_shaders.h $(wildcard host/*.h host/*.c)
 
-.PHONY: all deps lib test demo bench-speed bench-scheduler bench-long-run bench-hit-rate shaders check-shaders check-layout check-examples clean help
+.PHONY: all deps lib test check-build demo demo-volume bench-speed bench-scheduler bench-long-run bench-hit-rate shaders check-shaders check-layout check-examples clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
 
 help:
@@ -27,6 +27,7 @@ help:
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
 	@echo "make check-layout host mirrors of the shaders' buffer layouts and constants match"
 	@echo "make check-examples  the examples of picvr.h and README.md compile (-Werror) and run"
+	@echo "make check-build  the library compiles strict as C99/C11/C++17 (gcc, clang) and one-file"
 	@echo "make bench        error against run time, reduced (bonsai, 128x128; minutes)"
 	@echo "make bench-full   error against run time, the whole matrix (hours; resumable)"
 	@echo "make bench-bias   bias of the cache when full: default, paper model, curvature limit (~55 min)"
@@ -65,8 +66,11 @@ $(B)/libpicvr.a: $(LIB_OBJ)
 	ar rcs $@ $^
 lib: $(B)/libpicvr.a
 
-$(B)/picvr-render: examples/render.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -o $@ examples/render.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lstb -lz
+# The command-line helpers the example and bench programs share (examples/cli.h).
+CLI_SRC    := examples/cli.c examples/cli.h
+RENDER_SRC := examples/render.c examples/render_output.c examples/cli.c examples/volume_io.c examples/presets.c
+$(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) examples/volume_io.h examples/presets.h $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -o $@ $(RENDER_SRC) $(B)/libpicvr.a $(LDLIBS) -lstb -lz
 
 $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps
 	$(CC) $(CFLAGS) -O3 -fopenmp -c -o $@ $<
@@ -75,8 +79,8 @@ $(B)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h refere
               shaders/cache_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -fopenmp -o $@ $(TEST_SRC) $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lcmocka
 
-$(B)/picvr-bench-speed: bench/bench_speed.c examples/volume_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
+$(B)/picvr-bench-speed: bench/bench_speed.c $(CLI_SRC) examples/volume_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/cli.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
 
 # The host's mirrors of the shaders' layouts and constants (tools/check_layout.sh).
 $(B)/layout-host: tools/layout_host.c $(LIB_SRC) | $(B)/.deps
@@ -88,9 +92,14 @@ check-layout: $(B)/layout-host
 check-examples: deps $(B)/libpicvr.a
 	CC=$(CC) sh tools/check_examples.sh $(B) $(B)/libpicvr.a
 
-test: deps check-shaders check-layout check-examples $(B)/picvr-tests $(B)/picvr-render $(B)/picvr-bench-error
-	$(B)/picvr-bench-error --self-test
-	cd $(B) && PICVR_VALIDATION=1 PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
+# Every check and the suite (tools/run_tests.sh); the last line sums them: "N passed, N failed".
+test: deps $(B)/picvr_shaders.h $(B)/layout-host $(B)/libpicvr.a $(B)/picvr-tests $(B)/picvr-render $(B)/picvr-bench-error
+	@MAKE="$(MAKE)" B=$(B) DATA=$(abspath $(DATA)) sh tools/run_tests.sh
+
+# The library compiled as applications compile it: gcc and clang, C99, C11 and C++17,
+# strict warnings as errors, and the one-file form in C++17 rendering a scene.
+check-build: deps
+	sh tools/check_build.sh $(B)
 
 # The demo renders the bonsai CT from the data folder, ../shared/data beside the
 # repository (README "Data": what it holds, where it comes from).  DATA=DIR points at
@@ -124,12 +133,12 @@ bench-hit-rate: deps $(B)/picvr-render
 clean:
 	rm -rf $(B)
 
-# ---- error against run time (issue 5) ---------------------------------------------
-# bench/bench_error.c; scenes in bench/scenes.txt; references cached in bench/refs/
-# (not committed); results (CSV, Markdown, gnuplot scripts and PNGs) in bench/results/
-# for `make bench` and bench/results/full/ for `make bench-full`.  Both resume: finished
-# runs (bench/results/**/runs/) and reference chunks are reused.  Exit status 3: a
-# reference was not converged enough and its scene was left out.
+# ---- error against run time ---------------------------------------------------------
+# bench/error/ (main.c says what it measures); scenes in bench/scenes.txt; references
+# cached in bench/refs/ (not committed); results (CSV, Markdown, gnuplot scripts and
+# PNGs) in bench/results/ for `make bench` and bench/results/full/ for `make bench-full`.
+# Both resume: finished runs (bench/results/**/runs/) and reference chunks are reused.
+# Exit status 3: a reference was not converged enough and its scene was left out.
 .PHONY: bench bench-full bench-bias
 BENCH_NICE ?= nice -n 15
 BENCH_OUT ?= bench/results
@@ -142,13 +151,14 @@ BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotat
               --bias-time 300000
 
 # The library's sources as one checksum: the bench's run files carry it, so that a run
-# made with other library code is never reused (bench/bench_error.c, run_signature).
+# made with other library code is never reused (bench/error/runs.c, run_signature).
 BENCH_BUILD = $(shell cat $(LIB_SRC) shaders/*.glsl shaders/*.comp | cksum | cut -d' ' -f1)
-$(B)/picvr-bench-error: bench/bench_error.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ bench/bench_error.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
+BENCH_ERROR_SRC := $(wildcard bench/error/*.c)
+$(B)/picvr-bench-error: $(BENCH_ERROR_SRC) bench/error/bench_error.h $(CLI_SRC) examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ $(BENCH_ERROR_SRC) examples/cli.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
-$(B)/picvr-bench-fig9: bench/bench_fig9.c shaders/cache_math.glsl reference/cache_math_host.h | $(B)/.deps
-	$(CC) $(CFLAGS) -o $@ bench/bench_fig9.c -lm
+$(B)/picvr-bench-fig9: bench/bench_fig9.c $(CLI_SRC) shaders/cache_math.glsl reference/cache_math_host.h | $(B)/.deps
+	$(CC) $(CFLAGS) -Iexamples -o $@ bench/bench_fig9.c examples/cli.c -lm
 
 # gnuplot only for the benchmark plots, so `make test` does not need it.
 $(B)/.bench-deps: tools/install-deps.sh | $(B)/.deps
@@ -220,8 +230,8 @@ $(BA)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr
 $(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
               tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -o $@ $(TEST_SRC) tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl
-$(BA)/picvr-render: examples/render.c examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h tests/asan_keep_drivers.c $(BA)/libpicvr.a
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ examples/render.c examples/volume_io.c examples/presets.c tests/asan_keep_drivers.c $(BA)/libpicvr.a $(LDLIBS) -lstb -lz -ldl
+$(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) examples/volume_io.h examples/presets.h tests/asan_keep_drivers.c $(BA)/libpicvr.a
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ $(RENDER_SRC) tests/asan_keep_drivers.c $(BA)/libpicvr.a $(LDLIBS) -lstb -lz -ldl
 
 # The whole suite under ASan + UBSan (host code: the library, the tests, the reference),
 # with the validation layer on, then one picvr-render run (loader + CLI).  The 1e6-sample

@@ -6,7 +6,7 @@
  *
  * The cache's entries are not exposed by the API, so this runs on the host, in double
  * precision, with the very formulas the shaders use (shaders/cache_math.glsl through
- * tests/cache_math_host.h: Eq. 6 sigma_v, Eq. 7-8 octant extrapolation), on an
+ * reference/cache_math_host.h: Eq. 6 sigma_v, Eq. 7-8 octant extrapolation), on an
  * irradiance field known in closed form:
  *   a homogeneous sphere of radius 64 voxels (spacing 1), sigma_t = D * 0.05 per voxel,
  *   lit by a sun (irradiance 1, direction (1,1,1)/sqrt 3): E_sun(x) = exp(-sigma_t c),
@@ -21,9 +21,9 @@
  *     prediction at offset p by Eq. 7 with Eq. 8's barycentric sigma (cm_ functions);
  *   single gradient: g = central differences of ln E over the same six points,
  *     ln E(p) = ln E_0 + g . p.
- *   seven-point-euclid (for comparison; what the shaders did before 2026-11-22): the
- *     same six sigma_v with Eq. 7's distance taken as the Euclidean |p| instead of the
- *     |x|+|y|+|z| of cache_math.glsl's length1 (exact only for radial fields).
+ *   seven-point-euclid (for comparison): the same six sigma_v with Eq. 7's distance
+ *     taken as the Euclidean |p| instead of the |x|+|y|+|z| of cache_math.glsl's
+ *     length1 (exact only for radial fields).
  * Test points: 16 per entry, uniformly distributed directions, distance uniform in
  * (0, 8] voxels (half the default maximum radius).
  * The sun is either diagonal to the frame or along one of its axes (+y).
@@ -38,7 +38,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "tests/cache_math_host.h"
+#include "cli.h"
+#include "reference/cache_math_host.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -143,8 +144,8 @@ static double predict_seven(const entry *e, v3 p)
     return exp(cm_log_extrapolate_octant(e->e0, s[0], s[1], s[2], p.x, p.y, p.z));
 }
 
-/* The same six sigma_v and Eq. 8, but Eq. 7's distance taken as the Euclidean |p| (the
-   shaders' formula before 2026-11-22; for comparison). */
+/* The same six sigma_v and Eq. 8, but Eq. 7's distance taken as the Euclidean |p| (for
+   comparison with the shaders' |x|+|y|+|z|). */
 static double predict_seven_euclid(const entry *e, v3 p)
 {
     double s[3], q[3] = {p.x, p.y, p.z};
@@ -242,26 +243,49 @@ static void write_gnuplot(const char *dir)
     fclose(f);
 }
 
+static const pvc_option OPTIONS[] = {{"help", 0}, {"out", 1}, {"entries", 1}, {NULL, 0}};
+
+typedef struct options {
+    const char *out;          /* --out DIR: where fig9.csv and fig9.gp go */
+    int entries;              /* --entries N: cache entries per condition, at least 10 */
+} options;
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: picvr-bench-fig9 [--out DIR (default bench/results)] "
+               "[--entries N (default 200)]\n");
+}
+
+static int apply_option(void *target, const char *name, const char *value)
+{
+    options *o = target;
+    uint32_t n;
+    if (!strcmp(name, "out")) o->out = value;
+    else if (pvc_parse_u32(value, 0, 1000000, &n)) o->entries = n < 10 ? 10 : (int)n;
+    else {
+        pvc_bad_value(name, value);
+        return 0;
+    }
+    return 1;
+}
+
 int main(int argc, char **argv)
 {
-    const char *out = "bench/results";
-    int entries = 200;
-    for (int i = 1; i + 1 < argc; i += 2) {
-        if (!strcmp(argv[i], "--out")) out = argv[i + 1];
-        else if (!strcmp(argv[i], "--entries")) entries = atoi(argv[i + 1]);
-    }
-    if (entries < 10) entries = 10;
+    pvc_set_program("picvr-bench-fig9");
+    options o = {"bench/results", 200};
+    int status = pvc_parse_options(argc, argv, OPTIONS, apply_option, &o, usage);
+    if (status >= 0) return status;
     char path[1024];
-    snprintf(path, sizeof path, "%s/fig9.csv", out);
+    snprintf(path, sizeof path, "%s/fig9.csv", o.out);
     FILE *csv = fopen(path, "w");
-    if (!csv) { fprintf(stderr, "picvr-bench-fig9: cannot write %s\n", path); return 1; }
+    if (!csv) { pvc_fail("cannot write %s", path); return 1; }
     fprintf(csv, "D,sun,background,scheme,mean_rel_error,p90_rel_error,points\n");
     for (g_axis_sun = 0; g_axis_sun < 2; g_axis_sun++)
         for (int bg = 0; bg < 2; bg++)
             for (int d = 0; d < N_D; d++)
-                run_condition(csv, D_VALUES[d], bg, bg ? entries / 4 : entries);
+                run_condition(csv, D_VALUES[d], bg, bg ? o.entries / 4 : o.entries);
     fclose(csv);
-    write_gnuplot(out);
+    write_gnuplot(o.out);
     fprintf(stderr, "picvr-bench-fig9: wrote %s and fig9.gp\n", path);
     return 0;
 }

@@ -1,5 +1,5 @@
 /* bench_speed.c - picvr-bench-speed: samples/s of the Vulkan kernel against the
- * C/OpenMP reference (tests/cpu_reference.c), side by side on one scene.
+ * C/OpenMP reference (reference/cpu_reference.c), side by side on one scene.
  *
  *   picvr-bench-speed --volume bonsai_256x256x256_uint8.raw.gz [--size 512]
  *                     [--iterations-gpu N] [--iterations-cpu N] [--json FILE] [--quick]
@@ -24,10 +24,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "cli.h"
 #include "picvr.h"
-#include "tests/cpu_reference.h"
+#include "reference/cpu_reference.h"
 #include "volume_io.h"
 
 #define PROGRAM "picvr-bench-speed"
@@ -46,6 +46,7 @@ typedef struct options {
     uint32_t iterations_cpu;     /* 0: calibrate (at least 2) */
     uint32_t seed;
     int quick;
+    int have_size;               /* --size was given (--quick keeps it) */
 } options;
 
 typedef struct result {
@@ -54,12 +55,8 @@ typedef struct result {
     uint64_t truncated;
 } result;
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
+/* Seconds of the monotonic clock. */
+static double now_s(void) { return pvc_now_ms() * 1e-3; }
 
 static void usage(FILE *f)
 {
@@ -76,54 +73,53 @@ static void usage(FILE *f)
             GPU_TARGET_S, CPU_TARGET_S, GPU_TARGET_QUICK_S, CPU_TARGET_QUICK_S);
 }
 
-/* Strict unsigned parse: digits only, 1..max. */
-static int parse_u32(const char *s, uint32_t max, uint32_t *out)
+/* --size N (a square) or WxH. */
+static int parse_size(const char *text, uint32_t *w, uint32_t *h)
 {
-    char *end;
-    if (!s || *s < '0' || *s > '9') return 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (*end || v < 1 || v > max) return 0;
-    *out = (uint32_t)v;
-    return 1;
+    if (text && !strchr(text, 'x')) {
+        if (!pvc_parse_u32(text, 1, PICVR_MAX_IMAGE_SIZE, w)) return 0;
+        *h = *w;
+        return 1;
+    }
+    return pvc_parse_size(text, PICVR_MAX_IMAGE_SIZE, w, h);
 }
 
-static int parse_size(const char *s, uint32_t *w, uint32_t *h)
+static const pvc_option OPTIONS[] = {
+    {"help", 0}, {"quick", 0}, {"volume", 1}, {"json", 1}, {"device", 1}, {"size", 1},
+    {"iterations-gpu", 1}, {"iterations-cpu", 1}, {"seed", 1}, {NULL, 0}};
+
+/* Applies one option of OPTIONS; returns 0 after reporting a bad value. */
+static int apply_option(void *target, const char *name, const char *value)
 {
-    char buf[64];
-    if (!s || strlen(s) >= sizeof buf) return 0;
-    strcpy(buf, s);
-    char *x = strchr(buf, 'x');
-    if (!x) return parse_u32(buf, PICVR_MAX_IMAGE_SIZE, w) && (*h = *w, 1);
-    *x = '\0';
-    return parse_u32(buf, PICVR_MAX_IMAGE_SIZE, w) && parse_u32(x + 1, PICVR_MAX_IMAGE_SIZE, h);
+    options *o = target;
+    int ok = 1;
+    if (!strcmp(name, "quick")) o->quick = 1;
+    else if (!strcmp(name, "volume")) o->volume_path = value;
+    else if (!strcmp(name, "json")) o->json_path = value;
+    else if (!strcmp(name, "device")) o->device = value;
+    else if (!strcmp(name, "size")) ok = o->have_size = parse_size(value, &o->width, &o->height);
+    else if (!strcmp(name, "iterations-gpu")) ok = pvc_parse_u32(value, 1, 1000000, &o->iterations_gpu);
+    else if (!strcmp(name, "iterations-cpu")) ok = pvc_parse_u32(value, 1, 1000000, &o->iterations_cpu);
+    else if (!strcmp(name, "seed")) ok = pvc_parse_u32(value, 0, UINT32_MAX, &o->seed);
+    if (!ok) pvc_bad_value(name, value);
+    return ok;
 }
 
+/* Returns -1 to go on, else the exit status (0 after --help, EXIT_USAGE). */
 static int parse_args(int argc, char **argv, options *o)
 {
     memset(o, 0, sizeof *o);
     o->width = o->height = 512;
     o->seed = 1;
-    int have_size = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        int ok = 1, takes = 1;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { usage(stdout); exit(0); }
-        else if (!strcmp(a, "--quick")) { o->quick = 1; takes = 0; }
-        else if (!strcmp(a, "--volume")) ok = (o->volume_path = v) != NULL;
-        else if (!strcmp(a, "--json")) ok = (o->json_path = v) != NULL;
-        else if (!strcmp(a, "--device")) ok = (o->device = v) != NULL;
-        else if (!strcmp(a, "--size")) ok = have_size = parse_size(v, &o->width, &o->height);
-        else if (!strcmp(a, "--iterations-gpu")) ok = parse_u32(v, 1000000, &o->iterations_gpu);
-        else if (!strcmp(a, "--iterations-cpu")) ok = parse_u32(v, 1000000, &o->iterations_cpu);
-        else if (!strcmp(a, "--seed")) { ok = v != NULL; if (ok) o->seed = (uint32_t)strtoul(v, NULL, 10); }
-        else { fprintf(stderr, PROGRAM ": unknown option '%s'\n", a); return 0; }
-        if (!ok) { fprintf(stderr, PROGRAM ": bad or missing value for %s\n", a); return 0; }
-        i += takes;
+    int status = pvc_parse_options(argc, argv, OPTIONS, apply_option, o, usage);
+    if (status >= 0) return status;
+    if (!o->volume_path) {
+        pvc_fail("--volume is required");
+        return EXIT_USAGE;
     }
-    if (!o->volume_path) { fprintf(stderr, PROGRAM ": --volume is required\n"); return 0; }
-    if (o->quick && !have_size) o->width = o->height = 128;
+    if (o->quick && !o->have_size) o->width = o->height = 128;
     if (o->iterations_cpu == 1) o->iterations_cpu = 2;   /* a sample variance needs 2 */
-    return 1;
+    return -1;
 }
 
 /* ---- the fixed scene ------------------------------------------------------------- */
@@ -186,18 +182,23 @@ static double mean_variance(const double *m2, size_t n, uint32_t n_cpu, uint32_t
 
 /* ---- the two runs ---------------------------------------------------------------- */
 
-static int check(picvr_status s, const char *what)
+/* The figures of a timed run of n iterations of an npix-pixel image img (RGBA). */
+static void set_result(result *r, uint32_t n, double secs, uint64_t truncated, const float *img,
+                       size_t npix)
 {
-    if (s == PICVR_OK) return 1;
-    fprintf(stderr, PROGRAM ": %s: %s\n", what, picvr_status_string(s));
-    return 0;
+    r->iterations = n;
+    r->seconds = secs;
+    r->ms_per_iteration = 1e3 * secs / n;
+    r->msamples_per_s = secs > 0.0 ? (double)npix * n / secs * 1e-6 : 0.0;
+    r->truncated = truncated;
+    image_means(img, npix, &r->mean_luminance, &r->mean_alpha);
 }
 
 /* Seconds for n iterations (picvr_step_iterations returns after the device is done). */
 static int gpu_time(picvr_context *ctx, uint32_t n, double *seconds)
 {
     double t0 = now_s();
-    if (!check(picvr_step_iterations(ctx, n), "picvr_step_iterations")) return 0;
+    if (!pvc_check(picvr_step_iterations(ctx, n), "picvr_step_iterations")) return 0;
     *seconds = now_s() - t0;
     return 1;
 }
@@ -210,12 +211,12 @@ static int run_gpu(const options *o, const picvr_volume_desc *vol, const picvr_l
     cfg.seed = o->seed;
     cfg.device_name = o->device;
     picvr_context *ctx = NULL;
-    if (!check(picvr_create(&cfg, &ctx), "picvr_create")) return 0;
-    int ok = check(picvr_upload_volume(ctx, vol), "picvr_upload_volume") &&
-             check(picvr_set_transfer_function(ctx, bench_tf, BENCH_TF_COUNT, BENCH_DENSITY),
+    if (!pvc_check(picvr_create(&cfg, &ctx), "picvr_create")) return 0;
+    int ok = pvc_check(picvr_upload_volume(ctx, vol), "picvr_upload_volume") &&
+             pvc_check(picvr_set_transfer_function(ctx, bench_tf, BENCH_TF_COUNT, BENCH_DENSITY),
                    "picvr_set_transfer_function") &&
-             check(picvr_set_lights(ctx, light, 1, sky), "picvr_set_lights") &&
-             check(picvr_set_camera(ctx, cam), "picvr_set_camera");
+             pvc_check(picvr_set_lights(ctx, light, 1, sky), "picvr_set_lights") &&
+             pvc_check(picvr_set_camera(ctx, cam), "picvr_set_camera");
     double secs = 0.0;
     /* warm-up: pipeline compilation and first-touch costs stay out of the timing */
     ok = ok && gpu_time(ctx, 3, &secs);
@@ -233,21 +234,16 @@ static int run_gpu(const options *o, const picvr_volume_desc *vol, const picvr_l
         double want = per > 0.0 ? target / per : 1e6;
         n = want < 1.0 ? 1u : want > 1e6 ? 1000000u : (uint32_t)want;
     }
-    ok = ok && check(picvr_reset(ctx), "picvr_reset") && gpu_time(ctx, n, &secs);
+    ok = ok && pvc_check(picvr_reset(ctx), "picvr_reset") && gpu_time(ctx, n, &secs);
     picvr_stats st;
     memset(&st, 0, sizeof st);
-    ok = ok && check(picvr_get_stats(ctx, &st), "picvr_get_stats");
+    ok = ok && pvc_check(picvr_get_stats(ctx, &st), "picvr_get_stats");
     size_t npix = (size_t)cam->width * cam->height;
     float *img = ok ? malloc(npix * 16) : NULL;
-    if (ok && !img) { fprintf(stderr, PROGRAM ": out of memory\n"); ok = 0; }
-    ok = ok && check(picvr_read_rgba32f(ctx, img, npix * 16), "picvr_read_rgba32f");
+    if (ok && !img) { pvc_fail("out of memory"); ok = 0; }
+    ok = ok && pvc_check(picvr_read_rgba32f(ctx, img, npix * 16), "picvr_read_rgba32f");
     if (ok) {
-        r->iterations = n;
-        r->seconds = secs;
-        r->ms_per_iteration = 1e3 * secs / n;
-        r->msamples_per_s = secs > 0.0 ? (double)npix * n / secs * 1e-6 : 0.0;
-        r->truncated = st.truncated_paths;
-        image_means(img, npix, &r->mean_luminance, &r->mean_alpha);
+        set_result(r, n, secs, st.truncated_paths, img, npix);
         snprintf(device_name, 256, "%s", st.device_name);
         if (st.iterations != n)
             fprintf(stderr, PROGRAM ": warning: stats report %u iterations, expected %u\n",
@@ -265,12 +261,12 @@ static int run_cpu(const options *o, const picvr_volume_desc *vol, const picvr_l
     cref_scene s;
     int st = cref_scene_init(&s, vol, bench_tf, BENCH_TF_COUNT, BENCH_DENSITY, light, 1, sky,
                              cam, o->seed);
-    if (st != PICVR_OK) return check((picvr_status)st, "cref_scene_init");
+    if (st != PICVR_OK) return pvc_check((picvr_status)st, "cref_scene_init");
     size_t npix = (size_t)cam->width * cam->height;
     float *img = malloc(npix * 4 * sizeof *img);
     double *m2 = malloc(npix * sizeof *m2);
     int ok = img && m2;
-    if (!ok) fprintf(stderr, PROGRAM ": out of memory\n");
+    if (!ok) pvc_fail("out of memory");
     cref_render_stats rs;
     uint32_t n = o->iterations_cpu;
     double t0, secs = 0.0;
@@ -278,21 +274,16 @@ static int run_cpu(const options *o, const picvr_volume_desc *vol, const picvr_l
         /* calibrate with one iteration (also warms caches and the thread pool) */
         double target = o->quick ? CPU_TARGET_QUICK_S : CPU_TARGET_S;
         t0 = now_s();
-        ok = check((picvr_status)cref_render_ex(&s, 0, 1, img, NULL, NULL), "cref_render");
+        ok = pvc_check((picvr_status)cref_render_ex(&s, 0, 1, img, NULL, NULL), "cref_render");
         secs = now_s() - t0;
         double want = secs > 0.0 ? target / secs : 1000.0;
         n = want < 2.0 ? 2u : want > 1000.0 ? 1000u : (uint32_t)want;
     }
     t0 = now_s();
-    ok = ok && check((picvr_status)cref_render_ex(&s, 0, n, img, m2, &rs), "cref_render");
+    ok = ok && pvc_check((picvr_status)cref_render_ex(&s, 0, n, img, m2, &rs), "cref_render");
     secs = now_s() - t0;
     if (ok) {
-        r->iterations = n;
-        r->seconds = secs;
-        r->ms_per_iteration = 1e3 * secs / n;
-        r->msamples_per_s = secs > 0.0 ? (double)npix * n / secs * 1e-6 : 0.0;
-        r->truncated = rs.truncated_paths;
-        image_means(img, npix, &r->mean_luminance, &r->mean_alpha);
+        set_result(r, n, secs, rs.truncated_paths, img, npix);
         if (rs.majorant_violations)
             fprintf(stderr, PROGRAM ": warning: %llu majorant violations in the CPU reference\n",
                     (unsigned long long)rs.majorant_violations);
@@ -306,18 +297,6 @@ static int run_cpu(const options *o, const picvr_volume_desc *vol, const picvr_l
 }
 
 /* ---- output ---------------------------------------------------------------------- */
-
-static void json_string(FILE *f, const char *s)
-{
-    fputc('"', f);
-    for (; *s; s++) {
-        unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
-        else if (c < 0x20) fprintf(f, "\\u%04x", c);
-        else fputc(c, f);
-    }
-    fputc('"', f);
-}
 
 static void json_result(FILE *f, const char *name, const result *r)
 {
@@ -333,11 +312,11 @@ static int write_json(const options *o, const char *device, int threads, const r
                       const result *c, double ratio, double rel_diff, double rel_sigma, int agree)
 {
     FILE *f = fopen(o->json_path, "w");
-    if (!f) { perror(o->json_path); return 0; }
+    if (!f) { pvc_fail("cannot write %s", o->json_path); return 0; }
     fprintf(f, "{\n  \"program\": \"" PROGRAM "\",\n  \"volume\": ");
-    json_string(f, o->volume_path);
+    pvc_json_string(f, o->volume_path);
     fprintf(f, ",\n  \"device\": ");
-    json_string(f, device);
+    pvc_json_string(f, device);
     fprintf(f, ",\n  \"cpu_threads\": %d,\n  \"width\": %u,\n  \"height\": %u,\n  \"seed\": %u,\n"
                "  \"quick\": %s,\n",
             threads, o->width, o->height, o->seed, o->quick ? "true" : "false");
@@ -348,7 +327,7 @@ static int write_json(const options *o, const char *device, int threads, const r
             ratio, rel_diff, rel_sigma, agree ? "true" : "false");
     int ok = !ferror(f);
     if (fclose(f) != 0) ok = 0;
-    if (!ok) fprintf(stderr, PROGRAM ": cannot write %s\n", o->json_path);
+    if (!ok) pvc_fail("cannot write %s", o->json_path);
     return ok;
 }
 
@@ -362,13 +341,18 @@ static void print_result(const char *name, const result *r, uint32_t w, uint32_t
 
 int main(int argc, char **argv)
 {
+    pvc_set_program(PROGRAM);
     options o;
-    if (!parse_args(argc, argv, &o)) { usage(stderr); return EXIT_USAGE; }
+    int status = parse_args(argc, argv, &o);
+    if (status >= 0) {
+        if (status) usage(stderr);
+        return status;
+    }
 
     char err[256];
     pvio_volume vol;
     if (pvio_load(o.volume_path, NULL, &vol, err, sizeof err) != PVIO_OK) {
-        fprintf(stderr, PROGRAM ": %s\n", err);
+        pvc_fail("%s", err);
         return 1;
     }
     picvr_volume_desc desc;

@@ -8,7 +8,7 @@ REF_DIR: a reference folder of picvr-bench-error (bench/refs/<key>/chunk_*.pfm, 
 rows bottom to top); RUN: the final images of runs of one condition with different
 seeds, at least two: luminance (bench/results/<out>/runs/*_r?_warm.lum, float32, rows
 top to bottom) or picvr-render's --out-float images (RUN.pfm).  The reference is the
-mean of its chunks, reduced to luminance with the weights bench_error.c uses.
+mean of its chunks, reduced to luminance with the weights bench/error/ uses.
 
 Pixels: those whose reference differs from the image's most common value (the
 background, which every run renders exactly where no ray meets the volume).
@@ -19,7 +19,7 @@ Printed (RMS over those pixels):
                       taken out: the part every seed's cache shares
   mean offset         the runs' mean luminance over those pixels against the
                       reference's, in per cent (the bias of the image's mean)
-  true RMSE per run   over all pixels, as bench_error.c measures it
+  true RMSE per run   over all pixels, as bench/error/ measures it
 Standard library only (docs/cache.md, "A full cache's error floor").
 """
 import glob

@@ -6,8 +6,8 @@
 # time (5-15 % by the hit rate), so the cache grows at a rate set by the device, not by
 # the image; this run shows how the hit rate, the entry count and the ratio of the
 # estimated errors (Eq. 5, image mean, plain / cached at equal time; above 1: the cache
-# wins) develop over minutes.  No reference is needed (bench/bench_error.c showed that
-# Eq. 5 ranks the conditions like the true error).  Writes bench/results/long_run.csv.
+# wins) develop over minutes.  No reference is needed (picvr-bench-error, bench/error/,
+# showed that Eq. 5 ranks the conditions like the true error).  Writes bench/results/long_run.csv.
 #
 # usage: bench/long_run.sh [SECONDS, default 600] [SIZE, default 128x128]
 set -eu

@@ -6,15 +6,14 @@
  * Loads a raw volume (volume_io), sets up a transfer function, lights and an orbit
  * camera from presets (presets), renders progressively for a time or an exact number
  * of iterations while showing the estimated error, and writes PNG / PFM images, a
- * per-round CSV log and a JSON summary.  `picvr-render --help` lists every option.
+ * per-round CSV log and a JSON summary (the statistics and the configuration the
+ * library resolved).  `picvr-render --help` lists every option.
  *
  * Exit status: 0 success, 1 runtime error, 2 usage error, 130 interrupted (Ctrl-C
  * stops rendering early; the outputs are still written).
  */
 #include <errno.h>
-#include <math.h>
 #include <signal.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -22,47 +21,15 @@
 #include <time.h>
 #include <unistd.h>
 
-#include <stb/stb_image_write.h>
-
+#include "cli.h"
 #include "picvr.h"
 #include "presets.h"
+#include "render.h"
 #include "volume_io.h"
 
 #define PROGRAM "picvr-render"
 #define EXIT_USAGE 2
 #define EXIT_INTERRUPTED 130
-
-typedef struct options {
-    const char *volume_path;
-    int have_dims, have_type, have_spacing, have_range, have_density, have_time;
-    uint32_t dims[3];
-    picvr_voxel_type type;
-    float spacing[3];
-    float range[2];
-    const char *tf_name, *lights_name;
-    float density;
-    uint32_t width, height;
-    double time_ms, round_ms;
-    uint32_t iterations;       /* 0: render for time_ms instead */
-    uint32_t seed;
-    const char *device;
-    int validation;
-    picvr_cache_mode cache;
-    picvr_switch priorities;
-    picvr_switch curvature;
-    picvr_switch medium;
-    uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */
-    picvr_cache_config params; /* --cache-param: its numbers (presets.h); 0: defaults */
-    float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
-    double warm_ms;           /* --warm: fill the cache first at PVP_WARM_CREATE_SHARE; 0: no */
-    char turns_path[1024];    /* --turns FILE,ID: take turns with a second process; "": no */
-    unsigned turns_id;
-    const char *debug_view;
-    float exposure;
-    float azimuth, elevation, distance, fov;
-    const char *out_png, *out_pfm, *log_path, *json_path;
-    int png_alpha, quiet;
-} options;
 
 /* Progress display state; also the log callback's user data, so library messages
    do not get glued onto a half-drawn progress line. */
@@ -88,23 +55,6 @@ static void install_interrupt_handler(void)
     sa.sa_flags = SA_RESETHAND;
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, NULL);
-}
-
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
-}
-
-static void fail(const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    fprintf(stderr, PROGRAM ": error: ");
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
-    va_end(ap);
 }
 
 /* ---- usage ------------------------------------------------------------------------- */
@@ -190,81 +140,16 @@ static void print_help(FILE *f)
     fprintf(f, "\nExit status: 0 ok, 1 error, 2 usage error, 130 interrupted (outputs written).\n");
 }
 
-/* ---- parsing of option values (strict: the whole text must be consumed) ----------- */
+/* ---- options ----------------------------------------------------------------------- */
 
-static int parse_u32(const char *text, uint32_t min, uint32_t max, uint32_t *out)
-{
-    if (!text || text[0] < '0' || text[0] > '9') return 0;  /* strtoul takes "-1" */
-    char *end;
-    errno = 0;
-    unsigned long long v = strtoull(text, &end, 10);
-    if (errno || *end || v < min || v > max) return 0;
-    *out = (uint32_t)v;
-    return 1;
-}
-
-static int parse_double(const char *text, double *out)
-{
-    if (!text || !*text) return 0;
-    char *end;
-    errno = 0;
-    double v = strtod(text, &end);
-    if (errno || *end || !isfinite(v)) return 0;
-    *out = v;
-    return 1;
-}
-
-static int parse_float(const char *text, float *out)
-{
-    double v;
-    if (!parse_double(text, &v) || fabs(v) > 3.0e38) return 0;
-    *out = (float)v;
-    return 1;
-}
-
-/* Splits a copy of text (in buf) at `sep` into exactly n pieces. */
-static int split(const char *text, char sep, int n, char *buf, size_t buf_size,
-                 char **pieces)
-{
-    if (!text || strlen(text) >= buf_size) return 0;
-    strcpy(buf, text);
-    char *p = buf;
-    for (int i = 0; i < n; i++) {
-        char *next = strchr(p, sep);
-        if ((i < n - 1) != (next != NULL)) return 0;  /* too few or too many */
-        if (next) *next = '\0';
-        pieces[i] = p;
-        p = next ? next + 1 : p;
-    }
-    return 1;
-}
-
-/* Exactly n floats separated by commas. */
-static int parse_float_list(const char *text, int n, float *out)
-{
-    char buf[256], *pieces[3];
-    if (n > 3 || !split(text, ',', n, buf, sizeof buf, pieces)) return 0;
-    for (int i = 0; i < n; i++)
-        if (!parse_float(pieces[i], &out[i])) return 0;
-    return 1;
-}
-
-static int parse_dims(const char *text, uint32_t dims[3])
-{
-    char buf[64], *pieces[3];
-    return split(text, ',', 3, buf, sizeof buf, pieces) &&
-           parse_u32(pieces[0], 1, PVIO_MAX_DIM, &dims[0]) &&
-           parse_u32(pieces[1], 1, PVIO_MAX_DIM, &dims[1]) &&
-           parse_u32(pieces[2], 1, PVIO_MAX_DIM, &dims[2]);
-}
-
-static int parse_size(const char *text, uint32_t *width, uint32_t *height)
-{
-    char buf[64], *pieces[2];
-    return split(text, 'x', 2, buf, sizeof buf, pieces) &&
-           parse_u32(pieces[0], 1, PICVR_MAX_IMAGE_SIZE, width) &&
-           parse_u32(pieces[1], 1, PICVR_MAX_IMAGE_SIZE, height);
-}
+static const pvc_option OPTIONS[] = {
+    {"validation", 0}, {"quiet", 0}, {"alpha", 0}, {"help", 0},
+    {"volume", 1}, {"dims", 1}, {"type", 1}, {"spacing", 1}, {"range", 1}, {"tf", 1},
+    {"density", 1}, {"lights", 1}, {"size", 1}, {"time", 1}, {"iterations", 1},
+    {"round", 1}, {"seed", 1}, {"cache", 1}, {"priorities", 1}, {"curvature", 1},
+    {"medium", 1}, {"samples", 1}, {"cache-param", 1}, {"shares", 1}, {"warm", 1},
+    {"turns", 1}, {"debug-view", 1}, {"device", 1}, {"exposure", 1}, {"camera", 1},
+    {"fov", 1}, {"out", 1}, {"out-float", 1}, {"log", 1}, {"json", 1}, {NULL, 0}};
 
 static int positive_all(const float *v, int n)
 {
@@ -273,125 +158,146 @@ static int positive_all(const float *v, int n)
     return 1;
 }
 
-/* Applies one option with its value; returns 0 and prints why on a bad value. */
-static int apply_option(options *o, const char *name, const char *value)
+/* Whether value is one of the names name(0), name(1), ...; if not, says so and lists
+   them. */
+static int known_preset(const char *option, const char *value, const char *(*name)(size_t))
 {
-    int ok = 1;
-    if (!strcmp(name, "volume")) {
-        o->volume_path = value;
-    } else if (!strcmp(name, "dims")) {
-        ok = o->have_dims = parse_dims(value, o->dims);
-    } else if (!strcmp(name, "type")) {
-        ok = o->have_type = pvio_parse_type(value, &o->type) == PVIO_OK;
-    } else if (!strcmp(name, "spacing")) {
-        ok = o->have_spacing = parse_float_list(value, 3, o->spacing) &&
-                               positive_all(o->spacing, 3);
-    } else if (!strcmp(name, "range")) {
-        ok = o->have_range = parse_float_list(value, 2, o->range) &&
-                             o->range[0] < o->range[1];
-    } else if (!strcmp(name, "tf")) {
-        pvp_tf probe;
-        o->tf_name = value;
-        if (pvp_tf_preset(value, &probe) != PVP_OK) {
-            fail("unknown --tf '%s'; presets:", value);
-            for (size_t i = 0; pvp_tf_name(i); i++) fprintf(stderr, " %s", pvp_tf_name(i));
-            fputc('\n', stderr);
-            return 0;
-        }
-    } else if (!strcmp(name, "density")) {
-        ok = o->have_density = parse_float(value, &o->density) && o->density >= 0.0f;
-    } else if (!strcmp(name, "lights")) {
-        o->lights_name = value;
-        ok = 0;
-        for (size_t i = 0; pvp_lights_name(i) && !ok; i++)
-            ok = !strcmp(value, pvp_lights_name(i));
-        if (!ok) {
-            fail("unknown --lights '%s'; presets:", value);
-            for (size_t i = 0; pvp_lights_name(i); i++)
-                fprintf(stderr, " %s", pvp_lights_name(i));
-            fputc('\n', stderr);
-            return 0;
-        }
-    } else if (!strcmp(name, "size")) {
-        ok = parse_size(value, &o->width, &o->height);
-    } else if (!strcmp(name, "time")) {
-        ok = o->have_time = parse_double(value, &o->time_ms) && o->time_ms > 0.0;
-    } else if (!strcmp(name, "iterations")) {
-        ok = parse_u32(value, 1, UINT32_MAX, &o->iterations);
-    } else if (!strcmp(name, "round")) {
-        ok = parse_double(value, &o->round_ms) && o->round_ms > 0.0;
-    } else if (!strcmp(name, "seed")) {
-        ok = parse_u32(value, 0, UINT32_MAX, &o->seed);
-    } else if (!strcmp(name, "debug-view")) {
-        o->debug_view = value;
-        ok = !strcmp(value, "cache") || !strcmp(value, "error") || !strcmp(value, "image");
-    } else if (!strcmp(name, "cache")) {
-        if (!strcmp(value, "none") || !strcmp(value, "off")) o->cache = PICVR_CACHE_NONE;
-        else if (!strcmp(value, "object")) o->cache = PICVR_CACHE_OBJECT_SPACE;
-        else if (!strcmp(value, "screen")) o->cache = PICVR_CACHE_SCREEN_SPACE;
-        else ok = 0;
-    } else if (!strcmp(name, "warm")) {
-        ok = parse_double(value, &o->warm_ms) && o->warm_ms > 0.0;
-    } else if (!strcmp(name, "turns")) {
-        const char *comma = strrchr(value, ',');
-        size_t len = comma ? (size_t)(comma - value) : 0;
-        ok = len > 0 && len < sizeof o->turns_path && (!strcmp(comma + 1, "0") || !strcmp(comma + 1, "1"));
-        if (ok) {
-            memcpy(o->turns_path, value, len);
-            o->turns_path[len] = '\0';
-            o->turns_id = (unsigned)(comma[1] - '0');
-        }
-    } else if (!strcmp(name, "shares")) {
-        char tail;
-        ok = sscanf(value, "%f,%f,%f,%f%c", &o->shares[0], &o->shares[1], &o->shares[2], &o->shares[3],
-                    &tail) == 4;
-        for (int k = 0; ok && k < 4; k++) ok = o->shares[k] > 0.0f && o->shares[k] < 1.0f;
-    } else if (!strcmp(name, "priorities") || !strcmp(name, "curvature") || !strcmp(name, "medium")) {
-        picvr_switch *sw = name[0] == 'p' ? &o->priorities : name[0] == 'c' ? &o->curvature : &o->medium;
-        if (!strcmp(value, "on")) *sw = PICVR_SWITCH_ON;
-        else if (!strcmp(value, "off")) *sw = PICVR_SWITCH_OFF;
-        else ok = 0;
-    } else if (!strcmp(name, "samples")) {
-        ok = parse_u32(value, 1, PICVR_CACHE_MAX_SAMPLES, &o->max_samples);
-    } else if (!strcmp(name, "cache-param")) {
-        ok = pvp_cache_param_set(&o->params, value) == PVP_OK;
-    } else if (!strcmp(name, "device")) {
-        o->device = value;
-    } else if (!strcmp(name, "exposure")) {
-        ok = parse_float(value, &o->exposure) && o->exposure > 0.0f;
-    } else if (!strcmp(name, "camera")) {
-        float c[3];
-        ok = parse_float_list(value, 3, c) && c[2] > 0.0f;
-        if (ok) { o->azimuth = c[0]; o->elevation = c[1]; o->distance = c[2]; }
-    } else if (!strcmp(name, "fov")) {
-        ok = parse_float(value, &o->fov) && o->fov > 0.0f && o->fov <= 179.0f;
-    } else if (!strcmp(name, "out")) {
-        o->out_png = value;
-    } else if (!strcmp(name, "out-float")) {
-        o->out_pfm = value;
-    } else if (!strcmp(name, "log")) {
-        o->log_path = value;
-    } else if (!strcmp(name, "json")) {
-        o->json_path = value;
-    }
-    if (!ok) fail("bad value for --%s: '%s' (see --help)", name, value);
-    return ok;
-}
-
-static const char *const flag_options[] = {"validation", "quiet", "alpha", "help", NULL};
-static const char *const value_options[] = {
-    "volume", "dims", "type", "spacing", "range", "tf", "density", "lights", "size",
-    "time", "iterations", "round", "seed", "cache", "priorities", "curvature", "medium", "samples", "cache-param", "shares", "warm", "turns", "debug-view", "device", "exposure", "camera", "fov", "out",
-    "out-float", "log", "json", NULL};
-
-static int in_list(const char *const *list, const char *name, size_t len)
-{
-    for (; *list; list++)
-        if (strlen(*list) == len && !strncmp(*list, name, len)) return 1;
+    for (size_t i = 0; name(i); i++)
+        if (!strcmp(value, name(i))) return 1;
+    pvc_fail("unknown --%s '%s'; presets:", option, value);
+    for (size_t i = 0; name(i); i++) fprintf(stderr, " %s", name(i));
+    fputc('\n', stderr);
     return 0;
 }
 
-static void set_defaults(options *o)
+/* --turns FILE,ID with ID 0 or 1. */
+static int parse_turns(const char *value, render_options *o)
+{
+    const char *comma = strrchr(value, ',');
+    size_t len = comma ? (size_t)(comma - value) : 0;
+    if (!(len > 0 && len < sizeof o->turns_path && (!strcmp(comma + 1, "0") || !strcmp(comma + 1, "1"))))
+        return 0;
+    memcpy(o->turns_path, value, len);
+    o->turns_path[len] = '\0';
+    o->turns_id = (unsigned)(comma[1] - '0');
+    return 1;
+}
+
+/* --shares CMIN,CMAX,UMIN,UMAX, each in (0, 1). */
+static int parse_shares(const char *value, float shares[4])
+{
+    float s[4];
+    if (!pvc_parse_floats(value, 4, s)) return 0;
+    for (int k = 0; k < 4; k++)
+        if (!(s[k] > 0.0f && s[k] < 1.0f)) return 0;
+    memcpy(shares, s, sizeof s);
+    return 1;
+}
+
+/* --camera AZ,EL,DIST with DIST > 0. */
+static int parse_camera(const char *value, render_options *o)
+{
+    float c[3];
+    if (!pvc_parse_floats(value, 3, c) || !(c[2] > 0.0f)) return 0;
+    o->azimuth = c[0];
+    o->elevation = c[1];
+    o->distance = c[2];
+    return 1;
+}
+
+/* Each apply_*_option: 1 applied, 0 a bad value, -1 not an option of its group. */
+
+/* The input and the look: volume layout, density, camera. */
+static int apply_scene_option(void *target, const char *name, const char *value)
+{
+    render_options *o = target;
+    if (!strcmp(name, "volume")) {
+        o->volume_path = value;
+        return 1;
+    }
+    if (!strcmp(name, "dims")) return o->have_dims = pvc_parse_u32s(value, 3, 1, PVIO_MAX_DIM, o->dims);
+    if (!strcmp(name, "type")) return o->have_type = pvio_parse_type(value, &o->type) == PVIO_OK;
+    if (!strcmp(name, "spacing"))
+        return o->have_spacing = pvc_parse_floats(value, 3, o->spacing) && positive_all(o->spacing, 3);
+    if (!strcmp(name, "range"))
+        return o->have_range = pvc_parse_floats(value, 2, o->range) && o->range[0] < o->range[1];
+    if (!strcmp(name, "density"))
+        return o->have_density = pvc_parse_float(value, &o->density) && o->density >= 0.0f;
+    if (!strcmp(name, "camera")) return parse_camera(value, o);
+    if (!strcmp(name, "fov")) return pvc_parse_float(value, &o->fov) && o->fov > 0.0f && o->fov <= 179.0f;
+    return -1;
+}
+
+/* The cache and the scheduler. */
+static int apply_cache_option(void *target, const char *name, const char *value)
+{
+    render_options *o = target;
+    if (!strcmp(name, "cache")) return pvc_parse_cache_mode(value, &o->cache);
+    if (!strcmp(name, "priorities")) return pvc_parse_switch(value, &o->priorities);
+    if (!strcmp(name, "curvature")) return pvc_parse_switch(value, &o->curvature);
+    if (!strcmp(name, "medium")) return pvc_parse_switch(value, &o->medium);
+    if (!strcmp(name, "samples")) return pvc_parse_u32(value, 1, PICVR_CACHE_MAX_SAMPLES, &o->max_samples);
+    if (!strcmp(name, "cache-param")) return pvp_cache_param_set(&o->params, value) == PVP_OK;
+    if (!strcmp(name, "shares")) return parse_shares(value, o->shares);
+    if (!strcmp(name, "warm")) return pvc_parse_double(value, &o->warm_ms) && o->warm_ms > 0.0;
+    return -1;
+}
+
+/* The run: size, length, seed, device, debug views. */
+static int apply_run_option(void *target, const char *name, const char *value)
+{
+    render_options *o = target;
+    if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height);
+    if (!strcmp(name, "time")) return o->have_time = pvc_parse_double(value, &o->time_ms) && o->time_ms > 0.0;
+    if (!strcmp(name, "iterations")) return pvc_parse_u32(value, 1, UINT32_MAX, &o->iterations);
+    if (!strcmp(name, "round")) return pvc_parse_double(value, &o->round_ms) && o->round_ms > 0.0;
+    if (!strcmp(name, "seed")) return pvc_parse_u32(value, 0, UINT32_MAX, &o->seed);
+    if (!strcmp(name, "turns")) return parse_turns(value, o);
+    if (!strcmp(name, "device")) {
+        o->device = value;
+        return 1;
+    }
+    if (!strcmp(name, "debug-view")) {
+        o->debug_view = value;
+        return !strcmp(value, "cache") || !strcmp(value, "error") || !strcmp(value, "image");
+    }
+    return -1;
+}
+
+/* The outputs and the flags (value NULL). */
+static int apply_output_option(void *target, const char *name, const char *value)
+{
+    render_options *o = target;
+    if (!strcmp(name, "validation")) o->validation = 1;
+    else if (!strcmp(name, "quiet")) o->quiet = 1;
+    else if (!strcmp(name, "alpha")) o->png_alpha = 1;
+    else if (!strcmp(name, "exposure")) return pvc_parse_float(value, &o->exposure) && o->exposure > 0.0f;
+    else if (!strcmp(name, "out")) o->out_png = value;
+    else if (!strcmp(name, "out-float")) o->out_pfm = value;
+    else if (!strcmp(name, "log")) o->log_path = value;
+    else if (!strcmp(name, "json")) o->json_path = value;
+    else return -1;
+    return 1;
+}
+
+/* Applies one option of OPTIONS; returns 0 and prints why on a bad value. */
+static int apply_option(void *target, const char *name, const char *value)
+{
+    render_options *o = target;
+    if (!strcmp(name, "tf")) {
+        o->tf_name = value;
+        return known_preset(name, value, pvp_tf_name);
+    }
+    if (!strcmp(name, "lights")) {
+        o->lights_name = value;
+        return known_preset(name, value, pvp_lights_name);
+    }
+    static const pvc_group_fn groups[] = {apply_scene_option, apply_cache_option,
+                                          apply_run_option, apply_output_option};
+    return pvc_apply_by_group(groups, sizeof groups / sizeof groups[0], o, name, value);
+}
+
+static void set_defaults(render_options *o)
 {
     memset(o, 0, sizeof *o);
     o->tf_name = "ramp";
@@ -406,82 +312,52 @@ static void set_defaults(options *o)
     o->fov = PVP_DEFAULT_FOV;
 }
 
-/* Returns -1 to go on rendering, else the exit status (0 after --help, 2 on errors).
-   Accepts "--name value" and "--name=value". */
-static int parse_options(int argc, char **argv, options *o)
+/* The rules between options; returns 0 after saying which one is broken. */
+static int options_consistent(const render_options *o)
 {
-    set_defaults(o);
-    for (int i = 1; i < argc; i++) {
-        const char *arg = argv[i];
-        if (strncmp(arg, "--", 2) != 0) {
-            fail("unexpected argument '%s' (see --help)", arg);
-            return EXIT_USAGE;
-        }
-        const char *name = arg + 2, *eq = strchr(name, '=');
-        size_t len = eq ? (size_t)(eq - name) : strlen(name);
-        if (in_list(flag_options, name, len) && !eq) {
-            if (!strcmp(name, "help")) {
-                print_help(stdout);
-                return EXIT_SUCCESS;
-            }
-            if (!strcmp(name, "validation")) o->validation = 1;
-            if (!strcmp(name, "quiet")) o->quiet = 1;
-            if (!strcmp(name, "alpha")) o->png_alpha = 1;
-            continue;
-        }
-        if (!in_list(value_options, name, len)) {
-            fail("unknown option '%s' (see --help)", arg);
-            return EXIT_USAGE;
-        }
-        const char *value = eq ? eq + 1 : (i + 1 < argc ? argv[++i] : NULL);
-        if (!value) {
-            fail("--%s needs a value (see --help)", name);
-            return EXIT_USAGE;
-        }
-        char key[32];
-        snprintf(key, sizeof key, "%.*s", (int)len, name);
-        if (!apply_option(o, key, value)) return EXIT_USAGE;
-    }
     if (!o->volume_path) {
-        fail("--volume FILE is required (see --help)");
-        return EXIT_USAGE;
+        pvc_fail("--volume FILE is required (see --help)");
+        return 0;
     }
     if (o->have_time && o->iterations) {
-        fail("give --time or --iterations, not both");
-        return EXIT_USAGE;
+        pvc_fail("give --time or --iterations, not both");
+        return 0;
     }
     if (o->warm_ms > 0.0 && o->cache != PICVR_CACHE_OBJECT_SPACE && o->cache != PICVR_CACHE_SCREEN_SPACE) {
-        fail("--warm fills the cache: give --cache object or --cache screen");
-        return EXIT_USAGE;
+        pvc_fail("--warm fills the cache: give --cache object or --cache screen");
+        return 0;
     }
-    return -1;
+    return 1;
+}
+
+/* Returns -1 to go on rendering, else the exit status (0 after --help, 2 on errors). */
+static int parse_options(int argc, char **argv, render_options *o)
+{
+    set_defaults(o);
+    int status = pvc_parse_options(argc, argv, OPTIONS, apply_option, o, print_help);
+    if (status < 0 && !options_consistent(o)) return EXIT_USAGE;
+    return status;
 }
 
 /* ---- volume ---------------------------------------------------------------------------- */
 
 /* Layout from --dims/--type where given, the rest from the file name. */
-static int resolve_layout(const options *o, pvio_layout *layout)
+static int resolve_layout(const render_options *o, pvio_layout *layout)
 {
     char err[512];
     if (!(o->have_dims && o->have_type)) {
         if (pvio_parse_name(o->volume_path, layout, err, sizeof err) != PVIO_OK) {
-            fail("%s", err);
+            pvc_fail("%s", err);
             return 0;
         }
     }
     if (o->have_dims) memcpy(layout->dims, o->dims, sizeof layout->dims);
     if (o->have_type) layout->type = o->type;
     if (pvio_layout_bytes(layout, NULL, err, sizeof err) != PVIO_OK) {
-        fail("%s", err);
+        pvc_fail("%s", err);
         return 0;
     }
     return 1;
-}
-
-static const char *base_name(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    return slash ? slash + 1 : path;
 }
 
 /* ---- progress and logging ------------------------------------------------------------- */
@@ -494,10 +370,8 @@ static void end_progress_line(progress *p)
 
 static void log_message(picvr_log_level level, const char *message, void *user)
 {
-    static const char *const names[] = {"default", "debug", "info", "warning", "error"};
     end_progress_line(user);
-    fprintf(stderr, "picvr %s: %s\n", level <= PICVR_LOG_ERROR ? names[level] : "?",
-            message);
+    fprintf(stderr, "picvr %s: %s\n", pvc_log_level_name(level), message);
 }
 
 /* A redrawn bar on a terminal; otherwise about one line per second, so a captured
@@ -505,7 +379,7 @@ static void log_message(picvr_log_level level, const char *message, void *user)
 static void show_progress(progress *p, double fraction, const picvr_stats *s)
 {
     if (!p->enabled) return;
-    double t = now_ms();
+    double t = pvc_now_ms();
     double elapsed = (t - p->start_ms) / 1e3;
     if (p->tty) {
         char bar[31];
@@ -534,15 +408,6 @@ static int write_log_row(FILE *log, unsigned round, const picvr_stats *s)
             s->cache_entries_capped);
     /* Flushed per row so `tail -f` works and a crash keeps what was measured. */
     return fflush(log) == 0;
-}
-
-/* ---- checked picvr calls ---------------------------------------------------------------- */
-
-static int check(picvr_status st, const char *what)
-{
-    if (st == PICVR_OK) return 1;
-    fail("%s: %s", what, picvr_status_string(st));
-    return 0;
 }
 
 /* ---- rendering ------------------------------------------------------------------------ */
@@ -574,14 +439,14 @@ static long read_turn(const char *path)
 static void turn_wait(turns *t)
 {
     if (!t->path || t->alone) return;
-    double start = now_ms();
+    double start = pvc_now_ms();
     for (;;) {
         long v = read_turn(t->path);
         if (v >= 0 && (unsigned long)v % 2 == t->id) {
             t->seen = v;
             return;
         }
-        if (now_ms() - start > 30000.0) {
+        if (pvc_now_ms() - start > 30000.0) {
             fprintf(stderr, "picvr-render: --turns: no turn for 30 s, going on alone\n");
             t->alone = 1;
             return;
@@ -617,10 +482,10 @@ typedef struct render_state {
 /* Statistics, the CSV row and the progress display after one round. */
 static int finish_round(render_state *r, double fraction)
 {
-    if (!check(picvr_get_stats(r->ctx, &r->stats), "picvr_get_stats")) return 0;
+    if (!pvc_check(picvr_get_stats(r->ctx, &r->stats), "picvr_get_stats")) return 0;
     r->round++;
     if (!write_log_row(r->log, r->round, &r->stats)) {
-        fail("writing the log: %s", strerror(errno));
+        pvc_fail("writing the log: %s", strerror(errno));
         return 0;
     }
     show_progress(r->progress, fraction, &r->stats);
@@ -634,9 +499,9 @@ static int render_for_time(render_state *r, double time_ms, double round_ms)
     while (rendered < time_ms && !interrupted) {
         double want = time_ms - rendered < round_ms ? time_ms - rendered : round_ms;
         turn_wait(&r->turns);
-        double t0 = now_ms();
-        if (!check(picvr_step(r->ctx, want), "picvr_step")) return 0;
-        rendered += now_ms() - t0;
+        double t0 = pvc_now_ms();
+        if (!pvc_check(picvr_step(r->ctx, want), "picvr_step")) return 0;
+        rendered += pvc_now_ms() - t0;
         if (!finish_round(r, rendered >= time_ms ? 1.0 : rendered / time_ms)) return 0;
         turn_pass(&r->turns);
     }
@@ -645,29 +510,29 @@ static int render_for_time(render_state *r, double time_ms, double round_ms)
 
 /* Fills the cache for o->warm_ms at PVP_WARM_CREATE_SHARE, then switches to the shares of
    `run` and restarts the image: picvr_set_scheduler and picvr_reset keep the cache. */
-static int warm_up(render_state *r, const options *o, const picvr_scheduler_config *run)
+static int warm_up(render_state *r, const render_options *o, const picvr_scheduler_config *run)
 {
     picvr_scheduler_config warm = *run;
     warm.create_min = warm.create_max = PVP_WARM_CREATE_SHARE;
     warm.update_min = warm.update_max = 0.02f;
-    if (!check(picvr_set_scheduler(r->ctx, &warm), "picvr_set_scheduler")) return 0;
+    if (!pvc_check(picvr_set_scheduler(r->ctx, &warm), "picvr_set_scheduler")) return 0;
     double done = 0.0;
     while (done < o->warm_ms && !interrupted) {
         double want = o->warm_ms - done < o->round_ms ? o->warm_ms - done : o->round_ms;
         turn_wait(&r->turns);
-        double t0 = now_ms();
-        if (!check(picvr_step(r->ctx, want), "picvr_step")) return 0;
-        done += now_ms() - t0;
+        double t0 = pvc_now_ms();
+        if (!pvc_check(picvr_step(r->ctx, want), "picvr_step")) return 0;
+        done += pvc_now_ms() - t0;
         turn_pass(&r->turns);
     }
     picvr_stats st;
-    if (!check(picvr_get_stats(r->ctx, &st), "picvr_get_stats")) return 0;
+    if (!pvc_check(picvr_get_stats(r->ctx, &st), "picvr_get_stats")) return 0;
     end_progress_line(r->progress);
     if (!o->quiet)
         fprintf(stderr, "picvr-render: warm-up %.1f s: %u cache entries, hit rate %.3f\n", done / 1e3,
                 st.cache_entries, st.cache_hit_rate);
-    return check(picvr_set_scheduler(r->ctx, run), "picvr_set_scheduler") &&
-           check(picvr_reset(r->ctx), "picvr_reset");
+    return pvc_check(picvr_set_scheduler(r->ctx, run), "picvr_set_scheduler") &&
+           pvc_check(picvr_reset(r->ctx), "picvr_reset");
 }
 
 /* Exactly `total` iterations, in chunks sized to take about round_ms each (the same
@@ -677,9 +542,9 @@ static int render_iterations(render_state *r, uint32_t total, double round_ms)
     uint32_t done = 0, chunk = 1;
     while (done < total && !interrupted) {
         uint32_t n = total - done < chunk ? total - done : chunk;
-        double t0 = now_ms();
-        if (!check(picvr_step_iterations(r->ctx, n), "picvr_step_iterations")) return 0;
-        double per_iteration = (now_ms() - t0) / n;
+        double t0 = pvc_now_ms();
+        if (!pvc_check(picvr_step_iterations(r->ctx, n), "picvr_step_iterations")) return 0;
+        double per_iteration = (pvc_now_ms() - t0) / n;
         done += n;
         if (!finish_round(r, (double)done / total)) return 0;
         /* Grow at most 4x per round so one fast measurement cannot overshoot. */
@@ -690,231 +555,21 @@ static int render_iterations(render_state *r, uint32_t total, double round_ms)
     return 1;
 }
 
-/* ---- outputs -------------------------------------------------------------------------- */
-
-static int write_png(picvr_context *ctx, const options *o)
-{
-    size_t size = (size_t)o->width * o->height * 4;
-    uint8_t *px = malloc(size);
-    if (!px) {
-        fail("out of memory for the image");
-        return 0;
-    }
-    int ok = check(picvr_read_rgba8(ctx, px, size, o->exposure), "picvr_read_rgba8");
-    int comp = o->png_alpha ? 4 : 3;
-    if (ok && comp == 3) /* drop alpha in place: viewers would hide the background */
-        for (size_t i = 0, n = (size_t)o->width * o->height; i < n; i++)
-            memmove(px + 3 * i, px + 4 * i, 3);
-    if (ok && !stbi_write_png(o->out_png, (int)o->width, (int)o->height, comp, px,
-                              (int)o->width * comp)) {
-        fail("cannot write %s", o->out_png);
-        ok = 0;
-    }
-    free(px);
-    return ok;
-}
-
-static void float_to_le(float v, unsigned char out[4])
-{
-    uint32_t u;
-    memcpy(&u, &v, 4);
-    for (int i = 0; i < 4; i++) out[i] = (unsigned char)(u >> (8 * i));
-}
-
-/* PFM: "PF", size, scale -1 (little-endian), RGB rows from the bottom up. */
-static int write_pfm_file(const char *path, const float *rgba, uint32_t w, uint32_t h)
-{
-    FILE *f = fopen(path, "wb");
-    unsigned char *row = malloc((size_t)w * 12);
-    int ok = f && row && fprintf(f, "PF\n%u %u\n-1.0\n", w, h) > 0;
-    for (uint32_t y = h; ok && y-- > 0;) {
-        const float *src = rgba + (size_t)y * w * 4;
-        for (uint32_t x = 0; x < w; x++)
-            for (int c = 0; c < 3; c++) float_to_le(src[4 * x + c], row + 12 * x + 4 * c);
-        ok = fwrite(row, 12, w, f) == w;
-    }
-    if (f && fclose(f) != 0) ok = 0;
-    free(row);
-    if (!ok) fail("cannot write %s: %s", path, strerror(errno));
-    return ok;
-}
-
-/* The linear RGBA float image (malloc'd; NULL after a reported failure). */
-static float *read_float_image(picvr_context *ctx, const options *o)
-{
-    size_t size = (size_t)o->width * o->height * 16;
-    float *px = malloc(size);
-    if (!px) {
-        fail("out of memory for the float image");
-        return NULL;
-    }
-    if (!check(picvr_read_rgba32f(ctx, px, size), "picvr_read_rgba32f")) {
-        free(px);
-        return NULL;
-    }
-    return px;
-}
-
-static int write_pfm(picvr_context *ctx, const options *o)
-{
-    float *px = read_float_image(ctx, o);
-    int ok = px && write_pfm_file(o->out_pfm, px, o->width, o->height);
-    free(px);
-    return ok;
-}
-
-/* --debug-view error: sum R / sum G - 1 over the image (picvr.h, PICVR_VIEW_CACHE_ERROR). */
-static int print_cache_error(picvr_context *ctx, const options *o)
-{
-    size_t n = (size_t)o->width * o->height;
-    float *px = read_float_image(ctx, o);
-    int ok = px != NULL;
-    double r = 0, g = 0, b = 0;
-    for (size_t i = 0; ok && i < n; i++) {
-        r += px[4 * i];
-        g += px[4 * i + 1];
-        b += px[4 * i + 2];
-    }
-    free(px);
-    /* Rule: no hit yet (g = 0) prints no ratio rather than dividing by 0. */
-    if (ok && g > 0)
-        fprintf(stderr, "picvr-render: cache error per hit %+.2f %% (mean served fraction %.3f)\n",
-                100 * (r / g - 1), b / (double)n);
-    else if (ok)
-        fprintf(stderr, "picvr-render: cache error per hit: no scatter event was served yet\n");
-    return ok;
-}
-
-static void json_string(FILE *f, const char *s)
-{
-    fputc('"', f);
-    for (const unsigned char *p = (const unsigned char *)s; *p; p++) {
-        if (*p == '"' || *p == '\\') fprintf(f, "\\%c", *p);
-        else if (*p < 0x20) fprintf(f, "\\u%04x", *p);
-        else fputc(*p, f);
-    }
-    fputc('"', f);
-}
-
-/* JSON has no NaN or infinity. */
-static void json_number(FILE *f, double v)
-{
-    if (isfinite(v)) fprintf(f, "%.9g", v);
-    else fputs("null", f);
-}
-
-static int write_json(const options *o, const picvr_stats *s)
-{
-    FILE *f = fopen(o->json_path, "w");
-    if (!f) {
-        fail("cannot write %s: %s", o->json_path, strerror(errno));
-        return 0;
-    }
-    fprintf(f, "{\"iterations\": %u, \"iterations_min\": %u, \"iterations_mean\": ",
-            s->iterations, s->iterations_min);
-    json_number(f, s->iterations_mean);
-    fputs(", \"elapsed_ms\": ", f);
-    json_number(f, s->elapsed_ms);
-    fputs(", \"samples_per_second\": ", f);
-    json_number(f, s->samples_per_second);
-    fputs(", \"est_error\": ", f);
-    json_number(f, s->est_error);
-    fputs(", \"est_rel_error\": ", f);
-    json_number(f, s->est_rel_error);
-    fputs(", \"mean_luminance\": ", f);
-    json_number(f, s->mean_luminance);
-    fprintf(f, ", \"truncated_paths\": %llu, \"validation_messages\": %u, "
-            "\"validation_enabled\": %u, \"width\": %u, \"height\": %u, "
-            "\"device_name\": ", (unsigned long long)s->truncated_paths,
-            s->validation_messages, s->validation_enabled, s->width, s->height);
-    char device[sizeof s->device_name + 1];
-    snprintf(device, sizeof device, "%.*s", (int)sizeof s->device_name, s->device_name);
-    json_string(f, device);
-    fputs(", \"device_type\": ", f);
-    json_string(f, picvr_device_type_string(s->device_type));
-    fputs(", \"volume\": ", f);
-    json_string(f, o->volume_path);
-    fputs(", \"tf\": ", f);
-    json_string(f, o->tf_name);
-    fputs(", \"lights\": ", f);
-    json_string(f, o->lights_name);
-    fprintf(f, ", \"cache_entries\": %u, \"cache_nodes\": %u, \"cache_refs\": %u, "
-            "\"cache_references\": %u, \"cache_full\": %u, \"cache_requests\": %u, "
-            "\"pending_requests\": %u, \"cache_bytes\": %llu, \"cache_entries_capped\": %u, "
-            "\"cache_samples\": %llu, \"cache_samples_truncated\": %llu, \"cache_lookups_cut\": %llu, "
-            "\"cache_lookups_spilled\": %llu, \"cache_refs_per_entry\": ",
-            s->cache_entries, s->cache_nodes, s->cache_refs, s->cache_refs, s->cache_full,
-            s->cache_requests, s->cache_pending, (unsigned long long)s->cache_bytes,
-            s->cache_entries_capped, (unsigned long long)s->cache_samples,
-            (unsigned long long)s->cache_samples_truncated, (unsigned long long)s->cache_lookups_cut,
-            (unsigned long long)s->cache_lookups_spilled);
-    json_number(f, s->cache_refs_per_entry);
-    fputs(", \"cache_hit_rate\": ", f);
-    json_number(f, s->cache_hit_rate);
-    fputs(", \"hit_rate\": ", f);
-    json_number(f, s->cache_hit_rate);
-    const char *shares[5] = {"fraction_render", "fraction_create", "fraction_update", "target_create", "target_update"};
-    const double share[5] = {s->fraction_render, s->fraction_create, s->fraction_update, s->target_create, s->target_update};
-    for (int i = 0; i < 5; i++) {
-        fprintf(f, ", \"%s\": ", shares[i]);
-        json_number(f, share[i]);
-    }
-    fprintf(f, ", \"priorities\": \"%s\"", o->priorities == PICVR_SWITCH_OFF ? "off" : "on");
-    fprintf(f, ", \"curvature_limit\": \"%s\"", o->curvature == PICVR_SWITCH_ON ? "on" : "off");
-    fprintf(f, ", \"medium_model\": \"%s\"", o->medium == PICVR_SWITCH_OFF ? "off" : "on");
-    fprintf(f, ", \"max_samples\": %u", s->cache_max_samples);
-    for (size_t i = 0; pvp_cache_param_name(i); i++)   /* those set by --cache-param */
-        if (pvp_cache_param_get(&o->params, i) > 0)
-            fprintf(f, ", \"%s\": %.9g", pvp_cache_param_name(i), pvp_cache_param_get(&o->params, i));
-    fprintf(f, ", \"seed\": %u}\n", o->seed);
-    if (fclose(f) != 0) {
-        fail("cannot write %s: %s", o->json_path, strerror(errno));
-        return 0;
-    }
-    return 1;
-}
-
-static void print_summary(const options *o, const picvr_stats *s)
-{
-    printf("%s: %ux%u, %u iterations in %.2f s (%.3g samples/s), est_rel_error %.4g, "
-           "est_error %.4g, mean_luminance %.4g, device %.*s (%s)", base_name(o->volume_path),
-           s->width, s->height, s->iterations, s->elapsed_ms / 1e3, s->samples_per_second,
-           s->est_rel_error, s->est_error, s->mean_luminance,
-           (int)sizeof s->device_name, s->device_name, picvr_device_type_string(s->device_type));
-    if (s->truncated_paths) printf(", %llu truncated paths",
-                                   (unsigned long long)s->truncated_paths);
-    if (s->validation_messages) printf(", %u validation messages", s->validation_messages);
-    if (s->cache_entries)
-        printf(", cache %u entries (%u capped before Eq. 5), %.2f refs/entry, hit rate %.3f%s, "
-               "device time render/create/update %.3f/%.3f/%.3f (targets create %.3f, update %.3f)",
-               s->cache_entries, s->cache_entries_capped,
-               s->cache_refs_per_entry, s->cache_hit_rate, s->cache_full ? " (full)" : "",
-               s->fraction_render, s->fraction_create, s->fraction_update, s->target_create, s->target_update);
-    if (s->cache_samples_truncated)
-        printf(", %llu of %llu creation samples with a truncated transmittance estimate (biased)",
-               (unsigned long long)s->cache_samples_truncated, (unsigned long long)s->cache_samples);
-    if (s->cache_lookups_cut)
-        printf(", %llu lookups cut at the octree walk's bound (entries ignored)",
-               (unsigned long long)s->cache_lookups_cut);
-    if (interrupted) printf(", interrupted");
-    printf("\n");
-}
-
 /* ---- scene set-up ----------------------------------------------------------------------- */
 
 /* Loads the volume file into host memory, with --spacing applied. */
-static int load_volume(const options *o, const pvio_layout *layout, pvio_volume *vol)
+static int load_volume(const render_options *o, const pvio_layout *layout, pvio_volume *vol)
 {
     char err[512];
     if (pvio_load(o->volume_path, layout, vol, err, sizeof err) != PVIO_OK) {
-        fail("%s", err);
+        pvc_fail("%s", err);
         return 0;
     }
     if (o->have_spacing) memcpy(vol->spacing, o->spacing, sizeof vol->spacing);
     return 1;
 }
 
-static int upload_volume(picvr_context *ctx, const options *o, const pvio_volume *vol)
+static int upload_volume(picvr_context *ctx, const render_options *o, const pvio_volume *vol)
 {
     picvr_volume_desc desc;
     pvio_to_desc(vol, &desc);
@@ -922,112 +577,125 @@ static int upload_volume(picvr_context *ctx, const options *o, const pvio_volume
         desc.value_min = o->range[0];
         desc.value_max = o->range[1];
     }
-    return check(picvr_upload_volume(ctx, &desc), "picvr_upload_volume");
+    return pvc_check(picvr_upload_volume(ctx, &desc), "picvr_upload_volume");
 }
 
 /* Camera from the orbit parameters, then the presets built around the volume's box. */
-static int set_up_scene(picvr_context *ctx, const options *o)
+static int set_up_scene(picvr_context *ctx, const render_options *o)
 {
     float box_min[3], box_max[3];
-    if (!check(picvr_volume_box(ctx, box_min, box_max), "picvr_volume_box")) return 0;
+    if (!pvc_check(picvr_volume_box(ctx, box_min, box_max), "picvr_volume_box")) return 0;
 
     picvr_camera cam;
     pvp_status ps = pvp_orbit_camera(box_min, box_max, o->azimuth, o->elevation,
                                      o->distance, o->fov, o->width, o->height, &cam);
     if (ps != PVP_OK) {
-        fail("camera: %s", pvp_status_string(ps));
+        pvc_fail("camera: %s", pvp_status_string(ps));
         return 0;
     }
-    if (!check(picvr_set_camera(ctx, &cam), "picvr_set_camera")) return 0;
+    if (!pvc_check(picvr_set_camera(ctx, &cam), "picvr_set_camera")) return 0;
     if (o->debug_view && !strcmp(o->debug_view, "cache") &&
-        !check(picvr_set_view(ctx, PICVR_VIEW_CACHE), "picvr_set_view")) return 0;
+        !pvc_check(picvr_set_view(ctx, PICVR_VIEW_CACHE), "picvr_set_view")) return 0;
     if (o->debug_view && !strcmp(o->debug_view, "error") &&
-        !check(picvr_set_view(ctx, PICVR_VIEW_CACHE_ERROR), "picvr_set_view")) return 0;
+        !pvc_check(picvr_set_view(ctx, PICVR_VIEW_CACHE_ERROR), "picvr_set_view")) return 0;
 
     pvp_tf tf;
     if ((ps = pvp_tf_preset(o->tf_name, &tf)) != PVP_OK) {
-        fail("--tf %s: %s", o->tf_name, pvp_status_string(ps));
+        pvc_fail("--tf %s: %s", o->tf_name, pvp_status_string(ps));
         return 0;
     }
     float density = o->have_density ? o->density : tf.density;
-    if (!check(picvr_set_transfer_function(ctx, tf.points, tf.count, density),
+    if (!pvc_check(picvr_set_transfer_function(ctx, tf.points, tf.count, density),
                "picvr_set_transfer_function"))
         return 0;
 
     pvp_lights lights;
     if ((ps = pvp_lights_preset(o->lights_name, box_min, box_max, &cam,
                                 &lights)) != PVP_OK) {
-        fail("--lights %s: %s", o->lights_name, pvp_status_string(ps));
+        pvc_fail("--lights %s: %s", o->lights_name, pvp_status_string(ps));
         return 0;
     }
-    return check(picvr_set_lights(ctx, lights.lights, lights.count, &lights.background),
+    return pvc_check(picvr_set_lights(ctx, lights.lights, lights.count, &lights.background),
                  "picvr_set_lights");
 }
 
 /* ---- main ------------------------------------------------------------------------------- */
 
-static int render(const options *o, const pvio_layout *layout)
+/* The library's configuration from the options; zero fields are its defaults. */
+static void library_config(const render_options *o, progress *prog, picvr_config *cfg)
+{
+    memset(cfg, 0, sizeof *cfg);
+    cfg->device_name = o->device;
+    cfg->validation = o->validation ? PICVR_SWITCH_ON : PICVR_SWITCH_DEFAULT;
+    cfg->cache = o->params;                     /* --cache-param; the rest below */
+    cfg->cache.mode = o->cache;
+    cfg->scheduler.priorities = o->priorities;
+    cfg->cache.curvature_limit = o->curvature;
+    cfg->cache.medium_model = o->medium;
+    cfg->cache.max_samples = o->max_samples;
+    cfg->scheduler.create_min = o->shares[0];   /* 0 (not given): the defaults */
+    cfg->scheduler.create_max = o->shares[1];
+    cfg->scheduler.update_min = o->shares[2];
+    cfg->scheduler.update_max = o->shares[3];
+    cfg->seed = o->seed;
+    cfg->log = log_message;
+    cfg->log_user = prog;
+}
+
+/* --log: the CSV file with its header row; 0 after reporting a failure. */
+static int open_log(const char *path, FILE **log)
+{
+    *log = fopen(path, "w");
+    int ok = *log && fputs("round,elapsed_ms,iterations,est_error,est_rel_error,"
+                           "samples_per_second,hit_rate,cache_entries,cache_refs,fraction_render,"
+                           "fraction_create,fraction_update,target_create,target_update,"
+                           "cache_entries_capped\n", *log) >= 0;
+    if (!ok) pvc_fail("cannot write %s: %s", path, strerror(errno));
+    return ok;
+}
+
+/* The images, the --debug-view error figure, the JSON and the summary line. */
+static int write_outputs(picvr_context *ctx, const render_options *o, const picvr_stats *stats)
+{
+    int ok = (!o->out_png || render_write_png(ctx, o)) && (!o->out_pfm || render_write_pfm(ctx, o)) &&
+             (!o->debug_view || strcmp(o->debug_view, "error") || render_print_cache_error(ctx, o)) &&
+             (!o->json_path || render_write_json(ctx, o, stats));
+    if (ok) render_print_summary(o, stats, interrupted);
+    return ok;
+}
+
+static int render(const render_options *o, const pvio_layout *layout)
 {
     progress prog = {0};
     prog.enabled = !o->quiet;
     prog.tty = isatty(STDERR_FILENO);
-
     picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.device_name = o->device;
-    cfg.validation = o->validation ? PICVR_SWITCH_ON : PICVR_SWITCH_DEFAULT;
-    cfg.cache = o->params;                     /* --cache-param; the rest below */
-    cfg.cache.mode = o->cache;
-    cfg.scheduler.priorities = o->priorities;
-    cfg.cache.curvature_limit = o->curvature;
-    cfg.cache.medium_model = o->medium;
-    cfg.cache.max_samples = o->max_samples;
-    cfg.scheduler.create_min = o->shares[0];   /* 0 (not given): the defaults */
-    cfg.scheduler.create_max = o->shares[1];
-    cfg.scheduler.update_min = o->shares[2];
-    cfg.scheduler.update_max = o->shares[3];
-    cfg.seed = o->seed;
-    cfg.log = log_message;
-    cfg.log_user = &prog;
-
+    library_config(o, &prog, &cfg);
     render_state r;
     memset(&r, 0, sizeof r);
     r.progress = &prog;
     r.turns.path = o->turns_path[0] ? o->turns_path : NULL;
     r.turns.id = o->turns_id;
-    int ok = 1;
-    if (o->log_path) {
-        r.log = fopen(o->log_path, "w");
-        ok = r.log && fputs("round,elapsed_ms,iterations,est_error,est_rel_error,"
-                            "samples_per_second,hit_rate,cache_entries,cache_refs,fraction_render,"
-                            "fraction_create,fraction_update,target_create,target_update,"
-                            "cache_entries_capped\n", r.log) >= 0;
-        if (!ok) fail("cannot write %s: %s", o->log_path, strerror(errno));
-    }
+    int ok = !o->log_path || open_log(o->log_path, &r.log);
     /* The file first: a bad file should not cost a Vulkan start-up.  The host copy
        is freed right after the upload (picvr keeps its own). */
     pvio_volume vol = {{0, 0, 0}, PICVR_VOXEL_UINT8, {0, 0, 0}, NULL, 0};
     ok = ok && load_volume(o, layout, &vol);
-    ok = ok && check(picvr_create(&cfg, &r.ctx), "picvr_create");
+    ok = ok && pvc_check(picvr_create(&cfg, &r.ctx), "picvr_create");
     ok = ok && upload_volume(r.ctx, o, &vol);
     pvio_free(&vol);
     ok = ok && set_up_scene(r.ctx, o);
     if (ok) {
         install_interrupt_handler();
         if (o->warm_ms > 0.0) ok = warm_up(&r, o, &cfg.scheduler);
-        prog.start_ms = prog.next_line_ms = now_ms();
+        prog.start_ms = prog.next_line_ms = pvc_now_ms();
         ok = ok && (o->iterations ? render_iterations(&r, o->iterations, o->round_ms)
                                  : render_for_time(&r, o->time_ms, o->round_ms));
         end_progress_line(&prog);
     }
-    ok = ok && (!o->out_png || write_png(r.ctx, o));
-    ok = ok && (!o->out_pfm || write_pfm(r.ctx, o));
-    ok = ok && (!o->debug_view || strcmp(o->debug_view, "error") || print_cache_error(r.ctx, o));
-    ok = ok && (!o->json_path || write_json(o, &r.stats));
-    if (ok) print_summary(o, &r.stats);
-
+    ok = ok && write_outputs(r.ctx, o, &r.stats);
     if (r.log && fclose(r.log) != 0 && ok) {
-        fail("cannot write %s: %s", o->log_path, strerror(errno));
+        pvc_fail("cannot write %s: %s", o->log_path, strerror(errno));
         ok = 0;
     }
     picvr_destroy(r.ctx);
@@ -1037,7 +705,8 @@ static int render(const options *o, const pvio_layout *layout)
 
 int main(int argc, char **argv)
 {
-    options o;
+    pvc_set_program(PROGRAM);
+    render_options o;
     int status = parse_options(argc, argv, &o);
     if (status >= 0) return status;
     pvio_layout layout;

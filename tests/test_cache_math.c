@@ -30,7 +30,7 @@
  */
 #include "test_util.h"
 
-#include "tests/cache_math_host.h"
+#include "reference/cache_math_host.h"
 
 #include <float.h>
 #include <math.h>

@@ -1,5 +1,5 @@
 /* test_cpu_reference.c - the Vulkan renderer against the independent C/OpenMP
- * reference (tests/cpu_reference.h) on one small scene that takes every estimator path:
+ * reference (reference/cpu_reference.h) on one small scene that takes every estimator path:
  * a structured volume with a coloured transfer function, a sphere light (MIS between
  * light and phase sampling), a sun with an angular size and a background.
  *
@@ -13,13 +13,13 @@
 #include "test_util.h"
 
 #if defined(__has_include)
-#if __has_include("cpu_reference.h")
+#if __has_include("reference/cpu_reference.h")
 #define TU_HAVE_CREF 1
 #endif
 #endif
 
 #ifdef TU_HAVE_CREF
-#include "cpu_reference.h"
+#include "reference/cpu_reference.h"
 
 void test_gpu_matches_cpu_reference_area_light_background(void **state) {
     (void)state;
@@ -130,7 +130,7 @@ void test_gpu_matches_cpu_reference_area_light_background(void **state) {
 
 void test_gpu_matches_cpu_reference_area_light_background(void **state) {
     (void)state;
-    print_message("    tests/cpu_reference.h not found: skipped\n");
+    print_message("    reference/cpu_reference.h not found: skipped\n");
     skip();
 }
 

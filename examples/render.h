@@ -1,0 +1,56 @@
+/* render.h - picvr-render's options and its outputs, shared by examples/render.c
+ * (options, rendering, main) and examples/render_output.c (PNG, PFM, the --debug-view
+ * error figure, the JSON summary and the summary line on stdout).
+ */
+#ifndef PICVR_RENDER_H
+#define PICVR_RENDER_H
+
+#include <stdint.h>
+
+#include "picvr.h"
+
+/* The command line, parsed (render.c, `picvr-render --help`). */
+typedef struct render_options {
+    const char *volume_path;
+    int have_dims, have_type, have_spacing, have_range, have_density, have_time;
+    uint32_t dims[3];
+    picvr_voxel_type type;
+    float spacing[3];
+    float range[2];
+    const char *tf_name, *lights_name;
+    float density;
+    uint32_t width, height;
+    double time_ms, round_ms;
+    uint32_t iterations;       /* 0: render for time_ms instead */
+    uint32_t seed;
+    const char *device;
+    int validation;
+    picvr_cache_mode cache;
+    picvr_switch priorities;
+    picvr_switch curvature;
+    picvr_switch medium;
+    uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */
+    picvr_cache_config params; /* --cache-param: its numbers (presets.h); 0: defaults */
+    float shares[4];          /* --shares: create_min, create_max, update_min, update_max */
+    double warm_ms;           /* --warm: fill the cache first at PVP_WARM_CREATE_SHARE; 0: no */
+    char turns_path[1024];    /* --turns FILE,ID: take turns with a second process; "": no */
+    unsigned turns_id;
+    const char *debug_view;
+    float exposure;
+    float azimuth, elevation, distance, fov;
+    const char *out_png, *out_pfm, *log_path, *json_path;
+    int png_alpha, quiet;
+} render_options;
+
+/* Each reads the final image or statistics of ctx and writes one output of o; returns
+   0 after reporting a failure. */
+int render_write_png(picvr_context *ctx, const render_options *o);         /* --out */
+int render_write_pfm(picvr_context *ctx, const render_options *o);         /* --out-float */
+int render_print_cache_error(picvr_context *ctx, const render_options *o); /* --debug-view error */
+int render_write_json(picvr_context *ctx, const render_options *o,         /* --json */
+                      const picvr_stats *stats);
+
+/* The one-line summary on stdout; interrupted: the run was stopped by Ctrl-C. */
+void render_print_summary(const render_options *o, const picvr_stats *stats, int interrupted);
+
+#endif /* PICVR_RENDER_H */

@@ -1,0 +1,250 @@
+/* render_output.c - picvr-render's outputs: the tone-mapped PNG, the linear PFM, the
+ * cache's error figure of --debug-view error, the JSON summary (a table of the
+ * statistics, the scene's names and the configuration the library resolved) and the
+ * summary line on stdout.
+ */
+#include <errno.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <stb/stb_image_write.h>
+
+#include "cli.h"
+#include "picvr.h"
+#include "render.h"
+
+/* ---- images ------------------------------------------------------------------------- */
+
+int render_write_png(picvr_context *ctx, const render_options *o)
+{
+    size_t size = (size_t)o->width * o->height * 4;
+    uint8_t *px = malloc(size);
+    if (!px) {
+        pvc_fail("out of memory for the image");
+        return 0;
+    }
+    int ok = pvc_check(picvr_read_rgba8(ctx, px, size, o->exposure), "picvr_read_rgba8");
+    int comp = o->png_alpha ? 4 : 3;
+    if (ok && comp == 3) /* drop alpha in place: viewers would hide the background */
+        for (size_t i = 0, n = (size_t)o->width * o->height; i < n; i++)
+            memmove(px + 3 * i, px + 4 * i, 3);
+    if (ok && !stbi_write_png(o->out_png, (int)o->width, (int)o->height, comp, px,
+                              (int)o->width * comp)) {
+        pvc_fail("cannot write %s", o->out_png);
+        ok = 0;
+    }
+    free(px);
+    return ok;
+}
+
+/* The linear RGBA float image (malloc'd; NULL after a reported failure). */
+static float *read_float_image(picvr_context *ctx, const render_options *o)
+{
+    size_t size = (size_t)o->width * o->height * 16;
+    float *px = malloc(size);
+    if (!px) {
+        pvc_fail("out of memory for the float image");
+        return NULL;
+    }
+    if (!pvc_check(picvr_read_rgba32f(ctx, px, size), "picvr_read_rgba32f")) {
+        free(px);
+        return NULL;
+    }
+    return px;
+}
+
+int render_write_pfm(picvr_context *ctx, const render_options *o)
+{
+    float *px = read_float_image(ctx, o);
+    int ok = px && pvc_write_pfm(o->out_pfm, px, o->width, o->height);
+    free(px);
+    return ok;
+}
+
+/* --debug-view error: sum R / sum G - 1 over the image (picvr.h, PICVR_VIEW_CACHE_ERROR). */
+int render_print_cache_error(picvr_context *ctx, const render_options *o)
+{
+    size_t n = (size_t)o->width * o->height;
+    float *px = read_float_image(ctx, o);
+    int ok = px != NULL;
+    double r = 0, g = 0, b = 0;
+    for (size_t i = 0; ok && i < n; i++) {
+        r += px[4 * i];
+        g += px[4 * i + 1];
+        b += px[4 * i + 2];
+    }
+    free(px);
+    /* Rule: no hit yet (g = 0) prints no ratio rather than dividing by 0. */
+    if (ok && g > 0)
+        fprintf(stderr, "%s: cache error per hit %+.2f %% (mean served fraction %.3f)\n",
+                pvc_program(), 100 * (r / g - 1), b / (double)n);
+    else if (ok)
+        fprintf(stderr, "%s: cache error per hit: no scatter event was served yet\n", pvc_program());
+    return ok;
+}
+
+
+/* ---- the JSON summary ----------------------------------------------------------------- */
+
+/* What --json writes: the final statistics, the scene's names and the configuration
+   the library resolved (picvr_get_config: every default filled in). */
+typedef struct summary {
+    picvr_stats stats;
+    picvr_config config;
+    const char *device_type, *volume, *tf, *lights;
+    uint32_t seed;
+} summary;
+
+#define CACHE(member) offsetof(picvr_cache_config, member)
+static const pvc_json_field CACHE_FIELDS[] = {
+    {"mode", PVC_JSON_CACHE_MODE, CACHE(mode)},
+    {"gamma", PVC_JSON_F32, CACHE(gamma)},
+    {"epsilon", PVC_JSON_F32, CACHE(epsilon)},
+    {"delta_voxels", PVC_JSON_F32, CACHE(delta_voxels)},
+    {"radius_min_voxels", PVC_JSON_F32, CACHE(radius_min_voxels)},
+    {"radius_max_voxels", PVC_JSON_F32, CACHE(radius_max_voxels)},
+    {"max_samples", PVC_JSON_U32, CACHE(max_samples)},
+    {"update_threshold", PVC_JSON_F32, CACHE(update_threshold)},
+    {"rebuild_interval_ms", PVC_JSON_F32, CACHE(rebuild_interval_ms)},
+    {"superpixel_size", PVC_JSON_U32, CACHE(superpixel_size)},
+    {"max_entries", PVC_JSON_U32, CACHE(max_entries)},
+    {"max_nodes", PVC_JSON_U32, CACHE(max_nodes)},
+    {"max_refs", PVC_JSON_U32, CACHE(max_refs)},
+    {"max_requests", PVC_JSON_U32, CACHE(max_requests)},
+    {"curvature_limit", PVC_JSON_SWITCH, CACHE(curvature_limit)},
+    {"medium_model", PVC_JSON_SWITCH, CACHE(medium_model)},
+    {"max_lookup_refs", PVC_JSON_U32, CACHE(max_lookup_refs)},
+};
+#undef CACHE
+
+#define SCHEDULER(member) offsetof(picvr_scheduler_config, member)
+static const pvc_json_field SCHEDULER_FIELDS[] = {
+    {"create_min", PVC_JSON_F32, SCHEDULER(create_min)},
+    {"create_max", PVC_JSON_F32, SCHEDULER(create_max)},
+    {"update_min", PVC_JSON_F32, SCHEDULER(update_min)},
+    {"update_max", PVC_JSON_F32, SCHEDULER(update_max)},
+    {"exponent", PVC_JSON_F32, SCHEDULER(exponent)},
+    {"rounds_per_second", PVC_JSON_F32, SCHEDULER(rounds_per_second)},
+    {"hit_rate_window_ms", PVC_JSON_F32, SCHEDULER(hit_rate_window_ms)},
+    {"priorities", PVC_JSON_SWITCH, SCHEDULER(priorities)},
+};
+#undef SCHEDULER
+
+#define COUNT(table) (sizeof table / sizeof table[0])
+
+/* The application's pointers (log, allocator, Vulkan handles) and the device name it
+   asked for are left out: the device in use is the summary's device_name. */
+#define CONFIG(member) offsetof(picvr_config, member)
+static const pvc_json_field CONFIG_FIELDS[] = {
+    {"seed", PVC_JSON_U32, CONFIG(seed)},
+    {"validation", PVC_JSON_SWITCH, CONFIG(validation)},
+    {"log_level", PVC_JSON_LOG_LEVEL, CONFIG(log_level)},
+    {"cache", PVC_JSON_OBJECT, CONFIG(cache), COUNT(CACHE_FIELDS), CACHE_FIELDS},
+    {"scheduler", PVC_JSON_OBJECT, CONFIG(scheduler), COUNT(SCHEDULER_FIELDS), SCHEDULER_FIELDS},
+};
+#undef CONFIG
+
+/* The keys before "config" are those of earlier versions, in their order. */
+#define AT(member) offsetof(summary, member)
+static const pvc_json_field SUMMARY_FIELDS[] = {
+    {"iterations", PVC_JSON_U32, AT(stats.iterations)},
+    {"iterations_min", PVC_JSON_U32, AT(stats.iterations_min)},
+    {"iterations_mean", PVC_JSON_F64, AT(stats.iterations_mean)},
+    {"elapsed_ms", PVC_JSON_F64, AT(stats.elapsed_ms)},
+    {"samples_per_second", PVC_JSON_F64, AT(stats.samples_per_second)},
+    {"est_error", PVC_JSON_F64, AT(stats.est_error)},
+    {"est_rel_error", PVC_JSON_F64, AT(stats.est_rel_error)},
+    {"mean_luminance", PVC_JSON_F64, AT(stats.mean_luminance)},
+    {"truncated_paths", PVC_JSON_U64, AT(stats.truncated_paths)},
+    {"validation_messages", PVC_JSON_U32, AT(stats.validation_messages)},
+    {"validation_enabled", PVC_JSON_U32, AT(stats.validation_enabled)},
+    {"width", PVC_JSON_U32, AT(stats.width)},
+    {"height", PVC_JSON_U32, AT(stats.height)},
+    {"device_name", PVC_JSON_CHARS, AT(stats.device_name), sizeof ((picvr_stats *)NULL)->device_name},
+    {"device_type", PVC_JSON_STRING, AT(device_type)},
+    {"volume", PVC_JSON_STRING, AT(volume)},
+    {"tf", PVC_JSON_STRING, AT(tf)},
+    {"lights", PVC_JSON_STRING, AT(lights)},
+    {"cache_entries", PVC_JSON_U32, AT(stats.cache_entries)},
+    {"cache_nodes", PVC_JSON_U32, AT(stats.cache_nodes)},
+    {"cache_refs", PVC_JSON_U32, AT(stats.cache_refs)},
+    {"cache_references", PVC_JSON_U32, AT(stats.cache_refs)},
+    {"cache_full", PVC_JSON_U32, AT(stats.cache_full)},
+    {"cache_requests", PVC_JSON_U32, AT(stats.cache_requests)},
+    {"pending_requests", PVC_JSON_U32, AT(stats.cache_pending)},
+    {"cache_bytes", PVC_JSON_U64, AT(stats.cache_bytes)},
+    {"cache_entries_capped", PVC_JSON_U32, AT(stats.cache_entries_capped)},
+    {"cache_samples", PVC_JSON_U64, AT(stats.cache_samples)},
+    {"cache_samples_truncated", PVC_JSON_U64, AT(stats.cache_samples_truncated)},
+    {"cache_lookups_cut", PVC_JSON_U64, AT(stats.cache_lookups_cut)},
+    {"cache_lookups_spilled", PVC_JSON_U64, AT(stats.cache_lookups_spilled)},
+    {"cache_refs_per_entry", PVC_JSON_F64, AT(stats.cache_refs_per_entry)},
+    {"cache_hit_rate", PVC_JSON_F64, AT(stats.cache_hit_rate)},
+    {"hit_rate", PVC_JSON_F64, AT(stats.cache_hit_rate)},
+    {"fraction_render", PVC_JSON_F64, AT(stats.fraction_render)},
+    {"fraction_create", PVC_JSON_F64, AT(stats.fraction_create)},
+    {"fraction_update", PVC_JSON_F64, AT(stats.fraction_update)},
+    {"target_create", PVC_JSON_F64, AT(stats.target_create)},
+    {"target_update", PVC_JSON_F64, AT(stats.target_update)},
+    {"priorities", PVC_JSON_SWITCH, AT(config.scheduler.priorities)},
+    {"curvature_limit", PVC_JSON_SWITCH, AT(config.cache.curvature_limit)},
+    {"medium_model", PVC_JSON_SWITCH, AT(config.cache.medium_model)},
+    {"max_samples", PVC_JSON_U32, AT(stats.cache_max_samples)},
+    {"seed", PVC_JSON_U32, AT(seed)},
+    {"config", PVC_JSON_OBJECT, AT(config), COUNT(CONFIG_FIELDS), CONFIG_FIELDS},
+};
+#undef AT
+
+int render_write_json(picvr_context *ctx, const render_options *o, const picvr_stats *stats)
+{
+    summary s = {*stats, {0}, picvr_device_type_string(stats->device_type), o->volume_path,
+                 o->tf_name, o->lights_name, o->seed};
+    if (!pvc_check(picvr_get_config(ctx, &s.config), "picvr_get_config")) return 0;
+    FILE *f = fopen(o->json_path, "w");
+    if (f) {
+        pvc_json_write(f, &s, SUMMARY_FIELDS, COUNT(SUMMARY_FIELDS));
+        fputc('\n', f);
+    }
+    if (!f || fclose(f) != 0) {
+        pvc_fail("cannot write %s: %s", o->json_path, strerror(errno));
+        return 0;
+    }
+    return 1;
+}
+
+/* ---- the summary line ------------------------------------------------------------------ */
+
+static const char *base_name(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    return slash ? slash + 1 : path;
+}
+
+void render_print_summary(const render_options *o, const picvr_stats *s, int interrupted)
+{
+    printf("%s: %ux%u, %u iterations in %.2f s (%.3g samples/s), est_rel_error %.4g, "
+           "est_error %.4g, mean_luminance %.4g, device %.*s (%s)", base_name(o->volume_path),
+           s->width, s->height, s->iterations, s->elapsed_ms / 1e3, s->samples_per_second,
+           s->est_rel_error, s->est_error, s->mean_luminance,
+           (int)sizeof s->device_name, s->device_name, picvr_device_type_string(s->device_type));
+    if (s->truncated_paths) printf(", %llu truncated paths",
+                                   (unsigned long long)s->truncated_paths);
+    if (s->validation_messages) printf(", %u validation messages", s->validation_messages);
+    if (s->cache_entries)
+        printf(", cache %u entries (%u capped before Eq. 5), %.2f refs/entry, hit rate %.3f%s, "
+               "device time render/create/update %.3f/%.3f/%.3f (targets create %.3f, update %.3f)",
+               s->cache_entries, s->cache_entries_capped,
+               s->cache_refs_per_entry, s->cache_hit_rate, s->cache_full ? " (full)" : "",
+               s->fraction_render, s->fraction_create, s->fraction_update, s->target_create, s->target_update);
+    if (s->cache_samples_truncated)
+        printf(", %llu of %llu creation samples with a truncated transmittance estimate (biased)",
+               (unsigned long long)s->cache_samples_truncated, (unsigned long long)s->cache_samples);
+    if (s->cache_lookups_cut)
+        printf(", %llu lookups cut at the octree walk's bound (entries ignored)",
+               (unsigned long long)s->cache_lookups_cut);
+    if (interrupted) printf(", interrupted");
+    printf("\n");
+}
