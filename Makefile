@@ -1,6 +1,9 @@
 # picvr - build, test, demo, benchmark.  `make help` lists the targets.
 CC      ?= cc
 CFLAGS  ?= -O2 -g
+# The library builds with an application's strict flags, no feature macro (tools/check_build.sh
+# tries gcc and clang, C99, C11 and C++17); the tests and tools below add their own.
+LIB_CFLAGS := $(CFLAGS) -std=c11 -Wall -Wextra -Wpedantic -Wshadow -I.
 CFLAGS  += -std=c11 -D_POSIX_C_SOURCE=200809L -Wall -Wextra -Wno-unused-parameter -Wno-missing-field-initializers -I.
 LDLIBS  := -lvulkan -lm
 GLSLANG ?= glslangValidator
@@ -61,7 +64,7 @@ check-shaders: $(B)/picvr_shaders.h
 
 # ---- library, examples, tests ----------------------------------------------------
 $(B)/picvr_vk.o: $(LIB_SRC) | $(B)/.deps
-	$(CC) $(CFLAGS) -c -o $@ $<
+	$(CC) $(LIB_CFLAGS) -c -o $@ $<
 $(B)/libpicvr.a: $(LIB_OBJ)
 	ar rcs $@ $^
 lib: $(B)/libpicvr.a
@@ -221,7 +224,7 @@ $(B)/.deps-robust: tools/install-deps.sh | $(B)/.deps
 
 $(BA)/picvr_vk.o: $(LIB_SRC) | $(B)/.deps
 	@mkdir -p $(BA)
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) -c -o $@ $<
+	$(CC) $(LIB_CFLAGS) $(ASAN_FLAGS) -c -o $@ $<
 $(BA)/libpicvr.a: $(BA)/picvr_vk.o
 	ar rcs $@ $^
 $(BA)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps

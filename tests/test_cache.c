@@ -187,15 +187,15 @@ void test_cache_coloured_suns_match_closed_form(void **state) {
 }
 
 /* Two suns of one chromaticity, blue-green and without red: the lookup extrapolates only
-   the blue channel and derives green from the lights' colour (scene.light_mono, picvr_vk.c
-   light_chromaticity); red must stay exactly 0. */
+   the blue channel and derives green from the lights' colour (scene.light_log_k,
+   host/lights.c, picvr_light_chromaticity); red must stay exactly 0. */
 void test_cache_one_chromaticity_suns_match_closed_form(void **state) {
     (void)state;
     const float col[2][3] = {{0.0f, 0.3f, 1.0f}, {0.0f, 0.6f, 2.0f}};
     cached_two_suns_match_closed_form(col);
 }
 
-/* The pipeline variants (picvr_vk.c, variant_key, select_variant).  The lights'
+/* The pipeline variants (host/pipelines.c, picvr_variant_key, picvr_select_variant).  The lights'
    chromaticity is a specialization constant of the lookup (MONO_CHANNEL): one context
    is lit by suns of one chromaticity (blue carries it), then goes through 16 variants
    of the cached rendering procedure (each channel, and colours that differ; delta and

@@ -125,7 +125,7 @@ void test_scheduler_update_runs_after_cold_compile(void **state) {
 /* Requests always plentiful: entries with a validity radius of at most 0.5 voxels cover
    almost nothing, screen-space locking with 4x4 superpixels on a 48x48 image; creation
    0.20-0.30 and update 0.05-0.08 of the device time.  A GPU creates a whole batch of
-   entries (2112 on an H200, creation_batch in picvr_vk.c) in the time lavapipe takes for
+   entries (2112 on an H200, picvr_creation_batch in host/cache.c) in the time lavapipe takes for
    one, so there the image is 256x256 with 2x2 superpixels and up to 16384 requests:
    with 48x48 an H200's creation share was 0.012 against 0.268, all its 144 requests
    created in a sliver of each round, and with 256x256 it filled the default pool of

@@ -482,7 +482,7 @@ void close_writers(writers *w, const char *device)
     for (int i = 0; i < 3; i++)
         if (md[i])
             fprintf(md[i], "\nRuns measured %s to %s on %ld CPU(s); device: %s; library "
-                    "build %s (checksum of picvr.h, picvr_vk.c, shaders/); cache options: "
+                    "build %s (checksum of picvr.h, picvr_vk.c, host/, shaders/); cache options: "
                     "%s (others: the library's defaults).\n", from, to,
                     sysconf(_SC_NPROCESSORS_ONLN), device, PICVR_BENCH_BUILD, cache);
     FILE *all[6] = {w->t2csv, w->t2md, w->t3csv, w->t3md, w->bcsv, w->bmd};
