@@ -26,32 +26,21 @@
 #endif
 
 #define PICVR_FINE_THRESHOLD 64.0          /* expected steps per brick above which the shader
-
                                       tracks at voxel level (shaders: FINE_THRESHOLD) */
 #define PICVR_TF_SIZE 4096               /* entries of the transfer-function table (shaders: TF_SIZE) */
-
 #define PICVR_MAX_GRID 64                /* majorant grid cells per axis at most */
-
 #define PICVR_STAGING_CHUNK (32u << 20)  /* bytes per volume upload slab */
-
 #define PICVR_BATCH_TARGET_MS 100.0      /* picvr_step_iterations: one submission at most this long */
-
 #define PICVR_MAX_BATCH 1024u
-
 #define PICVR_SCHED_HISTORY 128u         /* rounds remembered for the time shares and the hit rate */
-
 #define PICVR_SHARE_WINDOW_MS 1000.0     /* stats.fraction_*: measured over the last second */
-
 #define PICVR_MAX_QUEUE 65535u           /* blocks per dispatch (shaders/block_select.comp) */
 
 /* Sizes of the shaders' buffer elements (std430), mirrored here; `make check-layout`
    (part of `make test`) compares them with glslang's reflection of the shaders. */
 #define PICVR_CACHE_NODE_BYTES 16u       /* struct Node */
-
 #define PICVR_CACHE_REF_BYTES 8u         /* struct Ref */
-
 #define PICVR_CACHE_REQUEST_BYTES 32u    /* struct Request */
-
 #define PICVR_CACHE_ENTRY_BYTES 144u     /* struct Entry */
 
 /* Eq. 5's sample cap (cache.max_samples; its limits PICVR_CACHE_MAX_SAMPLES and
@@ -61,18 +50,14 @@
    x 7 points x 2 transmittance estimates x (640 pooled comb steps + 16 orders) = 55104,
    plus the light loops (the budget is spelled out in cache_create.comp). */
 #define PICVR_CACHE_CREATE_GROUP 128u
-
 #define PICVR_CACHE_DEFAULT_SAMPLES 768u
-
 #define PICVR_ROUND_READBACK_BYTES (sizeof(picvr_cache_counters) + 16)
 
 /* The rendering procedure's event queues (shaders/render.glsl), one buffer each: a
    head (one uvec4: indirect dispatch, count), then one event of EVENT_WORDS words per
    pixel; the event kernels run EVENT_GROUP threads per workgroup. */
 #define PICVR_EVENT_HEAD_BYTES 16u
-
 #define PICVR_EVENT_WORDS 3u
-
 #define PICVR_EVENT_GROUP 128u
 
 enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
@@ -83,13 +68,9 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
    VARIANT_SLOTS variants, made by the first step that needs one; a new one replaces
    the least recently used. */
 #define PICVR_VARIANT_SLOTS 8u
-
 #define PICVR_KEY_PHASE_MIS 1u      /* constant 0 USE_PHASE_MIS */
-
 #define PICVR_KEY_FINE 2u           /* constant 1 USE_FINE */
-
 #define PICVR_KEY_DEBUG_VIEW 4u     /* constant 3 USE_DEBUG_VIEW */
-
 #define PICVR_KEY_MONO_SHIFT 3u     /* constant 4 MONO_CHANNEL: 2 bits, 3 = colours differ */
 
 /* The kernels of one variant: creation and update have one (KERNEL_MAIN); rendering
@@ -337,15 +318,13 @@ struct picvr_context {
    14 superpixels (screen-space locking), 15 the rendering queue, 16 and 17 the rendering
    procedure's event queues for shading and for the cache lookup. */
 #define PICVR_NUM_BINDINGS 18
-
-#define PICVR_CACHE_PREBUILT_MAX_DEPTH 4u
-
+#define PICVR_CACHE_PREBUILT_MAX_DEPTH 4u  /* levels of the octree's pre-built top (§4.4) */
 #define PICVR_CACHE_NODE_RADII 1.0f     /* as in shaders/cache.glsl (insertion_depth) */
 
+/* picvr_step_iterations without cache.max_requests: one request per this many pixels
+   per pass (a build-time knob). */
 #ifndef PICVR_CACHE_PIXELS_PER_REQUEST
-
 #define PICVR_CACHE_PIXELS_PER_REQUEST 4096u
-
 #endif
 
 /* Timestamps of a round: start, after creation, after rebuild, after update, end. */
