@@ -304,7 +304,8 @@ void picvr_destroy(picvr_context *ctx);
 /* The configuration the context runs with: what picvr_create was given, with every
    zero field replaced by the default it resolved to (cache and scheduler values, log
    level, validation ON or OFF as it came out, the Vulkan handles in use).  The
-   scheduler part follows picvr_set_scheduler.  device_name and log_user are as given. */
+   scheduler part follows picvr_set_scheduler.  device_name is the name of the device in
+   use (valid while the context lives); log, log_user and allocator are as given. */
 picvr_status picvr_get_config(const picvr_context *ctx, picvr_config *out);
 
 /* ---- volume ------------------------------------------------------------------ */

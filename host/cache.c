@@ -127,7 +127,7 @@ static picvr_status picvr_cache_clear(picvr_context *ctx) {
     uint32_t count = 0, level = 1;
     for (uint32_t d = 0; d <= depth; d++, level *= 8) count += level;
     uint32_t inner = count - level / 8;            /* nodes above the deepest level */
-    uint32_t *nodes = (uint32_t *)picvr_host_alloc(&ctx->alloc, (size_t)count * PICVR_CACHE_NODE_BYTES);
+    uint32_t *nodes = (uint32_t *)picvr_host_alloc(&ctx->config.allocator, (size_t)count * PICVR_CACHE_NODE_BYTES);
     if (!nodes) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(nodes, 0, (size_t)count * PICVR_CACHE_NODE_BYTES);
     for (uint32_t i = 0; i < inner; i++) nodes[i * 4] = 8 * i + 1;
@@ -141,7 +141,7 @@ static picvr_status picvr_cache_clear(picvr_context *ctx) {
     }
     if (!s) s = picvr_upload_buffer(ctx, &ctx->cache.nodes, nodes, (size_t)count * PICVR_CACHE_NODE_BYTES);
     if (!s) s = picvr_upload_buffer(ctx, &ctx->cache.prebuilt_nodes, nodes, (size_t)count * PICVR_CACHE_NODE_BYTES);
-    picvr_host_free(&ctx->alloc, nodes);
+    picvr_host_free(&ctx->config.allocator, nodes);
     picvr_cache_counters counters;
     memset(&counters, 0, sizeof counters);
     counters.dispatch[1] = counters.dispatch[2] = 1;

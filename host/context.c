@@ -52,7 +52,7 @@ static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *c
     if ((s = picvr_buffer_create(ctx, &ctx->scene.ubo, sizeof(picvr_gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
     if ((s = picvr_image_create(ctx, &ctx->scene.tf_image, VK_IMAGE_TYPE_1D, VK_FORMAT_R32G32B32A32_SFLOAT, PICVR_TF_SIZE, 1, 1))) return s;
     if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_staging, sizeof ctx->scene.tf_table, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1))) return s;
-    if (!(ctx->scene.tf_rm = (picvr_range_max *)picvr_host_alloc(&ctx->alloc, sizeof *ctx->scene.tf_rm))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    if (!(ctx->scene.tf_rm = (picvr_range_max *)picvr_host_alloc(&ctx->config.allocator, sizeof *ctx->scene.tf_rm))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_range_max, sizeof *ctx->scene.tf_rm,
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
     return picvr_default_transfer_function(ctx);
@@ -73,12 +73,8 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(ctx, 0, sizeof *ctx);
     ctx->config = cfg;
-    ctx->alloc = cfg.allocator;
-    ctx->log = cfg.log;
-    ctx->log_user = cfg.log_user;
-    ctx->log_level = cfg.log_level ? cfg.log_level : PICVR_LOG_WARNING;
-    ctx->seed = cfg.seed;
-    ctx->cache.requests_set = cfg.cache.max_requests != 0;
+    ctx->config.device_name = NULL;      /* the application's string: not kept */
+    if (!cfg.log_level) ctx->config.log_level = PICVR_LOG_WARNING;
     picvr_status s = picvr_resolve_cache_config(&cfg.cache, &ctx->cache.cfg);
     if (!s) s = picvr_resolve_scheduler_config(&cfg.scheduler, &ctx->sched.cfg);
     ctx->cache.on = ctx->cache.cfg.mode != PICVR_CACHE_NONE;
@@ -93,8 +89,8 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
 picvr_status picvr_get_config(const picvr_context *ctx, picvr_config *out) {
     if (!ctx || !out) return PICVR_ERROR_NULL_POINTER;
     *out = ctx->config;
+    out->device_name = ctx->vk.props.deviceName;
     out->validation = ctx->vk.validation_enabled ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
-    out->log_level = ctx->log_level;
     out->vulkan.instance = ctx->vk.instance;
     out->vulkan.physical_device = ctx->vk.phys;
     out->vulkan.device = ctx->vk.device;
@@ -145,10 +141,10 @@ void picvr_destroy(picvr_context *ctx) {
         picvr_pipelines_destroy(ctx);
     }
     picvr_device_destroy(ctx);
-    picvr_host_free(&ctx->alloc, ctx->scene.brick_min);
-    picvr_host_free(&ctx->alloc, ctx->scene.brick_max);
-    picvr_host_free(&ctx->alloc, ctx->scene.tf_rm);
-    picvr_allocator a = ctx->alloc;
+    picvr_host_free(&ctx->config.allocator, ctx->scene.brick_min);
+    picvr_host_free(&ctx->config.allocator, ctx->scene.brick_max);
+    picvr_host_free(&ctx->config.allocator, ctx->scene.tf_rm);
+    picvr_allocator a = ctx->config.allocator;
     picvr_host_free(&a, ctx);
 }
 

@@ -242,7 +242,6 @@ typedef struct picvr_image_state {
 typedef struct picvr_cache {
     picvr_cache_config cfg;          /* resolved: no zero fields */
     int on;
-    int requests_set;                /* the application chose max_requests */
     picvr_buffer entries, nodes, refs, counters, requests;
     picvr_buffer prebuilt_nodes;     /* the pre-built top of the octree, copied on rebuild */
     picvr_buffer superpixels;        /* screen-space locking: locks + ray/miss counters */
@@ -291,12 +290,9 @@ typedef struct picvr_results {
 } picvr_results;
 
 struct picvr_context {
-    picvr_config config;             /* as given to picvr_create (picvr_get_config) */
-    picvr_allocator alloc;
-    picvr_log_fn log;
-    void *log_user;
-    picvr_log_level log_level;
-    uint32_t seed;
+    picvr_config config;             /* as given to picvr_create, log_level resolved, without
+                                        device_name; cache and scheduler as given (their
+                                        resolved values: cache.cfg, sched.cfg) */
     picvr_device vk;
     picvr_pipelines pipes;
     picvr_scene scene;

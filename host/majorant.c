@@ -52,7 +52,7 @@ static void picvr_empty_distance(const uint32_t g[3], const float *maj, float *d
 static picvr_status picvr_update_majorant(picvr_context *ctx) {
     if (!ctx->scene.has_volume) return PICVR_OK;
     size_t cells = (size_t)ctx->scene.grid[0] * ctx->scene.grid[1] * ctx->scene.grid[2];
-    float *maj = (float *)picvr_host_alloc(&ctx->alloc, 2 * cells * sizeof(float));
+    float *maj = (float *)picvr_host_alloc(&ctx->config.allocator, 2 * cells * sizeof(float));
     if (!maj) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     const picvr_range_max *rm = ctx->scene.tf_rm;
     double diag = sqrt((double)ctx->scene.gpu.cell_size[0] * ctx->scene.gpu.cell_size[0] +
@@ -70,6 +70,6 @@ static picvr_status picvr_update_majorant(picvr_context *ctx) {
     }
     picvr_empty_distance(ctx->scene.grid, maj, maj + cells);
     picvr_status s = picvr_upload_buffer(ctx, &ctx->scene.majorant, maj, 2 * cells * sizeof(float));
-    picvr_host_free(&ctx->alloc, maj);
+    picvr_host_free(&ctx->config.allocator, maj);
     return s;
 }

@@ -85,7 +85,7 @@ static void picvr_record_empty_queues(picvr_context *ctx) {
    queues its misses for shading; with one it shades them itself and the shading
    dispatch has no workgroups. */
 static void picvr_record_render_kernels(picvr_context *ctx, const picvr_round_plan *p) {
-    picvr_push_constants(ctx, ctx->rounds.count, ctx->seed, p->request_cap, 0);
+    picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->request_cap, 0);
     vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_MAIN));
     vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.render_queue.buf, 0);
     picvr_barrier_all(ctx);
@@ -151,7 +151,7 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
     if (ctx->cache.on) {
         /* creation: one workgroup per request queued by the previous round */
         vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_pipeline(ctx, PICVR_PROC_CREATE));
-        picvr_push_constants(ctx, ctx->rounds.count, ctx->seed, p->create_budget, 0);
+        picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->create_budget, 0);
         vkCmdDispatchIndirect(ctx->vk.cmd, ctx->cache.counters.buf, 0);
         picvr_barrier_all(ctx);
         vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.counters.buf, offsetof(picvr_cache_counters, dispatch), 4, 0);
@@ -163,7 +163,7 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
     picvr_write_timestamp(ctx, 2);
     if (ctx->cache.on && p->update_groups > 0) {
         vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_pipeline(ctx, PICVR_PROC_UPDATE));
-        picvr_push_constants(ctx, ctx->rounds.count, ctx->seed, 0, 0);
+        picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, 0, 0);
         vkCmdDispatch(ctx->vk.cmd, p->update_groups, 1, 1);
         picvr_barrier_all(ctx);
     }
@@ -227,10 +227,9 @@ static picvr_status picvr_round_device_ms(picvr_context *ctx, const picvr_round_
    the scheduler accounts for it (cost model, history, hit rate, targets). */
 static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_plan *p, double wall_ms, uint32_t created) {
     picvr_buffer_invalidate(ctx, &ctx->rounds.readback);
-    picvr_cache_counters got;
-    uint32_t blocks;
-    memcpy(&got, ctx->rounds.readback.mapped, sizeof got);
-    memcpy(&blocks, (const uint8_t *)ctx->rounds.readback.mapped + sizeof got, sizeof blocks);
+    const uint8_t *rb = (const uint8_t *)ctx->rounds.readback.mapped;   /* counters, then blocks */
+    uint32_t blocks, hits = 0, misses = 0;
+    memcpy(&blocks, rb + sizeof(picvr_cache_counters), sizeof blocks);
     double dev[3], rebuild_ms;
     picvr_status s = picvr_round_device_ms(ctx, p, wall_ms, created, blocks, dev, &rebuild_ms);
     if (s) return s;
@@ -240,9 +239,14 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
     ctx->image.elapsed_ms += wall_ms;
     ctx->cache.since_rebuild_ms = p->rebuild ? wall_ms : ctx->cache.since_rebuild_ms + wall_ms;
     ctx->results.valid = 0;
-    if (ctx->cache.on) picvr_cache_take_counters(ctx, &got);
-    picvr_sched_record(&ctx->sched, picvr_clock_ms(), dev, ctx->cache.on ? got.hits : 0, ctx->cache.on ? got.misses : 0,
-                       ctx->cache.on);
+    if (ctx->cache.on) {   /* without the cache the round copied no counters */
+        picvr_cache_counters got;
+        memcpy(&got, rb, sizeof got);
+        picvr_cache_take_counters(ctx, &got);
+        hits = got.hits;
+        misses = got.misses;
+    }
+    picvr_sched_record(&ctx->sched, picvr_clock_ms(), dev, hits, misses, ctx->cache.on);
     return PICVR_OK;
 }
 

@@ -55,7 +55,7 @@ static picvr_status picvr_step_time(picvr_context *ctx, double budget_ms) {
 /* The fixed split of picvr_step_iterations: unless the application set max_requests,
    one request per CACHE_PIXELS_PER_REQUEST pixels per pass. */
 static uint32_t picvr_pass_request_cap(const picvr_context *ctx) {
-    if (ctx->cache.requests_set) return ctx->cache.cfg.max_requests;
+    if (ctx->config.cache.max_requests) return ctx->cache.cfg.max_requests;   /* the application chose it */
     uint64_t per = ((uint64_t)ctx->scene.camera.width * ctx->scene.camera.height) / PICVR_CACHE_PIXELS_PER_REQUEST;
     return per < 1 ? 1 : per < ctx->cache.cfg.max_requests ? (uint32_t)per : ctx->cache.cfg.max_requests;
 }

@@ -36,13 +36,13 @@ static double picvr_clock_ms(void) {
 }
 
 static void picvr_log_message(picvr_context *ctx, picvr_log_level level, const char *fmt, ...) {
-    if (level < ctx->log_level) return;
+    if (level < ctx->config.log_level) return;
     char msg[1024];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    if (ctx->log) ctx->log(level, msg, ctx->log_user);
+    if (ctx->config.log) ctx->config.log(level, msg, ctx->config.log_user);
     else fprintf(stderr, "picvr: %s\n", msg);
 }
 

@@ -72,9 +72,9 @@ static picvr_status picvr_volume_range(const picvr_volume_desc *d, size_t n, pic
 static picvr_status picvr_build_bricks(picvr_context *ctx, const picvr_volume_desc *d, picvr_value_map m,
                                  uint32_t brick, const uint32_t grid[3], float **bmin_out, float **bmax_out) {
     size_t cells = (size_t)grid[0] * grid[1] * grid[2];
-    float *bmin = (float *)picvr_host_alloc(&ctx->alloc, cells * sizeof(float));
-    float *bmax = (float *)picvr_host_alloc(&ctx->alloc, cells * sizeof(float));
-    if (!bmin || !bmax) { picvr_host_free(&ctx->alloc, bmin); picvr_host_free(&ctx->alloc, bmax); return PICVR_ERROR_OUT_OF_HOST_MEMORY; }
+    float *bmin = (float *)picvr_host_alloc(&ctx->config.allocator, cells * sizeof(float));
+    float *bmax = (float *)picvr_host_alloc(&ctx->config.allocator, cells * sizeof(float));
+    if (!bmin || !bmax) { picvr_host_free(&ctx->config.allocator, bmin); picvr_host_free(&ctx->config.allocator, bmax); return PICVR_ERROR_OUT_OF_HOST_MEMORY; }
     const uint32_t *dim = d->dims;
     for (uint32_t cz = 0; cz < grid[2]; cz++)
         for (uint32_t cy = 0; cy < grid[1]; cy++)
@@ -210,8 +210,8 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
 
     picvr_image_destroy(ctx, &ctx->scene.volume);
     picvr_buffer_destroy(ctx, &ctx->scene.majorant);
-    picvr_host_free(&ctx->alloc, ctx->scene.brick_min);
-    picvr_host_free(&ctx->alloc, ctx->scene.brick_max);
+    picvr_host_free(&ctx->config.allocator, ctx->scene.brick_min);
+    picvr_host_free(&ctx->config.allocator, ctx->scene.brick_max);
     ctx->scene.volume = vol;
     ctx->scene.majorant = maj;
     ctx->scene.brick_min = bmin;

@@ -424,12 +424,12 @@ static VkDeviceSize picvr_volume_alloc_limit(const picvr_context *ctx) {
 static int picvr_device_has_extension(const picvr_context *ctx, const char *name) {
     uint32_t n = 0;
     if (vkEnumerateDeviceExtensionProperties(ctx->vk.phys, NULL, &n, NULL) != VK_SUCCESS || n == 0) return 0;
-    VkExtensionProperties *props = (VkExtensionProperties *)picvr_host_alloc(&ctx->alloc, (size_t)n * sizeof *props);
+    VkExtensionProperties *props = (VkExtensionProperties *)picvr_host_alloc(&ctx->config.allocator, (size_t)n * sizeof *props);
     if (!props) return 0;
     int found = 0;
     if (vkEnumerateDeviceExtensionProperties(ctx->vk.phys, NULL, &n, props) == VK_SUCCESS)
         for (uint32_t i = 0; i < n && !found; i++) found = !strcmp(props[i].extensionName, name);
-    picvr_host_free(&ctx->alloc, props);
+    picvr_host_free(&ctx->config.allocator, props);
     return found;
 }
 

@@ -753,10 +753,12 @@ void test_get_config_resolves_defaults(void **state) {
     TU_EXPECT(picvr_get_config(a, NULL), PICVR_ERROR_NULL_POINTER);
     TU_OK(picvr_get_config(a, &c));
     assert_int_equal(c.seed, 3);
+    assert_non_null(c.device_name);
     assert_int_equal(c.log_level, PICVR_LOG_WARNING);
     picvr_stats st;
     TU_OK(picvr_get_stats(a, &st));
     assert_int_equal(c.validation, st.validation_enabled ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF);
+    assert_string_equal(c.device_name, st.device_name);
     assert_int_equal(c.cache.mode, PICVR_CACHE_NONE);
     assert_true(c.cache.gamma == 0.1f && c.cache.epsilon == 0.1f && c.cache.delta_voxels == 2.0f);
     assert_true(c.cache.radius_min_voxels == 0.01f && c.cache.radius_max_voxels == 16.0f);
