@@ -793,6 +793,9 @@ void test_sweep_cameras_and_image_sizes(void **state) {
    Cost: 1e6 dispatches of one workgroup. */
 void test_sweep_long_run_precision_1e6(void **state) {
     (void)state;
+    /* A million passes of three dispatches each take minutes on a CPU driver, close to
+       the default budget: this test has its own. */
+    tu_watchdog(900);
     picvr_context *ctx = tu_create(70);
     tu_vol vol = tu_vol_new(4, 4, 4, 1.0f, 255);
     tu_upload(ctx, &vol);

@@ -159,6 +159,9 @@ void tu_finish(picvr_context *ctx);
 /* 1 when picvr picks a CPU device (lavapipe's llvmpipe, SwiftShader), by its name. */
 int tu_device_is_cpu(void);
 /* Per-test setup/teardown: timing (printed) and destruction of leftover contexts. */
+/* Gives the running test `seconds` from now instead of the default watchdog budget:
+   for a test whose work is long by design (the budget still catches a hang). */
+void tu_watchdog(unsigned seconds);
 int tu_setup(void **state);
 int tu_teardown(void **state);
 
