@@ -79,11 +79,14 @@ $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.
 	$(CC) $(CFLAGS) -O3 -fopenmp -c -o $@ $<
 
 $(B)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
-              shaders/cache_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a
+              shaders/cache_math.glsl shaders/sampling_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -fopenmp -o $@ $(TEST_SRC) $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lcmocka
 
 $(B)/picvr-bench-speed: bench/bench_speed.c $(CLI_SRC) examples/volume_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/cli.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
+
+$(B)/picvr-bench-sampling: bench/bench_sampling.c $(CLI_SRC) examples/volume_io.c examples/presets.c examples/presets.h $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -Iexamples -o $@ bench/bench_sampling.c examples/cli.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 # The host's mirrors of the shaders' layouts and constants (tools/check_layout.sh).
 $(B)/layout-host: tools/layout_host.c $(LIB_SRC) | $(B)/.deps

@@ -271,6 +271,27 @@ typedef struct picvr_vulkan {
     uint32_t queue_family;    /* family index of queue */
 } picvr_vulkan;
 
+/* Where a camera ray gathers its light (the distance along the ray of its scatter
+   event).  Both are unbiased; docs/sampling.md measures them. */
+typedef enum picvr_distance_sampling {
+    PICVR_DISTANCE_DEFAULT = 0,    /* PICVR_DISTANCE_MIS */
+    PICVR_DISTANCE_MIS,            /* delta tracking and equiangular sampling toward the
+                                      point, sphere and rect lights (Kulla and Fajardo
+                                      2012), combined by multiple importance sampling:
+                                      every ray through the volume gathers light.  A
+                                      scene without such lights runs FREE_FLIGHT's code */
+    PICVR_DISTANCE_FREE_FLIGHT     /* delta tracking alone (Exposure Render, the paper's
+                                      baseline): a ray that passes gathers nothing */
+} picvr_distance_sampling;
+/* How transmittance (shadow rays, and the camera ray with PICVR_DISTANCE_MIS) is
+   estimated; both are unbiased. */
+typedef enum picvr_transmittance_estimator {
+    PICVR_TRANSMITTANCE_DEFAULT = 0, /* PICVR_TRANSMITTANCE_RESIDUAL */
+    PICVR_TRANSMITTANCE_RESIDUAL,  /* residual ratio tracking (Novak et al. 2014) with each
+                                      brick's least extinction as the control: exact in
+                                      homogeneous bricks, fewer and lighter collisions */
+    PICVR_TRANSMITTANCE_RATIO      /* ratio tracking against the majorant (the paper's) */
+} picvr_transmittance_estimator;
 typedef struct picvr_config {
     const char *device_name;  /* substring of the device name; NULL: PICVR_DEVICE or auto */
     picvr_switch validation;  /* the Khronos validation layer with synchronization
@@ -286,6 +307,8 @@ typedef struct picvr_config {
     picvr_vulkan vulkan;      /* zero: picvr makes its own instance and device */
     picvr_cache_config cache; /* the irradiance cache; zero: defaults (see above) */
     picvr_scheduler_config scheduler; /* zero: defaults (see above) */
+    picvr_distance_sampling distance_sampling; /* DEFAULT: MIS */
+    picvr_transmittance_estimator transmittance; /* DEFAULT: RESIDUAL */
 } picvr_config;
 
 typedef struct picvr_context picvr_context;

@@ -229,6 +229,33 @@ const char *pvc_log_level_name(picvr_log_level level)
     return level >= PICVR_LOG_DEFAULT && level <= PICVR_LOG_ERROR ? names[level] : "?";
 }
 
+static const char *const DISTANCE_NAMES[] = {"default", "mis", "free-flight"};
+static const char *const TRANSMITTANCE_NAMES[] = {"default", "residual", "ratio"};
+
+const char *pvc_distance_sampling_name(picvr_distance_sampling d)
+{
+    return d >= PICVR_DISTANCE_DEFAULT && d <= PICVR_DISTANCE_FREE_FLIGHT ? DISTANCE_NAMES[d] : "?";
+}
+
+const char *pvc_transmittance_name(picvr_transmittance_estimator t)
+{
+    return t >= PICVR_TRANSMITTANCE_DEFAULT && t <= PICVR_TRANSMITTANCE_RATIO ? TRANSMITTANCE_NAMES[t] : "?";
+}
+
+int pvc_parse_distance_sampling(const char *text, picvr_distance_sampling *out)
+{
+    for (int i = 1; i <= PICVR_DISTANCE_FREE_FLIGHT; i++)
+        if (!strcmp(text, DISTANCE_NAMES[i])) { *out = (picvr_distance_sampling)i; return 1; }
+    return 0;
+}
+
+int pvc_parse_transmittance(const char *text, picvr_transmittance_estimator *out)
+{
+    for (int i = 1; i <= PICVR_TRANSMITTANCE_RATIO; i++)
+        if (!strcmp(text, TRANSMITTANCE_NAMES[i])) { *out = (picvr_transmittance_estimator)i; return 1; }
+    return 0;
+}
+
 int pvc_in_list(const char *list, const char *name)
 {
     if (!list) return 1;
@@ -344,10 +371,16 @@ static const char *enum_name(const pvc_json_field *field, const char *p)
     picvr_switch sw;
     picvr_cache_mode mode;
     picvr_log_level level;
+    picvr_distance_sampling distance;
+    picvr_transmittance_estimator transmittance;
     switch (field->type) {
     case PVC_JSON_SWITCH: memcpy(&sw, p, sizeof sw); return pvc_switch_name(sw);
     case PVC_JSON_CACHE_MODE: memcpy(&mode, p, sizeof mode); return pvc_cache_mode_name(mode);
     case PVC_JSON_LOG_LEVEL: memcpy(&level, p, sizeof level); return pvc_log_level_name(level);
+    case PVC_JSON_DISTANCE: memcpy(&distance, p, sizeof distance); return pvc_distance_sampling_name(distance);
+    case PVC_JSON_TRANSMITTANCE:
+        memcpy(&transmittance, p, sizeof transmittance);
+        return pvc_transmittance_name(transmittance);
     default: return "?";
     }
 }
@@ -373,7 +406,9 @@ static void json_value(FILE *f, const char *base, const pvc_json_field *field)
         break;
     case PVC_JSON_SWITCH:
     case PVC_JSON_CACHE_MODE:
-    case PVC_JSON_LOG_LEVEL: pvc_json_string(f, enum_name(field, p)); break;
+    case PVC_JSON_LOG_LEVEL:
+    case PVC_JSON_DISTANCE:
+    case PVC_JSON_TRANSMITTANCE: pvc_json_string(f, enum_name(field, p)); break;
     case PVC_JSON_OBJECT: pvc_json_write(f, p, field->fields, field->count); break;
     }
 }

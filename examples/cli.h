@@ -114,6 +114,12 @@ const char *pvc_cache_mode_name(picvr_cache_mode mode);
 
 /* "default", "debug", "info", "warning", "error"; "?" for another value. */
 const char *pvc_log_level_name(picvr_log_level level);
+/* "default", "mis", "free-flight" and "default", "residual", "ratio" ("?" otherwise);
+   the parsers take the names but "default". */
+const char *pvc_distance_sampling_name(picvr_distance_sampling d);
+const char *pvc_transmittance_name(picvr_transmittance_estimator t);
+int pvc_parse_distance_sampling(const char *text, picvr_distance_sampling *out);
+int pvc_parse_transmittance(const char *text, picvr_transmittance_estimator *out);
 
 /* Whether name is one of the comma-separated list's items (a NULL list holds all). */
 int pvc_in_list(const char *list, const char *name);
@@ -146,6 +152,8 @@ typedef enum pvc_json_type {
     PVC_JSON_SWITCH,          /* picvr_switch, by pvc_switch_name */
     PVC_JSON_CACHE_MODE,      /* picvr_cache_mode, by pvc_cache_mode_name */
     PVC_JSON_LOG_LEVEL,       /* picvr_log_level, by pvc_log_level_name */
+    PVC_JSON_DISTANCE,        /* picvr_distance_sampling, by pvc_distance_sampling_name */
+    PVC_JSON_TRANSMITTANCE,   /* picvr_transmittance_estimator, by pvc_transmittance_name */
     PVC_JSON_OBJECT           /* a struct described by fields[count] */
 } pvc_json_type;
 

@@ -96,6 +96,10 @@ static const tf_entry tf_table[] = {
        (3 voxels) at full density. */
     {"cloud", "clouds: white albedo 0.99, opacity = value, D = 0.1", 0.1f, 2,
      {{0.00f, GREY(0.99f), 0.00f}, {1.00f, GREY(0.99f), 1.00f}}},
+    /* The thin medium of the sampling benchmark (bench/bench_sampling.c, values 0..1,
+       spacing 1): an optical depth of about 3 across its densest part. */
+    {"thin", "thin smoke: grey albedo 0.8, opacity = value, D = 0.08", 0.08f, 2,
+     {{0.00f, GREY(0.80f), 0.00f}, {1.00f, GREY(0.80f), 1.00f}}},
     {"ramp", "opacity = value, albedo 1, D = 1 (picvr's default)", 1.0f, 2,
      {{0.00f, GREY(1.00f), 0.00f}, {1.00f, GREY(1.00f), 1.00f}}},
 };
@@ -319,6 +323,19 @@ static void build_headlight(const scene_frame *f, pvp_lights *out)
     l->intensity = 16.0f * d * d;  /* radiant intensity I = E d^2 */
 }
 
+/* A point light just outside the volume's bounding sphere, above right in front:
+   irradiance 8 at the centre, and a strong 1/d^2 falloff across the volume. */
+static void build_point(const scene_frame *f, pvp_lights *out)
+{
+    float R = f->radius;
+    vec3 position = add(f->centre, scale(normalize(camera_direction(f, 0.5f, 0.6f, 0.3f)), 1.05f * R));
+    picvr_light *l = next_light(out);
+    l->type = PICVR_LIGHT_POINT;
+    store(l->position, position);
+    memcpy(l->color, WHITE, sizeof l->color);
+    l->intensity = 8.0f * 1.05f * 1.05f * R * R;  /* radiant intensity I = E d^2 */
+}
+
 typedef struct lights_entry {
     const char *name, *description;
     void (*build)(const scene_frame *f, pvp_lights *out);
@@ -335,6 +352,7 @@ static const lights_entry lights_table[] = {
      build_studio},
     {"sun", "the sun (0.0093 rad) and a blue sky", build_sun},
     {"headlight", "a point light just above the camera", build_headlight},
+    {"point", "a point light just outside the volume, above right in front", build_point},
 };
 
 #define LIGHTS_COUNT (sizeof lights_table / sizeof lights_table[0])

@@ -90,6 +90,11 @@ static void print_help(FILE *f)
         "                         for now), object- or screen-space locking\n"
         "  --priorities on|off    render the blocks with the largest expected error\n"
         "                         reduction first (Eq. 12; default on)\n"
+        "  --sampling mis|free-flight  where camera rays gather light: delta tracking\n"
+        "                         and equiangular sampling toward the lights by MIS\n"
+        "                         (default), or delta tracking alone (the paper's)\n"
+        "  --transmittance residual|ratio  residual ratio tracking (default) or ratio\n"
+        "                         tracking (the paper's)\n"
         "  --shares CMIN,CMAX,UMIN,UMAX  device-time shares of cache-entry creation and\n"
         "                         update at hit rate 1 and 0 (paper §6; default\n"
         "                         0.05,0.15,0.01,0.02)\n"
@@ -147,6 +152,7 @@ static const pvc_option OPTIONS[] = {
     {"volume", 1}, {"dims", 1}, {"type", 1}, {"spacing", 1}, {"range", 1}, {"tf", 1},
     {"density", 1}, {"lights", 1}, {"size", 1}, {"time", 1}, {"iterations", 1},
     {"round", 1}, {"seed", 1}, {"cache", 1}, {"priorities", 1}, {"curvature", 1},
+    {"sampling", 1}, {"transmittance", 1},
     {"medium", 1}, {"samples", 1}, {"cache-param", 1}, {"shares", 1}, {"warm", 1},
     {"turns", 1}, {"debug-view", 1}, {"device", 1}, {"exposure", 1}, {"camera", 1},
     {"fov", 1}, {"out", 1}, {"out-float", 1}, {"log", 1}, {"json", 1}, {NULL, 0}};
@@ -234,6 +240,8 @@ static int apply_cache_option(void *target, const char *name, const char *value)
     render_options *o = target;
     if (!strcmp(name, "cache")) return pvc_parse_cache_mode(value, &o->cache);
     if (!strcmp(name, "priorities")) return pvc_parse_switch(value, &o->priorities);
+    if (!strcmp(name, "sampling")) return pvc_parse_distance_sampling(value, &o->distance_sampling);
+    if (!strcmp(name, "transmittance")) return pvc_parse_transmittance(value, &o->transmittance);
     if (!strcmp(name, "curvature")) return pvc_parse_switch(value, &o->curvature);
     if (!strcmp(name, "medium")) return pvc_parse_switch(value, &o->medium);
     if (!strcmp(name, "samples")) return pvc_parse_u32(value, 1, PICVR_CACHE_MAX_SAMPLES, &o->max_samples);
@@ -630,6 +638,8 @@ static void library_config(const render_options *o, progress *prog, picvr_config
     cfg->cache = o->params;                     /* --cache-param; the rest below */
     cfg->cache.mode = o->cache;
     cfg->scheduler.priorities = o->priorities;
+    cfg->distance_sampling = o->distance_sampling;
+    cfg->transmittance = o->transmittance;
     cfg->cache.curvature_limit = o->curvature;
     cfg->cache.medium_model = o->medium;
     cfg->cache.max_samples = o->max_samples;

@@ -27,6 +27,8 @@ typedef struct render_options {
     int validation;
     picvr_cache_mode cache;
     picvr_switch priorities;
+    picvr_distance_sampling distance_sampling;   /* --sampling; 0: the library's default */
+    picvr_transmittance_estimator transmittance; /* --transmittance */
     picvr_switch curvature;
     picvr_switch medium;
     uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */

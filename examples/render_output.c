@@ -142,6 +142,8 @@ static const pvc_json_field CONFIG_FIELDS[] = {
     {"seed", PVC_JSON_U32, CONFIG(seed)},
     {"validation", PVC_JSON_SWITCH, CONFIG(validation)},
     {"log_level", PVC_JSON_LOG_LEVEL, CONFIG(log_level)},
+    {"distance_sampling", PVC_JSON_DISTANCE, CONFIG(distance_sampling)},
+    {"transmittance", PVC_JSON_TRANSMITTANCE, CONFIG(transmittance)},
     {"cache", PVC_JSON_OBJECT, CONFIG(cache), COUNT(CACHE_FIELDS), CACHE_FIELDS},
     {"scheduler", PVC_JSON_OBJECT, CONFIG(scheduler), COUNT(SCHEDULER_FIELDS), SCHEDULER_FIELDS},
 };

@@ -69,12 +69,16 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     if (ext != 0 && ext != 4) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.log_level > PICVR_LOG_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.validation > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)cfg.distance_sampling > PICVR_DISTANCE_FREE_FLIGHT) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)cfg.transmittance > PICVR_TRANSMITTANCE_RATIO) return PICVR_ERROR_INVALID_ARGUMENT;
     picvr_context *ctx = (picvr_context *)picvr_host_alloc(&cfg.allocator, sizeof *ctx);
     if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(ctx, 0, sizeof *ctx);
     ctx->config = cfg;
     ctx->config.device_name = NULL;      /* the application's string: not kept */
     if (!cfg.log_level) ctx->config.log_level = PICVR_LOG_WARNING;
+    if (!cfg.distance_sampling) ctx->config.distance_sampling = PICVR_DISTANCE_MIS;
+    if (!cfg.transmittance) ctx->config.transmittance = PICVR_TRANSMITTANCE_RESIDUAL;
     picvr_status s = picvr_resolve_cache_config(&cfg.cache, &ctx->cache.cfg);
     if (!s) s = picvr_resolve_scheduler_config(&cfg.scheduler, &ctx->sched.cfg);
     ctx->cache.on = ctx->cache.cfg.mode != PICVR_CACHE_NONE;

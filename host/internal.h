@@ -34,7 +34,9 @@
 #define PICVR_MAX_BATCH 1024u
 #define PICVR_SCHED_HISTORY 128u         /* rounds remembered for the time shares and the hit rate */
 #define PICVR_SHARE_WINDOW_MS 1000.0     /* stats.fraction_*: measured over the last second */
-#define PICVR_MAX_QUEUE 65535u           /* blocks per dispatch (shaders/block_select.comp) */
+#define PICVR_MAX_QUEUE 65535u
+#define PICVR_EQ_NEAR 3.0                /* equiangular sampling serves lights nearer than this many
+                                      bounding radii (host/pipelines.c) */           /* blocks per dispatch (shaders/block_select.comp) */
 
 /* Sizes of the shaders' buffer elements (std430), mirrored here; `make check-layout`
    (part of `make test`) compares them with glslang's reflection of the shaders. */
@@ -72,6 +74,8 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_FINE 2u           /* constant 1 USE_FINE */
 #define PICVR_KEY_DEBUG_VIEW 4u     /* constant 3 USE_DEBUG_VIEW */
 #define PICVR_KEY_MONO_SHIFT 3u     /* constant 4 MONO_CHANNEL: 2 bits, 3 = colours differ */
+#define PICVR_KEY_EQUIANGULAR 32u   /* constant 7 USE_EQUIANGULAR */
+#define PICVR_KEY_RESIDUAL 64u      /* constant 8 USE_RESIDUAL */
 
 /* The kernels of one variant: creation and update have one (KERNEL_MAIN); rendering
    has its tracking kernel there, then its shading kernel and, cached, the lookup
@@ -94,7 +98,8 @@ typedef struct picvr_gpu_light {
     float radiance[3], pmf;
     float edge_u[3], size;
     float edge_v[3], area;
-    float cdf, unused[3];
+    float cdf, eq_pmf;
+    float eq_cdf, unused;
 } picvr_gpu_light;
 
 typedef struct picvr_gpu_scene {
@@ -221,6 +226,7 @@ typedef struct picvr_scene {
     picvr_range_max *tf_rm;
     float density;
     int use_phase_mis;               /* some light or the background needs MIS */
+    int use_equiangular;             /* some light is served by equiangular sampling */
     picvr_camera camera;
 } picvr_scene;
 

@@ -156,6 +156,7 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
                              &ctx->scene.gpu.mono_channel);
     ctx->scene.gpu.light_count = count;
     ctx->scene.use_phase_mis = mis;
+    picvr_update_equiangular(ctx);
     picvr_status s = picvr_cache_clear(ctx);
     return s ? s : picvr_clear_accumulation(ctx);
 }

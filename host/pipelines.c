@@ -52,6 +52,33 @@ static int picvr_debug_view_on(const picvr_context *ctx) {
     return ctx->cache.on && ctx->scene.gpu.debug_view != PICVR_VIEW_IMAGE;
 }
 
+/* The lights equiangular sampling serves (shaders/distance.glsl): point, sphere and rect
+   lights with power whose centre (a sphere's surface) lies within PICVR_EQ_NEAR bounding
+   radii of the volume's centre, chosen in proportion to their power (eq_pmf, eq_cdf; the
+   last served light's eq_cdf is exactly 1).  A light farther away has a nearly constant
+   1/d^2 across the volume, which delta tracking samples as well at less cost
+   (docs/sampling.md).  Sets scene.use_equiangular: some light is served.  Called when
+   the lights or the volume's box change. */
+static void picvr_update_equiangular(picvr_context *ctx) {
+    picvr_gpu_light *g = ctx->scene.gpu.lights;
+    uint32_t n = ctx->scene.gpu.light_count;
+    double R = ctx->scene.has_volume ? ctx->scene.gpu.bound_radius : 1.0, total = 0.0, cdf = 0.0;
+    int served[PICVR_MAX_LIGHTS], last = -1;
+    for (uint32_t i = 0; i < n; i++) {
+        double d = picvr_len3(g[i].pos) - (g[i].type == PICVR_LIGHT_SPHERE ? g[i].size : 0.0);
+        served[i] = g[i].type != PICVR_LIGHT_DIRECTIONAL && g[i].pmf > 0.0f && d < PICVR_EQ_NEAR * R;
+        if (served[i]) total += g[i].pmf;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        g[i].eq_pmf = served[i] ? (float)(g[i].pmf / total) : 0.0f;
+        cdf += served[i] ? g[i].pmf / total : 0.0;
+        g[i].eq_cdf = (float)cdf;
+        if (served[i]) last = (int)i;
+    }
+    if (last >= 0) g[last].eq_cdf = 1.0f;
+    ctx->scene.use_equiangular = last >= 0;
+}
+
 /* The key of procedure proc's variant for the current scene.  Only the constants a
    procedure reads are in its key, so that a change elsewhere makes no new variant:
    creation samples light but looks nothing up, the update procedure tracks and looks
@@ -62,17 +89,20 @@ static int picvr_debug_view_on(const picvr_context *ctx) {
 static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
     uint32_t mis = ctx->scene.use_phase_mis ? PICVR_KEY_PHASE_MIS : 0u, fine = ctx->scene.use_fine ? PICVR_KEY_FINE : 0u;
     uint32_t mono = (uint32_t)ctx->scene.gpu.mono_channel << PICVR_KEY_MONO_SHIFT;
+    uint32_t residual = ctx->config.transmittance == PICVR_TRANSMITTANCE_RESIDUAL ? PICVR_KEY_RESIDUAL : 0u;
+    uint32_t equi = ctx->scene.use_equiangular && ctx->config.distance_sampling == PICVR_DISTANCE_MIS
+                  ? PICVR_KEY_EQUIANGULAR : 0u;
     if (proc == PICVR_PROC_CREATE) return mis | fine;
     if (proc == PICVR_PROC_UPDATE) return fine | mono;
-    if (!ctx->cache.on) return mis | fine;
-    return mis | fine | mono | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
+    if (!ctx->cache.on) return mis | fine | residual | equi;
+    return mis | fine | mono | residual | equi | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
 }
 
 /* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
    the procedure has no such kernel; on a failure none is left).  One set of constants
    for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
    creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
-   MAX_LOOKUP_REFS, fixed per context. */
+   MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR and 8 USE_RESIDUAL from the key. */
 static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
@@ -82,17 +112,18 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
         mod[PICVR_KERNEL_SHADE] = ctx->pipes.shade_module;
         if (ctx->cache.on) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
     }
-    uint32_t value[7] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP,
+    uint32_t value[9] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP,
                          (key & PICVR_KEY_DEBUG_VIEW) != 0, (key >> PICVR_KEY_MONO_SHIFT) & 3u,
                          ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE,
-                         ctx->cache.on ? ctx->cache.cfg.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS};
-    VkSpecializationMapEntry entry[7];
-    for (uint32_t i = 0; i < 7; i++) {
+                         ctx->cache.on ? ctx->cache.cfg.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS,
+                         (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0};
+    VkSpecializationMapEntry entry[9];
+    for (uint32_t i = 0; i < 9; i++) {
         entry[i].constantID = i;
         entry[i].offset = 4 * i;
         entry[i].size = 4;
     }
-    VkSpecializationInfo spec = {7, entry, sizeof value, value};
+    VkSpecializationInfo spec = {9, entry, sizeof value, value};
     picvr_status s = PICVR_OK;
     for (int k = 0; k < PICVR_KERNELS; k++) {
         out[k] = VK_NULL_HANDLE;

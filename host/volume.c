@@ -199,7 +199,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     float *bmin = NULL, *bmax = NULL;
     size_t cells = (size_t)grid[0] * grid[1] * grid[2];
     if ((s = picvr_image_create(ctx, &vol, VK_IMAGE_TYPE_3D, fmt, desc->dims[0], desc->dims[1], desc->dims[2]))) return s;
-    if ((s = picvr_buffer_create(ctx, &maj, 2 * cells * sizeof(float),
+    if ((s = picvr_buffer_create(ctx, &maj, 3 * cells * sizeof(float),
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) {
         picvr_image_destroy(ctx, &vol);
         return s;
@@ -231,6 +231,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     }
     ctx->scene.gpu.min_spacing = min_spacing;
     ctx->scene.gpu.bound_radius = 0.5f * (float)picvr_len3(ctx->scene.gpu.box_size);
+    picvr_update_equiangular(ctx);
     picvr_shader_value_map(ctx, desc, fmt, m);
     ctx->scene.has_volume = 1;
     ctx->pipes.descriptors_dirty = 1;

@@ -1,4 +1,5 @@
-/* cache_math_host.h - the C prelude of shaders/cache_math.glsl: compiles the very same
+/* cache_math_host.h - the C prelude of shaders/cache_math.glsl and
+ * shaders/sampling_math.glsl: compiles the very same
  * source twice on the host, in double precision (functions cm_<name>, as in the
  * shaders) and in float (functions cmf_<name>, the shaders' precision).  All functions
  * are static inline, so any number of translation units may include this header.
@@ -24,7 +25,10 @@
 #define cm_min(a, b) fmin(a, b)
 #define cm_max(a, b) fmax(a, b)
 #define cm_clamp(x, lo, hi) fmin(fmax(x, lo), hi)
+#define cm_atan2(y, x) atan2(y, x)
+#define cm_tan(x) tan(x)
 #include "shaders/cache_math.glsl"
+#include "shaders/sampling_math.glsl"
 #undef real
 #undef CM_FN
 #undef cm_log
@@ -34,6 +38,8 @@
 #undef cm_min
 #undef cm_max
 #undef cm_clamp
+#undef cm_atan2
+#undef cm_tan
 
 /* ---- float: cmf_<name> ---- */
 #define real float
@@ -45,7 +51,10 @@
 #define cm_min(a, b) fminf(a, b)
 #define cm_max(a, b) fmaxf(a, b)
 #define cm_clamp(x, lo, hi) fminf(fmaxf(x, lo), hi)
+#define cm_atan2(y, x) atan2f(y, x)
+#define cm_tan(x) tanf(x)
 #include "shaders/cache_math.glsl"
+#include "shaders/sampling_math.glsl"
 #undef real
 #undef CM_FN
 #undef cm_log
@@ -55,6 +64,8 @@
 #undef cm_min
 #undef cm_max
 #undef cm_clamp
+#undef cm_atan2
+#undef cm_tan
 
 /* The constants (CM_EPS, CM_LN_E_MIN, ...) expand to CM_REAL(x) where they are used;
    both instantiations above are already expanded, so from here on CM_REAL is the plain

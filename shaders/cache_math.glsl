@@ -7,7 +7,7 @@
 // Common-subset rules: scalar code only; no out-parameters (a function returns one
 // scalar, several values mean one call per axis); no vectors, structs, arrays, casts or
 // `static`; literals through CM_REAL(); every function defined before its first use.
-// Macros (GLSL side below; the C prelude defines the same set):
+// Macros (GLSL side in c_subset.glsl; the C prelude defines the same set):
 //   real          float (GLSL) / double or float (C)
 //   CM_FN(name)   function name: cm_<name> in GLSL and in C double, cmf_<name> in C float
 //   CM_API        storage class: empty (GLSL) / static inline (C)
@@ -39,28 +39,13 @@
 // |sigma_v * x| <= 1.4e26, finite in float.  Squares are taken only of numbers scaled
 // to [0, 1] or of ratios <= 1e12, so float never overflows either.
 
-#if defined(GL_core_profile) || defined(GL_SPIRV) || defined(VULKAN) || defined(GL_ES)
-#define CM_GLSL 1
-#endif
+#include "c_subset.glsl"
 
 #if !defined(CM_GLSL) || !defined(CACHE_MATH_GLSL_ONCE)
 
 #ifdef CM_GLSL
 #define CACHE_MATH_GLSL_ONCE 1
 #define real float
-#define CM_FN(name) cm_##name
-#define CM_API
-#define CM_REAL(x) float(x)
-#define cm_log(x) log(x)
-#define cm_exp(x) exp(x)
-#define cm_sqrt(x) sqrt(x)
-#define cm_abs(x) abs(x)
-#define cm_min(a, b) min(a, b)
-#define cm_max(a, b) max(a, b)
-#define cm_clamp(x, lo, hi) clamp(x, lo, hi)
-// Exponent-bit test instead of isnan/isinf, which a compiler may fold to false under
-// the Vulkan rule that lets it assume no NaN or inf.
-#define cm_isfinite(x) ((floatBitsToUint(x) & 0x7f800000u) != 0x7f800000u)
 #else
 #if !defined(real) || !defined(CM_FN) || !defined(CM_API) || !defined(CM_REAL) || \
     !defined(cm_log) || !defined(cm_isfinite) || !defined(cm_clamp)

@@ -37,7 +37,9 @@ struct Light {
     vec3 edge_u;   float size;   // rect edge_u; sphere radius, or 1 - cos(half angle) for
                                  // directional (0: a delta light)
     vec3 edge_v;   float area;   // rect edge_v and area
-    float cdf; float unused0; float unused1; float unused2; // upper end of its interval
+    float cdf;     float eq_pmf;  // upper end of its interval; the probability of choosing
+                                 // it for equiangular sampling (0: not served)
+    float eq_cdf;  float unused0; // upper end of its equiangular interval
 };
 
 // The scene (host mirror: picvr_gpu_scene in host/internal.h; `make check-layout`
@@ -306,31 +308,63 @@ bool ratio_collide(inout float T, float s, float m, inout Rng rng) {
     return false;
 }
 
-// Tracking through one dense brick at voxel resolution, from t to t_end, sharing the
-// caller's step counter.  Returns true when the walk ended the whole track: a real
-// collision (delta tracking; t holds it) or a zero transmittance (ratio tracking).
-bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, inout float T,
+// Specialization: transmittance by residual ratio tracking (true) or plain ratio
+// tracking (false, the paper's Exposure Render estimator).
+layout(constant_id = 8) const bool USE_RESIDUAL = true;
+
+// The control extinction of residual ratio tracking in coarse cell d: the cell's
+// minorant (the third part of the majorant buffer; 0 where the transfer function
+// reaches 0 over the cell's value range), so sigma_t - control lies in [0, majorant -
+// control] everywhere in the cell.
+float cell_minorant(Dda d) {
+    uint cells = scene.grid.x * scene.grid.y * scene.grid.z;
+    return majorant[2u * cells + cell_index(d)];
+}
+
+// One stretch [t, t_end) of tracking under one majorant m and control c (c = 0 but for
+// residual ratio tracking): tentative collisions at rate m - c.  Delta tracking:
+// returns true at a real collision (t holds it).  Ratio tracking: T takes the control's
+// exact attenuation exp(-c (t_stop - t)) and the weight 1 - (sigma_t - c) / (m - c) of
+// each tentative collision (residual ratio tracking, Novak et al. 2014, "Residual ratio
+// tracking for estimating attenuation in participating media", §5: E[T] = exp(-tau)
+// since the control part is integrated exactly and the residual part is ratio-tracked);
+// returns true when T fell to 0.  Returns false, with t = t_end, when the stretch ends.
+// Every tentative collision counts one step against the caller's bound.
+bool track_stretch(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, float m, float c,
+                   inout float T, inout Rng rng, inout uint steps) {
+    float rate = m - c;
+    for (; steps < MAX_TRACK_STEPS; steps++) {
+        // -log(1 - u) is finite because u < 1 (rnd has 24 bits); rate 0: no tentative collision
+        float t_try = rate > 0.0 ? t - log(1.0 - rnd(rng)) / rate : t_end;
+        float t_stop = min(t_try, t_end);
+        if (ratio && c > 0.0) T *= exp(-c * (t_stop - t));
+        if (t_try >= t_end) { t = t_end; return false; }
+        t = t_try;
+        float s = sigma_t(ro + rd * t);
+        if (!ratio) {
+            if (rnd(rng) * m < s) return true;
+        } else if (ratio_collide(T, s - c, rate, rng)) {
+            return true;
+        }
+    }
+    return false;
+}
+
+// Tracking through one dense brick at voxel resolution, from t to t_end, with the
+// brick's control c, sharing the caller's step counter.  Returns true when the walk
+// ended the whole track: a real collision (delta tracking; t holds it) or a zero
+// transmittance (ratio tracking).
+bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, float c, inout float T,
                   inout Rng rng, inout uint steps) {
     Dda f = fine_start(ro, rd, t);
-    float m = fine_majorant(f);
     for (; steps < MAX_TRACK_STEPS; steps++) {
         float t_seg = min(dda_exit(f), t_end);
-        if (m > 0.0) {
-            float t_try = t - log(1.0 - rnd(rng)) / m;
-            if (t_try < t_seg) {
-                t = t_try;
-                float s = sigma_t(ro + rd * t);
-                if (!ratio) {
-                    if (rnd(rng) * m < s) return true;
-                } else if (ratio_collide(T, s, m, rng)) {
-                    return true;
-                }
-                continue;
-            }
-        }
+        // the brick's minorant bounds sigma_t from below in each of its voxels too
+        float m = max(fine_majorant(f), c);
+        if (track_stretch(ratio, ro, rd, t, t_seg, m, c, T, rng, steps)) return true;
+        if (steps >= MAX_TRACK_STEPS) return false;
         t = t_seg;
         if (t >= t_end || !dda_advance(f)) { t = t_end; return false; }
-        m = fine_majorant(f);
     }
     return false;
 }
@@ -338,7 +372,8 @@ bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, inou
 // Delta (Woodcock) tracking (ratio false) or ratio tracking (ratio true) in [t0, t1]:
 // one walk through the majorant grid for both; every caller passes a constant, so each
 // compiles to its own loop.  Free flights restart at cell boundaries (the exponential
-// distribution is memoryless), so each cell uses its own majorant.  Every iteration
+// distribution is memoryless), so each cell uses its own majorant; ratio tracking is
+// residual (USE_RESIDUAL), with each cell's minorant as its control.  Every iteration
 // (a tentative collision, a cell step, an empty-space jump, also inside fine_segment)
 // counts against one bound; past it the track is truncated (biased, counted) and
 // treated as passing.  Returns, for delta tracking, the distance of a real collision
@@ -346,40 +381,31 @@ bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, inou
 float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, T = 1.0;
-    float maj = cell_majorant(d);
     for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
         float t_cell = min(dda_exit(d), t1);
+        float maj = cell_majorant(d);
         if (maj > 0.0) {
-            if (USE_FINE && maj * (t_cell - t) > FINE_THRESHOLD) {
-                if (fine_segment(ratio, ro, rd, t, t_cell, T, rng, i)) return ratio ? T : t;
-                if (i >= MAX_TRACK_STEPS) break;
-            } else {
-                // -log(1 - u) is finite because u < 1 (rnd has 24 bits).
-                float t_try = t - log(1.0 - rnd(rng)) / maj;
-                if (t_try < t_cell) {
-                    t = t_try;
-                    float s = sigma_t(ro + rd * t);
-                    if (!ratio) {
-                        if (rnd(rng) * maj < s) return t;
-                    } else if (ratio_collide(T, s, maj, rng)) {
-                        return 0.0;
-                    }
-                    continue;
-                }
-            }
+            float c = ratio && USE_RESIDUAL ? min(cell_minorant(d), maj) : 0.0;
+            bool ended;
+            if (USE_FINE && (maj - c) * (t_cell - t) > FINE_THRESHOLD)
+                ended = fine_segment(ratio, ro, rd, t, t_cell, c, T, rng, i);
+            else
+                ended = track_stretch(ratio, ro, rd, t, t_cell, maj, c, T, rng, i);
+            if (ended) return ratio ? 0.0 : t;
+            if (i >= MAX_TRACK_STEPS) break;
+            // a control alone does not end a path: roulette it as a collision would
+            if (ratio && T < 0.1 && ratio_collide(T, 0.0, 1.0, rng)) return 0.0;
         } else {
             float jump = empty_skip(d, rd);
             if (jump > 0.0) {
                 t += jump;
                 if (t >= t1) return ratio ? T : -1.0;
                 d = coarse_start(ro, rd, t);
-                maj = cell_majorant(d);
                 continue;
             }
         }
         t = t_cell;
         if (t >= t1 || !dda_advance(d)) return ratio ? T : -1.0;
-        maj = cell_majorant(d);
     }
     truncated = true;
     return ratio ? T : -1.0;

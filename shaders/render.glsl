@@ -11,6 +11,8 @@
 // whole group run the rays), and each kernel is smaller (docs/cache.md, "The rendering
 // procedure as three kernels").
 #include "common.glsl"
+#include "sampling_math.glsl"
+#include "distance.glsl"
 #include "queue.glsl"
 
 layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  // rgb, coverage
@@ -82,8 +84,10 @@ vec3 direct_light(vec3 x, inout Rng rng, inout bool truncated) {
     return L;
 }
 
-// A scatter event, as the event kernels take it up again.
-struct ScatterEvent { uint idx; uvec2 px; float t; vec3 x; Rng rng; bool truncated; };
+// A scatter event, as the event kernels take it up again: t < 0 (only with
+// USE_EQUIANGULAR, where every ray through the volume is queued) when delta tracking
+// passed.
+struct ScatterEvent { uint idx; uvec2 px; vec3 rd; float t; vec3 x; Rng rng; bool truncated; };
 
 // Queue Q (shade_queue or lookup_queue) gains the event (idx, t, rng, truncated): a
 // macro, as GLSL passes no buffers to functions.
@@ -102,9 +106,9 @@ ScatterEvent unpack_event(uint idx, uint t_bits, uint w) {
     e.idx = idx;
     e.px = uvec2(idx % scene.image.x, idx / scene.image.x);
     e.rng = pixel_rng(idx);
-    vec3 rd = camera_ray(e.px, e.rng);
+    e.rd = camera_ray(e.px, e.rng);
     e.t = uintBitsToFloat(t_bits);
-    e.x = scene.cam_pos + rd * e.t;
+    e.x = scene.cam_pos + e.rd * max(e.t, 0.0);
     e.rng.counter = w & 0x7fffffffu;
     e.truncated = (w & 0x80000000u) != 0u;
     return e;
@@ -115,3 +119,71 @@ ScatterEvent unpack_event(uint idx, uint t_bits, uint w) {
     uint i_ = gl_GlobalInvocationID.x;                                                  \
     if (i_ >= Q.head.w) return;                                                         \
     e = unpack_event(Q.ev[i_ * EVENT_WORDS], Q.ev[i_ * EVENT_WORDS + 1u], Q.ev[i_ * EVENT_WORDS + 2u]); }
+
+// What a camera ray sees at the end of its medium segment [t0, t1]: the nearest area
+// light, else the background.  t0 >= t1 when it misses the volume.
+struct CameraSegment { float t0; float t1; vec3 end_radiance; };
+
+CameraSegment camera_segment(vec3 rd) {
+    CameraSegment c;
+    float t_light;
+    int light_hit = nearest_area_light(scene.cam_pos, rd, 1e30, t_light);
+    c.end_radiance = light_hit >= 0 ? area_light_radiance(uint(light_hit), rd) : scene.background;
+    if (!box_interval(scene.cam_pos, rd, c.t0, c.t1)) { c.t0 = 0.0; c.t1 = 0.0; }
+    c.t1 = min(c.t1, t_light);
+    return c;
+}
+
+// Parts B and C of an equiangular camera sample (distance.glsl) and part A's weight.
+// T_end < 0: part C was left out (nothing to see at the end of the segment).
+struct CameraSample { float w_a; float t_b; float f_b; float T_end; };
+
+CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, inout Rng rng, inout bool truncated) {
+    vec3 ro = scene.cam_pos;
+    CameraSample c;
+    c.t_b = eq_sample(ro, e.rd, seg.t0, seg.t1, rng);
+    c.f_b = 0.0;
+    // B's transmittance is needed where it lands in medium, or for the end term
+    float s_b = c.t_b >= 0.0 ? sigma_t(ro + e.rd * c.t_b) : 0.0;
+    float T_b = 1.0;
+    if (s_b > 0.0 || (need_end && c.t_b >= 0.0)) T_b = transmittance(ro, e.rd, c.t_b, rng, truncated);
+    // the end term: T^(t_B) times an independent estimate over [t_B, t1]
+    float t_mid = max(c.t_b, seg.t0);
+    c.T_end = -1.0;
+    if (need_end)
+        c.T_end = T_b > 0.0 ? T_b * transmittance(ro + e.rd * t_mid, e.rd, seg.t1 - t_mid, rng, truncated) : 0.0;
+    bool b_counts = s_b > 0.0 && T_b > 0.0;
+    vec2 tau = minorant_depths(ro, e.rd, seg.t0, e.t, b_counts ? c.t_b : -1.0);
+    c.w_a = 1.0;
+    if (e.t >= 0.0) {
+        float q = free_flight_proxy(sigma_t(e.x), tau.x);
+        c.w_a = cm_mis_power(q, eq_mixture_pdf(ro, e.rd, seg.t0, seg.t1, e.t));
+    }
+    if (b_counts) {
+        float q = free_flight_proxy(s_b, tau.y);
+        c.f_b = cm_eq_weight(T_b, s_b, q, eq_mixture_pdf(ro, e.rd, seg.t0, seg.t1, c.t_b));
+    }
+    return c;
+}
+
+// The radiance of an equiangular camera sample; Ls_a is part A's in-scattered radiance
+// (its albedo included) when a_known, else A is shaded here by plain Monte Carlo (when
+// delta tracking collided).  B is shaded by plain Monte Carlo.  coverage: 1 - T^(t1) in
+// [0, 1], or delta tracking's 0/1 outcome (also unbiased) where part C is left out:
+// nothing but black is seen at the end of the segment.
+vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, out float coverage) {
+    CameraSegment seg = camera_segment(e.rd);
+    bool need_end = any(greaterThan(seg.end_radiance, vec3(0.0)));
+    CameraSample c = camera_sample(e, seg, need_end, e.rng, e.truncated);
+    vec3 L = need_end ? c.T_end * seg.end_radiance : vec3(0.0);
+    if (e.t >= 0.0) {
+        if (!a_known) Ls_a = albedo_at(e.x) * direct_light(e.x, e.rng, e.truncated);
+        L += c.w_a * Ls_a;
+    }
+    if (c.f_b > 0.0) {
+        vec3 xb = scene.cam_pos + e.rd * c.t_b;
+        L += c.f_b * albedo_at(xb) * direct_light(xb, e.rng, e.truncated);
+    }
+    coverage = need_end ? clamp(1.0 - c.T_end, 0.0, 1.0) : (e.t >= 0.0 ? 1.0 : 0.0);
+    return L;
+}

@@ -40,9 +40,12 @@ void main() {
         Ls = direct_light(e.x, e.rng, e.truncated);
     }
     vec3 radiance = albedo_at(e.x) * Ls;
+    float coverage = 1.0;
+    if (USE_EQUIANGULAR && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE))
+        radiance = finish_camera_sample(e, true, radiance, coverage);
     if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE)
         radiance = near_centre ? vec3(1.0) : hit ? vec3(0.1, 0.8, 0.2) : vec3(0.8, 0.1, 0.1);
     if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE_ERROR)
         radiance = hit ? cache_error_sample(e.x, radiance, e.rng, e.truncated) : vec3(0.0);
-    accumulate_sample(e.idx, radiance, 1.0, e.truncated);
+    accumulate_sample(e.idx, radiance, coverage, e.truncated);
 }

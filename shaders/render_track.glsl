@@ -19,10 +19,15 @@ void main() {
 
     float t_light;
     int light_hit = nearest_area_light(ro, rd, 1e30, t_light);
-    float t = -1.0, t0, t1;
+    float t = -1.0, t0 = 0.0, t1 = 0.0;
     if (box_interval(ro, rd, t0, t1)) {
         t1 = min(t1, t_light);
         if (t1 > t0) t = delta_track(ro, rd, t0, t1, rng, truncated);
+    }
+    // with equiangular sampling every ray through the volume has more to gather
+    if (USE_EQUIANGULAR && t < 0.0 && t1 > t0 && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE)) {
+        QUEUE_EVENT(shade_queue, idx, t, rng, truncated)
+        return;
     }
     if (t >= 0.0) {
 #ifdef PICVR_CACHE

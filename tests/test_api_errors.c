@@ -665,6 +665,10 @@ void test_create_config_errors(void **state) {
     } while (0)
     CFG_ROW("log_level 99", PICVR_ERROR_INVALID_ARGUMENT, cfg.log_level = (picvr_log_level)99);
     CFG_ROW("validation 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.validation = (picvr_switch)7);
+    CFG_ROW("distance_sampling 3", PICVR_ERROR_INVALID_ARGUMENT, cfg.distance_sampling = (picvr_distance_sampling)3);
+    CFG_ROW("distance_sampling -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.distance_sampling = (picvr_distance_sampling)-1);
+    CFG_ROW("transmittance 3", PICVR_ERROR_INVALID_ARGUMENT, cfg.transmittance = (picvr_transmittance_estimator)3);
+    CFG_ROW("transmittance -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.transmittance = (picvr_transmittance_estimator)-1);
     CFG_ROW("vulkan.device without instance/queue", PICVR_ERROR_INVALID_ARGUMENT, cfg.vulkan.device = (void *)&cfg);
     CFG_ROW("allocator free only", PICVR_ERROR_INVALID_ARGUMENT, cfg.allocator.free = free_hook);
     /* cache */
@@ -755,6 +759,8 @@ void test_get_config_resolves_defaults(void **state) {
     assert_int_equal(c.seed, 3);
     assert_non_null(c.device_name);
     assert_int_equal(c.log_level, PICVR_LOG_WARNING);
+    assert_int_equal(c.distance_sampling, PICVR_DISTANCE_MIS);   /* the header: DEFAULT is MIS */
+    assert_int_equal(c.transmittance, PICVR_TRANSMITTANCE_RESIDUAL);
     picvr_stats st;
     TU_OK(picvr_get_stats(a, &st));
     assert_int_equal(c.validation, st.validation_enabled ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF);

@@ -644,3 +644,43 @@ void tu_absorption_ray(const double o[3], const double d[3], void *user, double 
     out[0] = out[1] = out[2] = T;
     out[3] = 1 - T;
 }
+
+/* ---- a point light over a homogeneous box (test_sampling.c, test_robust_sweep.c) ---- */
+
+typedef struct tu_point_ray_state {
+    const tu_point_scene *s;
+    double o[3], d[3], t0, delta, D;
+} tu_point_ray_state;
+
+/* The integrand in theta: t = Delta + D tan theta, dt / |x - p|^2 = dtheta / D. */
+static double tu_point_integrand(double theta, void *user) {
+    const tu_point_ray_state *r = (const tu_point_ray_state *)user;
+    const tu_point_scene *s = r->s;
+    double t = r->delta + r->D * tan(theta), x[3];
+    for (int i = 0; i < 3; i++) x[i] = r->o[i] + t * r->d[i];
+    double in = tu_segment_in_box(x, s->p, s->bmin, s->bmax);
+    return s->albedo * s->sigma * exp(-s->sigma * (t - r->t0)) * s->I / (4.0 * M_PI * r->D) * exp(-s->sigma * in);
+}
+
+void tu_point_light_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    const tu_point_scene *s = (const tu_point_scene *)user;
+    double t0, t1;
+    out[0] = out[1] = out[2] = out[3] = 0.0;
+    if (!tu_ray_box(o, d, s->bmin, s->bmax, &t0, &t1)) return;
+    tu_point_ray_state r;
+    r.s = s;
+    r.t0 = t0;
+    double oc[3], perp[3];
+    for (int i = 0; i < 3; i++) { r.o[i] = o[i]; r.d[i] = d[i]; oc[i] = s->p[i] - o[i]; }
+    r.delta = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
+    for (int i = 0; i < 3; i++) perp[i] = oc[i] - r.delta * d[i];
+    r.D = sqrt(perp[0] * perp[0] + perp[1] * perp[1] + perp[2] * perp[2]);
+    if (r.D < 1e-9) r.D = 1e-9;
+    double ta = atan2(t0 - r.delta, r.D), tb = atan2(t1 - r.delta, r.D);
+    /* a dense medium: the integrand is below e^-60 beyond 60 mean free paths */
+    if (s->sigma * (t1 - t0) > 60.0) tb = atan2(t0 + 60.0 / s->sigma - r.delta, r.D);
+    double L = tu_integrate(tu_point_integrand, &r, ta, tb, 64);
+    out[0] = out[1] = out[2] = L;
+    out[3] = 1.0 - exp(-s->sigma * (t1 - t0));
+}
+

@@ -41,6 +41,13 @@
 
 /* ---- every test of the suite (defined in tests/test_*.c) -------------------------- */
 #define TU_ALL_TESTS(X)                                             \
+    /* test_sampling.c */                                           \
+    X(test_sampling_equiangular_pdf_integrates_to_one)              \
+    X(test_sampling_equiangular_histogram_matches_pdf)              \
+    X(test_sampling_mis_weights_sum_to_one)                         \
+    X(test_sampling_extreme_inputs)                                 \
+    X(test_sampling_point_light_thin_closed_form)                   \
+    X(test_sampling_point_light_inside_closed_form)                 \
     /* test_cache_math.c */                                         \
     X(test_cache_math_exponential_field)                            \
     X(test_cache_math_validity_radius)                              \
@@ -130,6 +137,7 @@
     /* test_real_data.c */                                          \
     X(test_real_data_fuel_smoke)                                    \
     /* test_robust_sweep.c (issue 6) */                             \
+    X(test_sweep_point_light_extremes)                              \
     X(test_sweep_optical_thickness_beer_lambert)                    \
     X(test_sweep_optical_thickness_sun)                             \
     X(test_sweep_optical_thickness_sun_cache)                       \
@@ -288,6 +296,14 @@ typedef struct tu_homog {
 } tu_homog;
 /* Beer-Lambert through a tu_homog (user): rgb = T, alpha = 1 - T; for tu_expected_image. */
 void tu_homog_ray(const double o[3], const double d[3], void *user, double out[4]);
+/* Single scattering of a homogeneous box (extinction sigma, grey albedo) lit by a point
+   light of intensity I at p, black background: L = int albedo sigma e^{-sigma (t - t0)}
+   I / (4 pi |x - p|^2) e^{-sigma s(x)} dt (s: the part of x->p in the box), by
+   Gauss-Legendre in the angle seen from the light (test_sampling.c); alpha = 1 - T. */
+typedef struct tu_point_scene {
+    double bmin[3], bmax[3], sigma, albedo, I, p[3];
+} tu_point_scene;
+void tu_point_light_ray(const double o[3], const double d[3], void *user, double out[4]);
 /* Solid angle of the triangle (a, b, c) seen from x (Van Oosterom-Strackee). */
 double tu_triangle_solid_angle(const double x[3], const double a[3], const double b[3],
                                const double c[3]);

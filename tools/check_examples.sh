@@ -47,7 +47,7 @@ int main(void) {
 #include "$name.inc"
     fprintf(stderr, "$name: %u iterations, est_rel_error %g, %u validation messages, device %s\n",
             st.iterations, st.est_rel_error, st.validation_messages, st.device_name);
-    return st.iterations > 0 && isfinite(st.est_rel_error) && st.validation_messages == 0 ? 0 : 1;
+    return st.iterations_mean > 0 && isfinite(st.est_rel_error) && st.validation_messages == 0 ? 0 : 1;
 }
 WRAP
     $CC -O2 -std=c11 -Wall -Wextra -Wpedantic -Wshadow -Werror -I. -I"$D" \

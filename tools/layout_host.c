@@ -54,6 +54,8 @@ int main(void)
     PICVR_LIGHT(edge_v);
     PICVR_LIGHT(area);
     PICVR_LIGHT(cdf);
+    PICVR_LIGHT(eq_pmf);
+    PICVR_LIGHT(eq_cdf);
     printf("CacheEntries %u\n", PICVR_CACHE_ENTRY_BYTES);
     printf("CacheNodes %u\n", PICVR_CACHE_NODE_BYTES);
     printf("CacheRefs %u\n", PICVR_CACHE_REF_BYTES);
