@@ -79,12 +79,17 @@
  *   transfer function and D the density factor (paper Fig. 9).  With spacing 1 the
  *   optical thickness of one voxel is D * opacity.  sigma_s = albedo * sigma_t.
  * Rendering.  Per pixel and iteration: one jittered primary ray, free-flight
- *   sampling by delta tracking against a per-brick majorant grid, at the scatter
- *   event direct light from one light chosen by power (shadow ray by ratio tracking),
- *   isotropic phase function, multiple importance sampling (power heuristic) between
- *   light and phase sampling for area lights, a sun with angular size and the
- *   background.  A ray that leaves the volume sees the background (and area lights).
- *   Single scattering only, as in Exposure Render.
+ *   sampling by delta tracking against a per-brick majorant grid and, where point,
+ *   sphere or rect lights are near the volume, a second scatter location drawn by
+ *   equiangular sampling toward them, the two combined by multiple importance
+ *   sampling so that every ray through the medium gathers light (config
+ *   distance_sampling); at each scatter location direct light from one light chosen
+ *   by power (shadow ray by residual ratio tracking, config transmittance), isotropic
+ *   phase function, multiple importance sampling (power heuristic) between light and
+ *   phase sampling for area lights, a sun with angular size and the background.  A
+ *   ray that leaves the volume sees the background (and area lights), weighted by its
+ *   estimated transmittance.  Single scattering only, as in Exposure Render.  Every
+ *   estimator is unbiased (docs/sampling.md).
  * Units of lights (colour * intensity):  sphere and rectangle: emitted radiance;
  *   directional: irradiance on a plane facing the light; point: radiant intensity
  *   (W/sr); background: radiance from every direction.
@@ -276,12 +281,16 @@ typedef struct picvr_vulkan {
 typedef enum picvr_distance_sampling {
     PICVR_DISTANCE_DEFAULT = 0,    /* PICVR_DISTANCE_MIS */
     PICVR_DISTANCE_MIS,            /* delta tracking and equiangular sampling toward the
-                                      point, sphere and rect lights (Kulla and Fajardo
-                                      2012), combined by multiple importance sampling:
-                                      every ray through the volume gathers light.  A
-                                      scene without such lights runs FREE_FLIGHT's code */
-    PICVR_DISTANCE_FREE_FLIGHT     /* delta tracking alone (Exposure Render, the paper's
-                                      baseline): a ray that passes gathers nothing */
+                                      point, sphere and rect lights near the volume (Kulla
+                                      and Fajardo 2012), combined by multiple importance
+                                      sampling: every ray through the volume gathers
+                                      light; without such lights, delta tracking alone.
+                                      The pixel's jitter and the equiangular distance
+                                      follow a randomly shifted low-discrepancy sequence
+                                      per pixel */
+    PICVR_DISTANCE_FREE_FLIGHT     /* delta tracking alone and independent random numbers
+                                      (Exposure Render, the paper's baseline): a ray that
+                                      passes gathers nothing */
 } picvr_distance_sampling;
 /* How transmittance (shadow rays, and the camera ray with PICVR_DISTANCE_MIS) is
    estimated; both are unbiased. */
@@ -487,8 +496,9 @@ picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view);
 picvr_status picvr_reset(picvr_context *ctx);
 
 /* Reads the image, rows top to bottom, 4 bytes per pixel: colour tone-mapped as
-   1 - exp(-exposure * radiance) then sRGB-encoded; alpha = fraction of samples that
-   scattered in the volume (coverage, for compositing).  exposure <= 0 means 1.
+   1 - exp(-exposure * radiance) then sRGB-encoded; alpha = the volume's opacity along
+   the pixel's rays, 1 - transmittance (coverage, for compositing; estimated per sample,
+   by the scatter events or by the transmittance estimate).  exposure <= 0 means 1.
    size must be >= width*height*4.  Before any iteration the image is all zero. */
 picvr_status picvr_read_rgba8(picvr_context *ctx, uint8_t *pixels, size_t size, float exposure);
 

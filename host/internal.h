@@ -76,6 +76,7 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_MONO_SHIFT 3u     /* constant 4 MONO_CHANNEL: 2 bits, 3 = colours differ */
 #define PICVR_KEY_EQUIANGULAR 32u   /* constant 7 USE_EQUIANGULAR */
 #define PICVR_KEY_RESIDUAL 64u      /* constant 8 USE_RESIDUAL */
+#define PICVR_KEY_QMC 128u          /* constant 9 USE_QMC */
 
 /* The kernels of one variant: creation and update have one (KERNEL_MAIN); rendering
    has its tracking kernel there, then its shading kernel and, cached, the lookup

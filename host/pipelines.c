@@ -90,19 +90,21 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
     uint32_t mis = ctx->scene.use_phase_mis ? PICVR_KEY_PHASE_MIS : 0u, fine = ctx->scene.use_fine ? PICVR_KEY_FINE : 0u;
     uint32_t mono = (uint32_t)ctx->scene.gpu.mono_channel << PICVR_KEY_MONO_SHIFT;
     uint32_t residual = ctx->config.transmittance == PICVR_TRANSMITTANCE_RESIDUAL ? PICVR_KEY_RESIDUAL : 0u;
-    uint32_t equi = ctx->scene.use_equiangular && ctx->config.distance_sampling == PICVR_DISTANCE_MIS
-                  ? PICVR_KEY_EQUIANGULAR : 0u;
+    uint32_t mis_mode = ctx->config.distance_sampling == PICVR_DISTANCE_MIS;
+    uint32_t equi = ctx->scene.use_equiangular && mis_mode ? PICVR_KEY_EQUIANGULAR : 0u;
+    uint32_t qmc = mis_mode ? PICVR_KEY_QMC : 0u;
     if (proc == PICVR_PROC_CREATE) return mis | fine;
-    if (proc == PICVR_PROC_UPDATE) return fine | mono;
-    if (!ctx->cache.on) return mis | fine | residual | equi;
-    return mis | fine | mono | residual | equi | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
+    if (proc == PICVR_PROC_UPDATE) return fine | mono | qmc;
+    if (!ctx->cache.on) return mis | fine | residual | equi | qmc;
+    return mis | fine | mono | residual | equi | qmc | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
 }
 
 /* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
    the procedure has no such kernel; on a failure none is left).  One set of constants
    for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
    creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
-   MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR and 8 USE_RESIDUAL from the key. */
+   MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR, 8 USE_RESIDUAL and 9 USE_QMC from
+   the key. */
 static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
@@ -112,18 +114,19 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
         mod[PICVR_KERNEL_SHADE] = ctx->pipes.shade_module;
         if (ctx->cache.on) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
     }
-    uint32_t value[9] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP,
+    uint32_t value[10] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP,
                          (key & PICVR_KEY_DEBUG_VIEW) != 0, (key >> PICVR_KEY_MONO_SHIFT) & 3u,
                          ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE,
                          ctx->cache.on ? ctx->cache.cfg.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS,
-                         (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0};
-    VkSpecializationMapEntry entry[9];
-    for (uint32_t i = 0; i < 9; i++) {
+                         (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0,
+                         (key & PICVR_KEY_QMC) != 0};
+    VkSpecializationMapEntry entry[10];
+    for (uint32_t i = 0; i < 10; i++) {
         entry[i].constantID = i;
         entry[i].offset = 4 * i;
         entry[i].size = 4;
     }
-    VkSpecializationInfo spec = {9, entry, sizeof value, value};
+    VkSpecializationInfo spec = {10, entry, sizeof value, value};
     picvr_status s = PICVR_OK;
     for (int k = 0; k < PICVR_KERNELS; k++) {
         out[k] = VK_NULL_HANDLE;

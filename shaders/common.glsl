@@ -85,13 +85,34 @@ uint pcg_hash(uint v) {
     return (word >> 22u) ^ word;
 }
 
-struct Rng { uint key; uint counter; };
+// key and counter: the hash stream of one sample.  lattice_key and index: the sample's
+// place in its pixel's low-discrepancy sequence (qmc below).
+struct Rng { uint key; uint counter; uint lattice_key; uint index; };
 
 Rng rng_init(uint pixel, uint iteration, uint seed) {
     Rng r;
     r.key = pcg_hash(pixel ^ pcg_hash(iteration ^ pcg_hash(seed + 0x9e3779b9u)));
     r.counter = 0u;
+    r.lattice_key = pcg_hash(pixel ^ pcg_hash(seed + 0x7f4a7c15u));
+    r.index = iteration;
     return r;
+}
+
+// Dimension dim (0-2) of sample `index` of a randomly shifted Kronecker sequence, the
+// R3 sequence (Roberts 2018: frac(shift + n alpha), alpha_d = g^-d, g the root of
+// x^4 = x + 1): successive samples of a pixel fill its 3D space evenly, so smooth
+// integrands over these dimensions (the pixel's jitter, the equiangular distance)
+// converge faster than with independent numbers.  The shift is uniform and fixed per
+// pixel (lattice_key), so every sample is uniform on its own and the estimate stays
+// unbiased.  32-bit fixed point: n alpha mod 1 is exact for any n.
+// Specialization: the pixel's jitter from the sequence (false: independent numbers, the
+// paper's baseline as picvr_config.distance_sampling FREE_FLIGHT renders it).
+layout(constant_id = 9) const bool USE_QMC = true;
+
+float qmc(Rng r, uint dim) {
+    uint alpha = dim == 0u ? 3518319154u : dim == 1u ? 2882110346u : 2360945575u;
+    uint x = r.index * alpha + pcg_hash(r.lattice_key + dim * 0x9e3779b9u);
+    return float(x >> 8u) * (1.0 / 16777216.0);
 }
 
 // Uniform in [0,1): 24 random bits, so 1 - u is never 0.
@@ -625,7 +646,8 @@ uint select_light(float u) {
 
 // ---- camera: the pinhole model documented in picvr.h ----
 vec3 camera_ray(uvec2 px, inout Rng rng) {
-    float jx = rnd(rng), jy = rnd(rng);
+    float jx = USE_QMC ? qmc(rng, 0u) : rnd(rng);
+    float jy = USE_QMC ? qmc(rng, 1u) : rnd(rng);
     float h = scene.tan_half_fov, aspect = scene.aspect;
     float sx = (2.0 * (float(px.x) + jx) / float(scene.image.x) - 1.0) * h * aspect;
     float sy = (1.0 - 2.0 * (float(px.y) + jy) / float(scene.image.y)) * h;
