@@ -67,6 +67,10 @@ static const scene_def SCENES[] = {
     {"bonsai", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper1", 1.0f},
     {"engine", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper3", 1.0f},
     {"cloud", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud", "sun", 3.33f},
+    {"bonsai-paper3", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper3", 1.0f},
+    {"bonsai-paper4", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper4", 1.0f},
+    {"engine-paper1", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper1", 1.0f},
+    {"engine-paper4", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper4", 1.0f},
 };
 #define N_SCENES (sizeof SCENES / sizeof SCENES[0])
 
@@ -374,7 +378,9 @@ static void print_help(FILE *f)
 {
     fprintf(f,
         "usage: " PROGRAM " [options]   (see the comment at the top of bench/bench_sampling.c)\n"
-        "  --scenes A,B     of thin, bonsai, engine, cloud (default thin)\n"
+        "  --scenes A,B     of thin, bonsai (paper1), engine (paper3), cloud (sun),\n"
+        "                   bonsai-paper3, bonsai-paper4, engine-paper1, engine-paper4\n"
+        "                   (default thin)\n"
         "  --data DIR       data directory (default ../shared/data)\n"
         "  --size WxH       image size (default 256x256)\n"
         "  --time MS        time per condition inside picvr_step (default 60000)\n"

@@ -48,6 +48,7 @@
     X(test_sampling_extreme_inputs)                                 \
     X(test_sampling_point_light_thin_closed_form)                   \
     X(test_sampling_point_light_inside_closed_form)                 \
+    X(test_sampling_residual_transmittance_heterogeneous)           \
     /* test_cache_math.c */                                         \
     X(test_cache_math_exponential_field)                            \
     X(test_cache_math_validity_radius)                              \
