@@ -27,7 +27,7 @@ help:
 	@echo "make bench-scheduler  error vs time with/without priorities, device-time shares"
 	@echo "make bench-long-run   10 min plain vs cached: hit rate and error ratio over time"
 	@echo "make bench-hit-rate   hit rate against entry count; time to 0.8 on this device"
-	@echo "make bench-sampling   plain Monte Carlo before/after its distance sampling (~40 min)"
+	@echo "make bench-sampling   plain Monte Carlo before/after its distance sampling (~25 min)"
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
 	@echo "make check-layout host mirrors of the shaders' buffer layouts and constants match"
 	@echo "make check-examples  the examples of picvr.h and README.md compile (-Werror) and run"
@@ -138,12 +138,12 @@ bench-hit-rate: deps $(B)/picvr-render
 	DATA=$(DATA) sh bench/hit_rate.sh $(SECS)
 
 # Plain Monte Carlo before and after the distance sampling of camera rays, side by side
-# (docs/sampling.md): the thin medium at 256x256, the data sets at 128x128.
+# (docs/sampling.md): the thin medium at 256x256, the data sets at 128x128 (~25 min).
 bench-sampling: deps $(B)/picvr-bench-sampling
-	$(B)/picvr-bench-sampling --data $(DATA) --scenes thin --size 256x256 --time 120000 \
-	    --ref-time 400000 --out bench/results/sampling/thin
-	$(B)/picvr-bench-sampling --data $(DATA) --scenes bonsai,engine,cloud --size 128x128 \
-	    --time 60000 --ref-time 240000 --out bench/results/sampling/data
+	$(B)/picvr-bench-sampling --data $(DATA) --scenes thin --size 256x256 --time 90000 \
+	    --ref-time 320000 --out bench/results/sampling/thin
+	$(B)/picvr-bench-sampling --data $(DATA) --scenes bonsai,bonsai-paper4,engine,engine-paper1,cloud \
+	    --size 128x128 --time 30000 --ref-time 120000 --out bench/results/sampling/data
 
 clean:
 	rm -rf $(B)

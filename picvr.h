@@ -80,9 +80,9 @@
  *   optical thickness of one voxel is D * opacity.  sigma_s = albedo * sigma_t.
  * Rendering.  Per pixel and iteration: one jittered primary ray, free-flight
  *   sampling by delta tracking against a per-brick majorant grid and, where point,
- *   sphere or rect lights are near the volume, a second scatter location drawn by
- *   equiangular sampling toward them, the two combined by multiple importance
- *   sampling so that every ray through the medium gathers light (config
+ *   sphere or rect lights fall off steeply across the volume, a second scatter
+ *   location drawn by equiangular sampling toward them, the two combined by multiple
+ *   importance sampling so that every ray through the medium gathers light (config
  *   distance_sampling); at each scatter location direct light from one light chosen
  *   by power (shadow ray by residual ratio tracking, config transmittance), isotropic
  *   phase function, multiple importance sampling (power heuristic) between light and
@@ -281,10 +281,11 @@ typedef struct picvr_vulkan {
 typedef enum picvr_distance_sampling {
     PICVR_DISTANCE_DEFAULT = 0,    /* PICVR_DISTANCE_MIS */
     PICVR_DISTANCE_MIS,            /* delta tracking and equiangular sampling toward the
-                                      point, sphere and rect lights near the volume (Kulla
-                                      and Fajardo 2012), combined by multiple importance
-                                      sampling: every ray through the volume gathers
-                                      light; without such lights, delta tracking alone.
+                                      point, sphere and rect lights whose 1/d^2 falls off
+                                      steeply across the volume (Kulla and Fajardo 2012),
+                                      combined by multiple importance sampling: every ray
+                                      through the volume gathers light; without such
+                                      lights, delta tracking alone.
                                       The pixel's jitter and the equiangular distance
                                       follow a randomly shifted low-discrepancy sequence
                                       per pixel */
@@ -298,7 +299,8 @@ typedef enum picvr_transmittance_estimator {
     PICVR_TRANSMITTANCE_DEFAULT = 0, /* PICVR_TRANSMITTANCE_RESIDUAL */
     PICVR_TRANSMITTANCE_RESIDUAL,  /* residual ratio tracking (Novak et al. 2014) with each
                                       brick's least extinction as the control: exact in
-                                      homogeneous bricks, fewer and lighter collisions */
+                                      homogeneous bricks, fewer and lighter collisions;
+                                      ratio tracking where few bricks have a control */
     PICVR_TRANSMITTANCE_RATIO      /* ratio tracking against the majorant (the paper's) */
 } picvr_transmittance_estimator;
 typedef struct picvr_config {

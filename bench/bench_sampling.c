@@ -16,7 +16,7 @@
  *     1001, ...) of --ref-time / chunks each, averaged; its own error is estimated from
  *     the spread between chunks and removed from the measured errors in quadrature
  *     (err_true^2 = err_measured^2 - err_ref^2; the reference's error is reported).
- *  2. the two conditions, seed 101, in two live contexts stepped in turn, one --slice
+ *  2. the two conditions, seed 101 (--seed), in two live contexts stepped in turn, one --slice
  *     each, until each has spent --time ms inside picvr_step: both see the same machine
  *     load.  After every slice: time, passes, relative RMSE of the luminance against the
  *     reference, the image mean against the reference's mean.
@@ -54,7 +54,7 @@ typedef struct options {
     const char *scenes, *data, *out;
     uint32_t width, height;
     double time_ms, slice_ms, ref_ms;
-    uint32_t ref_chunks;
+    uint32_t ref_chunks, seed;
 } options;
 
 typedef struct scene_def {
@@ -328,7 +328,7 @@ static int run_scene(const options *o, const scene_def *sd, FILE *md, FILE *csv)
     float *rgba = (float *)malloc(pixels * 16);
     double *lum = (double *)malloc(pixels * sizeof(double));
     if (!rgba || !lum) { pvc_fail("out of memory"); ok = 0; }
-    for (int c = 0; c < 2 && ok; c++) ok = (runs[c].ctx = open_context(&ls, 101, c == 0)) != NULL;
+    for (int c = 0; c < 2 && ok; c++) ok = (runs[c].ctx = open_context(&ls, o->seed, c == 0)) != NULL;
     while (ok && (runs[0].spent < o->time_ms || runs[1].spent < o->time_ms)) {
         for (int c = 0; c < 2 && ok; c++) {
             run *r = &runs[c];
@@ -387,12 +387,13 @@ static void print_help(FILE *f)
         "  --slice MS       picvr_step budget between measurements (default 500)\n"
         "  --ref-time MS    the reference's rendering time (default 240000)\n"
         "  --ref-chunks N   independent contexts of the reference (default 4)\n"
+        "  --seed N         seed of both conditions' runs (default 101)\n"
         "  --out DIR        sampling.md and sampling.csv go there (default bench/results/sampling)\n");
 }
 
 static const pvc_option OPTIONS[] = {
     {"help", 0}, {"scenes", 1}, {"data", 1}, {"size", 1}, {"time", 1}, {"slice", 1},
-    {"ref-time", 1}, {"ref-chunks", 1}, {"out", 1}, {NULL, 0}};
+    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {NULL, 0}};
 
 static int apply_option(void *target, const char *name, const char *value)
 {
@@ -402,6 +403,7 @@ static int apply_option(void *target, const char *name, const char *value)
     else if (!strcmp(name, "out")) o->out = value;
     else if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "ref-chunks")) return pvc_parse_u32(value, 2, 1000, &o->ref_chunks) ? 1 : (pvc_bad_value(name, value), 0);
+    else if (!strcmp(name, "seed")) return pvc_parse_u32(value, 0, 999, &o->seed) ? 1 : (pvc_bad_value(name, value), 0);
     else {
         double v;
         if (!pvc_parse_double(value, &v) || !(v > 0.0)) { pvc_bad_value(name, value); return 0; }
@@ -415,7 +417,7 @@ static int apply_option(void *target, const char *name, const char *value)
 int main(int argc, char **argv)
 {
     pvc_set_program(PROGRAM);
-    options o = {"thin", "../shared/data", "bench/results/sampling", 256, 256, 60000.0, 500.0, 240000.0, 4};
+    options o = {"thin", "../shared/data", "bench/results/sampling", 256, 256, 60000.0, 500.0, 240000.0, 4, 101};
     int rc = pvc_parse_options(argc, argv, OPTIONS, apply_option, &o, print_help);
     if (rc >= 0) return rc;
     char path[4096];
@@ -426,8 +428,8 @@ int main(int argc, char **argv)
     snprintf(path, sizeof path, "%s/sampling.csv", o.out);
     FILE *csv = fopen(path, "w");
     if (!md || !csv) { pvc_fail("cannot write to %s", o.out); return 1; }
-    fprintf(md, "%ux%u, %.0f s per condition side by side (slices of %.0f ms), seed 101; time in s to a true "
-                "relative RMSE; '~': extrapolated by err ~ t^-1/2\n\n", o.width, o.height, o.time_ms / 1000.0, o.slice_ms);
+    fprintf(md, "%ux%u, %.0f s per condition side by side (slices of %.0f ms), seed %u; time in s to a true "
+                "relative RMSE; '~': extrapolated by err ~ t^-1/2\n\n", o.width, o.height, o.time_ms / 1000.0, o.slice_ms, o.seed);
     fprintf(md, "| scene | sampler | t(0.05) | t(0.02) | t(0.01) | variance per sample | Msamples/s | final rel. RMSE | mean / reference |\n");
     fprintf(md, "|---|---|---|---|---|---|---|---|---|\n");
     fprintf(csv, "scene,sampler,ms,passes,rel_rmse,mean_ratio\n");

@@ -35,8 +35,10 @@
 #define PICVR_SCHED_HISTORY 128u         /* rounds remembered for the time shares and the hit rate */
 #define PICVR_SHARE_WINDOW_MS 1000.0     /* stats.fraction_*: measured over the last second */
 #define PICVR_MAX_QUEUE 65535u
-#define PICVR_EQ_NEAR 3.0                /* equiangular sampling serves lights nearer than this many
-                                      bounding radii (host/pipelines.c) */           /* blocks per dispatch (shaders/block_select.comp) */
+#define PICVR_CONTROL_FRACTION 0.25     /* residual ratio tracking where at least this fraction
+                                      of the bricks with medium have a control */
+#define PICVR_EQ_FALLOFF 25.0            /* equiangular sampling serves lights whose 1/d^2 varies
+                                      more than this across the volume (host/pipelines.c) */           /* blocks per dispatch (shaders/block_select.comp) */
 
 /* Sizes of the shaders' buffer elements (std430), mirrored here; `make check-layout`
    (part of `make test`) compares them with glslang's reflection of the shaders. */
@@ -228,6 +230,8 @@ typedef struct picvr_scene {
     float density;
     int use_phase_mis;               /* some light or the background needs MIS */
     int use_equiangular;             /* some light is served by equiangular sampling */
+    int use_control;                 /* enough bricks have a positive minorant for residual
+                                        ratio tracking (host/majorant.c) */
     picvr_camera camera;
 } picvr_scene;
 

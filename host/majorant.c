@@ -72,6 +72,7 @@ static picvr_status picvr_update_majorant(picvr_context *ctx) {
                        (double)ctx->scene.gpu.cell_size[2] * ctx->scene.gpu.cell_size[2]);
     ctx->scene.use_fine = 0;
     float *mino = maj + 2 * cells;
+    size_t medium = 0, controlled = 0;
     for (size_t c = 0; c < cells; c++) {
         int lo = (int)floorf(ctx->scene.brick_min[c] * (PICVR_TF_SIZE - 1)) - 1;
         int hi = (int)ceilf(ctx->scene.brick_max[c] * (PICVR_TF_SIZE - 1)) + 1;
@@ -82,9 +83,15 @@ static picvr_status picvr_update_majorant(picvr_context *ctx) {
         maj[c] = m > FLT_MAX ? FLT_MAX : (float)m;
         mino[c] = n > FLT_MAX ? FLT_MAX : (float)n;
         if (mino[c] > maj[c]) mino[c] = maj[c];
+        medium += maj[c] > 0.0f;
+        controlled += mino[c] > 0.0f;
         if (m * diag > PICVR_FINE_THRESHOLD) ctx->scene.use_fine = 1;
     }
     picvr_host_free(&ctx->config.allocator, rmin);
+    /* Residual ratio tracking pays where bricks have a control; where (nearly) every
+       brick's range reaches opacity 0 (CT: tissue beside air) it is ratio tracking with
+       one more lookup per cell, so the variant leaves it out (docs/sampling.md). */
+    ctx->scene.use_control = (double)controlled >= PICVR_CONTROL_FRACTION * (double)medium && controlled > 0;
     picvr_empty_distance(ctx->scene.grid, maj, maj + cells);
     picvr_status s = picvr_upload_buffer(ctx, &ctx->scene.majorant, maj, 3 * cells * sizeof(float));
     picvr_host_free(&ctx->config.allocator, maj);

@@ -342,50 +342,52 @@ float cell_minorant(Dda d) {
     return majorant[2u * cells + cell_index(d)];
 }
 
-// One stretch [t, t_end) of tracking under one majorant m and control c (c = 0 but for
-// residual ratio tracking): tentative collisions at rate m - c.  Delta tracking:
-// returns true at a real collision (t holds it).  Ratio tracking: T takes the control's
-// exact attenuation exp(-c (t_stop - t)) and the weight 1 - (sigma_t - c) / (m - c) of
-// each tentative collision (residual ratio tracking, Novak et al. 2014, "Residual ratio
-// tracking for estimating attenuation in participating media", §5: E[T] = exp(-tau)
-// since the control part is integrated exactly and the residual part is ratio-tracked);
-// returns true when T fell to 0.  Returns false, with t = t_end, when the stretch ends.
-// Every tentative collision counts one step against the caller's bound.
-bool track_stretch(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, float m, float c,
-                   inout float T, inout Rng rng, inout uint steps) {
-    float rate = m - c;
-    for (; steps < MAX_TRACK_STEPS; steps++) {
-        // -log(1 - u) is finite because u < 1 (rnd has 24 bits); rate 0: no tentative collision
-        float t_try = rate > 0.0 ? t - log(1.0 - rnd(rng)) / rate : t_end;
-        float t_stop = min(t_try, t_end);
-        if (ratio && c > 0.0) T *= exp(-c * (t_stop - t));
-        if (t_try >= t_end) { t = t_end; return false; }
-        t = t_try;
-        float s = sigma_t(ro + rd * t);
-        if (!ratio) {
-            if (rnd(rng) * m < s) return true;
-        } else if (ratio_collide(T, s - c, rate, rng)) {
-            return true;
-        }
+// One tentative collision at t under majorant m and control c (the minorant with
+// USE_RESIDUAL, else 0).  Delta tracking: real with probability sigma_t / m (returns
+// true); below the control c <= sigma_t that holds without looking sigma_t up.  Ratio
+// tracking: T takes the weight 1 - (sigma_t - c) / (m - c) (residual ratio tracking,
+// Novak et al. 2014, "Residual ratio tracking for estimating attenuation in participating
+// media", §5: the control's part exp(-c l) is applied exactly by the caller along the
+// way, the residual part is ratio-tracked, so E[T] = exp(-tau)); returns true when T
+// fell to 0.
+bool tentative_collision(bool ratio, vec3 x, float m, float c, inout float T, inout Rng rng) {
+    if (!ratio) {
+        float u = rnd(rng) * m;
+        return u < c || u < sigma_t(x);
     }
-    return false;
+    return ratio_collide(T, sigma_t(x) - c, m - c, rng);
+}
+
+// The next tentative collision after t under majorant m and control c: delta tracking
+// at rate m, ratio tracking at rate m - c (the residual); t_end when the rate is 0.  Ratio
+// tracking's T takes the control's attenuation up to there.  -log(1 - u) is finite
+// because u < 1 (rnd has 24 bits).
+float next_tentative(bool ratio, float t, float t_end, float m, float c, inout float T, inout Rng rng) {
+    float rate = ratio ? m - c : m;
+    float t_try = rate > 0.0 ? t - log(1.0 - rnd(rng)) / rate : t_end;
+    if (ratio && c > 0.0) T *= exp(-c * (min(t_try, t_end) - t));
+    return t_try;
 }
 
 // Tracking through one dense brick at voxel resolution, from t to t_end, with the
-// brick's control c, sharing the caller's step counter.  Returns true when the walk
-// ended the whole track: a real collision (delta tracking; t holds it) or a zero
-// transmittance (ratio tracking).
+// brick's control c (it bounds sigma_t from below in each voxel too), sharing the
+// caller's step counter.  Returns true when the walk ended the whole track: a real
+// collision (delta tracking; t holds it) or a zero transmittance (ratio tracking).
 bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, float c, inout float T,
                   inout Rng rng, inout uint steps) {
     Dda f = fine_start(ro, rd, t);
+    float m = max(fine_majorant(f), c);
     for (; steps < MAX_TRACK_STEPS; steps++) {
         float t_seg = min(dda_exit(f), t_end);
-        // the brick's minorant bounds sigma_t from below in each of its voxels too
-        float m = max(fine_majorant(f), c);
-        if (track_stretch(ratio, ro, rd, t, t_seg, m, c, T, rng, steps)) return true;
-        if (steps >= MAX_TRACK_STEPS) return false;
+        float t_try = next_tentative(ratio, t, t_seg, m, c, T, rng);
+        if (t_try < t_seg) {
+            t = t_try;
+            if (tentative_collision(ratio, ro + rd * t, m, c, T, rng)) return true;
+            continue;
+        }
         t = t_seg;
         if (t >= t_end || !dda_advance(f)) { t = t_end; return false; }
+        m = max(fine_majorant(f), c);
     }
     return false;
 }
@@ -393,27 +395,33 @@ bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, floa
 // Delta (Woodcock) tracking (ratio false) or ratio tracking (ratio true) in [t0, t1]:
 // one walk through the majorant grid for both; every caller passes a constant, so each
 // compiles to its own loop.  Free flights restart at cell boundaries (the exponential
-// distribution is memoryless), so each cell uses its own majorant; ratio tracking is
-// residual (USE_RESIDUAL), with each cell's minorant as its control.  Every iteration
-// (a tentative collision, a cell step, an empty-space jump, also inside fine_segment)
-// counts against one bound; past it the track is truncated (biased, counted) and
-// treated as passing.  Returns, for delta tracking, the distance of a real collision
-// or -1 when the ray passes; for ratio tracking, the transmittance estimate (Eq. 2).
+// distribution is memoryless), so each cell uses its own majorant and, with
+// USE_RESIDUAL, its minorant as the control (residual ratio tracking; delta tracking
+// saves lookups with it).  One flat loop: every iteration is one tentative collision,
+// cell step or empty-space jump (also inside fine_segment), so that SIMD lanes advance
+// together, and all count against one bound; past it the track is truncated (biased,
+// counted) and treated as passing.  Returns, for delta tracking, the distance of a real
+// collision or -1 when the ray passes; for ratio tracking, the transmittance estimate
+// (Eq. 2).
 float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, T = 1.0;
+    float maj = cell_majorant(d);
+    float c = USE_RESIDUAL && maj > 0.0 ? min(cell_minorant(d), maj) : 0.0;
     for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
         float t_cell = min(dda_exit(d), t1);
-        float maj = cell_majorant(d);
         if (maj > 0.0) {
-            float c = ratio && USE_RESIDUAL ? min(cell_minorant(d), maj) : 0.0;
-            bool ended;
-            if (USE_FINE && (maj - c) * (t_cell - t) > FINE_THRESHOLD)
-                ended = fine_segment(ratio, ro, rd, t, t_cell, c, T, rng, i);
-            else
-                ended = track_stretch(ratio, ro, rd, t, t_cell, maj, c, T, rng, i);
-            if (ended) return ratio ? 0.0 : t;
-            if (i >= MAX_TRACK_STEPS) break;
+            if (USE_FINE && (ratio ? maj - c : maj) * (t_cell - t) > FINE_THRESHOLD) {
+                if (fine_segment(ratio, ro, rd, t, t_cell, c, T, rng, i)) return ratio ? 0.0 : t;
+                if (i >= MAX_TRACK_STEPS) break;
+            } else {
+                float t_try = next_tentative(ratio, t, t_cell, maj, c, T, rng);
+                if (t_try < t_cell) {
+                    t = t_try;
+                    if (tentative_collision(ratio, ro + rd * t, maj, c, T, rng)) return ratio ? 0.0 : t;
+                    continue;
+                }
+            }
             // a control alone does not end a path: roulette it as a collision would
             if (ratio && T < 0.1 && ratio_collide(T, 0.0, 1.0, rng)) return 0.0;
         } else {
@@ -422,11 +430,15 @@ float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, ino
                 t += jump;
                 if (t >= t1) return ratio ? T : -1.0;
                 d = coarse_start(ro, rd, t);
+                maj = cell_majorant(d);
+                c = USE_RESIDUAL && maj > 0.0 ? min(cell_minorant(d), maj) : 0.0;
                 continue;
             }
         }
         t = t_cell;
         if (t >= t1 || !dda_advance(d)) return ratio ? T : -1.0;
+        maj = cell_majorant(d);
+        c = USE_RESIDUAL && maj > 0.0 ? min(cell_minorant(d), maj) : 0.0;
     }
     truncated = true;
     return ratio ? T : -1.0;

@@ -21,9 +21,9 @@
 #ifdef TU_HAVE_CREF
 #include "reference/cpu_reference.h"
 
-void test_gpu_matches_cpu_reference_area_light_background(void **state) {
-    (void)state;
-    const uint32_t W = 48, H = 48, N = 128, seed = 31;
+/* The comparison described at the top, for lights l[0..1] and the background bg. */
+static void gpu_cpu_case(const picvr_light l[2], const picvr_background *bg, uint32_t seed) {
+    const uint32_t W = 48, H = 48, N = 128;
     picvr_context *ctx = tu_create(seed);
     tu_vol vol = tu_vol_ball(24);
     picvr_volume_desc vd;
@@ -36,19 +36,6 @@ void test_gpu_matches_cpu_reference_area_light_background(void **state) {
                             {0.4f, {0.5f, 0.9f, 0.7f}, 0.2f},
                             {1.0f, {0.95f, 0.95f, 0.95f}, 1.0f}};
     const float D = 0.5f;
-    picvr_light l[2];
-    memset(l, 0, sizeof l);
-    l[0].type = PICVR_LIGHT_SPHERE;
-    l[0].position[0] = 25; l[0].position[1] = 10; l[0].position[2] = 20;
-    l[0].radius = 4;
-    l[0].color[0] = 1; l[0].color[1] = 0.8f; l[0].color[2] = 0.6f;
-    l[0].intensity = 3;
-    l[1].type = PICVR_LIGHT_DIRECTIONAL;
-    l[1].direction[0] = -1; l[1].direction[1] = 1; l[1].direction[2] = 0.5f;
-    l[1].angular_diameter = 0.2f;
-    l[1].color[0] = 0.6f; l[1].color[1] = 0.7f; l[1].color[2] = 1;
-    l[1].intensity = 1.5f;
-    picvr_background bg = {{0.3f, 0.4f, 0.6f}, 0.7f};
     picvr_camera cam;
     memset(&cam, 0, sizeof cam);
     cam.position[0] = 5; cam.position[1] = 3; cam.position[2] = 40;
@@ -59,7 +46,7 @@ void test_gpu_matches_cpu_reference_area_light_background(void **state) {
 
     TU_OK(picvr_upload_volume(ctx, &vd));
     TU_OK(picvr_set_transfer_function(ctx, tf, 3, D));
-    TU_OK(picvr_set_lights(ctx, l, 2, &bg));
+    TU_OK(picvr_set_lights(ctx, l, 2, bg));
     TU_OK(picvr_set_camera(ctx, &cam));
     TU_OK(picvr_step_iterations(ctx, N));
     float *gpu = tu_read(ctx, W, H);
@@ -67,7 +54,7 @@ void test_gpu_matches_cpu_reference_area_light_background(void **state) {
     picvr_stats st = tu_stats_finite(ctx);
 
     cref_scene s;
-    int rc = cref_scene_init(&s, &vd, tf, 3, D, l, 2, &bg, &cam, seed + 1000);
+    int rc = cref_scene_init(&s, &vd, tf, 3, D, l, 2, bg, &cam, seed + 1000);
     if (rc != PICVR_OK) fail_msg("cref_scene_init: %s", picvr_status_string((picvr_status)rc));
     float *cpu = malloc((size_t)W * H * 4 * sizeof *cpu);
     double *m2 = malloc((size_t)W * H * sizeof *m2);
@@ -126,9 +113,57 @@ void test_gpu_matches_cpu_reference_area_light_background(void **state) {
     tu_finish(ctx);
 }
 
+/* A sphere light (MIS between light and phase sampling) and a sun with an angular size,
+   a background: the renderer's delta tracking (the sphere's 1/d^2 varies too little
+   across the volume for equiangular sampling). */
+void test_gpu_matches_cpu_reference_area_light_background(void **state) {
+    (void)state;
+    picvr_light l[2];
+    memset(l, 0, sizeof l);
+    l[0].type = PICVR_LIGHT_SPHERE;
+    l[0].position[0] = 25; l[0].position[1] = 10; l[0].position[2] = 20;
+    l[0].radius = 4;
+    l[0].color[0] = 1; l[0].color[1] = 0.8f; l[0].color[2] = 0.6f;
+    l[0].intensity = 3;
+    l[1].type = PICVR_LIGHT_DIRECTIONAL;
+    l[1].direction[0] = -1; l[1].direction[1] = 1; l[1].direction[2] = 0.5f;
+    l[1].angular_diameter = 0.2f;
+    l[1].color[0] = 0.6f; l[1].color[1] = 0.7f; l[1].color[2] = 1;
+    l[1].intensity = 1.5f;
+    picvr_background bg = {{0.3f, 0.4f, 0.6f}, 0.7f};
+    gpu_cpu_case(l, &bg, 31);
+}
+
+/* A point light inside the ball's bounding sphere, so that camera rays also sample
+   toward it by equiangular sampling (MIS with delta tracking, residual ratio tracking,
+   the background through the camera ray's transmittance estimate), the same sun and
+   background: against the reference's delta tracking and ratio tracking. */
+void test_gpu_matches_cpu_reference_point_light_equiangular(void **state) {
+    (void)state;
+    picvr_light l[2];
+    memset(l, 0, sizeof l);
+    l[0].type = PICVR_LIGHT_POINT;
+    l[0].position[0] = 8; l[0].position[1] = 13; l[0].position[2] = 5;
+    l[0].color[0] = 1; l[0].color[1] = 0.8f; l[0].color[2] = 0.6f;
+    l[0].intensity = 300;
+    l[1].type = PICVR_LIGHT_DIRECTIONAL;
+    l[1].direction[0] = -1; l[1].direction[1] = 1; l[1].direction[2] = 0.5f;
+    l[1].angular_diameter = 0.2f;
+    l[1].color[0] = 0.6f; l[1].color[1] = 0.7f; l[1].color[2] = 1;
+    l[1].intensity = 1.5f;
+    picvr_background bg = {{0.3f, 0.4f, 0.6f}, 0.7f};
+    gpu_cpu_case(l, &bg, 37);
+}
+
 #else
 
 void test_gpu_matches_cpu_reference_area_light_background(void **state) {
+    (void)state;
+    print_message("    reference/cpu_reference.h not found: skipped\n");
+    skip();
+}
+
+void test_gpu_matches_cpu_reference_point_light_equiangular(void **state) {
     (void)state;
     print_message("    reference/cpu_reference.h not found: skipped\n");
     skip();

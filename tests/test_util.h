@@ -135,6 +135,7 @@
     X(test_extreme_volumes_finite)                                  \
     /* test_cpu_reference.c */                                      \
     X(test_gpu_matches_cpu_reference_area_light_background)         \
+    X(test_gpu_matches_cpu_reference_point_light_equiangular)       \
     /* test_real_data.c */                                          \
     X(test_real_data_fuel_smoke)                                    \
     /* test_robust_sweep.c (issue 6) */                             \
