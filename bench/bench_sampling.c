@@ -3,7 +3,7 @@
  *
  *   picvr-bench-sampling [--scenes thin,bonsai,engine,cloud] [--data ../shared/data]
  *       [--size 256x256] [--time MS] [--slice MS] [--ref-time MS] [--ref-chunks N]
- *       [--out bench/results/sampling]
+ *       [--seed 101] [--out bench/results/sampling] [--write-thin FILE]
  *
  * Conditions ("before" and "after"): picvr_config.distance_sampling FREE_FLIGHT with
  * transmittance RATIO (the paper's Exposure Render estimator, picvr's former default)
@@ -51,7 +51,7 @@
 static const double TARGETS[N_TARGETS] = {0.05, 0.02, 0.01};
 
 typedef struct options {
-    const char *scenes, *data, *out;
+    const char *scenes, *data, *out, *write_thin;
     uint32_t width, height;
     double time_ms, slice_ms, ref_ms;
     uint32_t ref_chunks, seed;
@@ -388,12 +388,14 @@ static void print_help(FILE *f)
         "  --ref-time MS    the reference's rendering time (default 240000)\n"
         "  --ref-chunks N   independent contexts of the reference (default 4)\n"
         "  --seed N         seed of both conditions' runs (default 101)\n"
-        "  --out DIR        sampling.md and sampling.csv go there (default bench/results/sampling)\n");
+        "  --out DIR        sampling.md and sampling.csv go there (default bench/results/sampling)\n"
+        "  --write-thin F   write the thin medium to F (name it thin_64x64x64_float32.raw for\n"
+        "                   picvr-render --volume) and exit\n");
 }
 
 static const pvc_option OPTIONS[] = {
     {"help", 0}, {"scenes", 1}, {"data", 1}, {"size", 1}, {"time", 1}, {"slice", 1},
-    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {NULL, 0}};
+    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {"write-thin", 1}, {NULL, 0}};
 
 static int apply_option(void *target, const char *name, const char *value)
 {
@@ -401,6 +403,7 @@ static int apply_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "scenes")) o->scenes = value;
     else if (!strcmp(name, "data")) o->data = value;
     else if (!strcmp(name, "out")) o->out = value;
+    else if (!strcmp(name, "write-thin")) o->write_thin = value;
     else if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "ref-chunks")) return pvc_parse_u32(value, 2, 1000, &o->ref_chunks) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "seed")) return pvc_parse_u32(value, 0, 999, &o->seed) ? 1 : (pvc_bad_value(name, value), 0);
@@ -417,9 +420,18 @@ static int apply_option(void *target, const char *name, const char *value)
 int main(int argc, char **argv)
 {
     pvc_set_program(PROGRAM);
-    options o = {"thin", "../shared/data", "bench/results/sampling", 256, 256, 60000.0, 500.0, 240000.0, 4, 101};
+    options o = {"thin", "../shared/data", "bench/results/sampling", NULL, 256, 256, 60000.0, 500.0, 240000.0, 4, 101};
     int rc = pvc_parse_options(argc, argv, OPTIONS, apply_option, &o, print_help);
     if (rc >= 0) return rc;
+    if (o.write_thin) {   /* raw float32, x fastest, host byte order as picvr-render reads it */
+        float *v = make_thin_volume(64);
+        FILE *f = v ? fopen(o.write_thin, "wb") : NULL;
+        int ok = f && fwrite(v, sizeof(float), 64 * 64 * 64, f) == 64 * 64 * 64;
+        if (f && fclose(f) != 0) ok = 0;
+        free(v);
+        if (!ok) pvc_fail("cannot write %s", o.write_thin);
+        return ok ? 0 : 1;
+    }
     char path[4096];
     snprintf(path, sizeof path, "mkdir -p '%s'", o.out);
     if (system(path) != 0) { pvc_fail("cannot make %s", o.out); return 1; }
