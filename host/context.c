@@ -52,7 +52,8 @@ static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *c
     if ((s = picvr_buffer_create(ctx, &ctx->scene.ubo, sizeof(picvr_gpu_scene), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, 1))) return s;
     if ((s = picvr_image_create(ctx, &ctx->scene.tf_image, VK_IMAGE_TYPE_1D, VK_FORMAT_R32G32B32A32_SFLOAT, PICVR_TF_SIZE, 1, 1))) return s;
     if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_staging, sizeof ctx->scene.tf_table, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1))) return s;
-    if (!(ctx->scene.tf_rm = (picvr_range_max *)picvr_host_alloc(&ctx->config.allocator, sizeof *ctx->scene.tf_rm))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    if (!(ctx->scene.tf_rm = (picvr_range_table *)picvr_host_alloc(&ctx->config.allocator, sizeof *ctx->scene.tf_rm))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    if (!(ctx->scene.tf_rmin = (picvr_range_table *)picvr_host_alloc(&ctx->config.allocator, sizeof *ctx->scene.tf_rmin))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_range_max, sizeof *ctx->scene.tf_rm,
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
     return picvr_default_transfer_function(ctx);
@@ -148,6 +149,7 @@ void picvr_destroy(picvr_context *ctx) {
     picvr_host_free(&ctx->config.allocator, ctx->scene.brick_min);
     picvr_host_free(&ctx->config.allocator, ctx->scene.brick_max);
     picvr_host_free(&ctx->config.allocator, ctx->scene.tf_rm);
+    picvr_host_free(&ctx->config.allocator, ctx->scene.tf_rmin);
     picvr_allocator a = ctx->config.allocator;
     picvr_host_free(&a, ctx);
 }

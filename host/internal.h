@@ -126,8 +126,9 @@ typedef struct picvr_gpu_scene {
     picvr_gpu_light lights[PICVR_MAX_LIGHTS];
 } picvr_gpu_scene;
 
-/* Sparse table of the opacity column: level k holds the max over 2^k entries. */
-typedef struct picvr_range_max { float level[13][PICVR_TF_SIZE]; } picvr_range_max;
+/* Sparse table of the opacity column: level k holds the max (tf_rm) or the min (tf_rmin)
+   over 2^k entries. */
+typedef struct picvr_range_table { float level[13][PICVR_TF_SIZE]; } picvr_range_table;
 
 typedef struct picvr_gpu_partial { float sums[4]; uint32_t counts[4]; } picvr_gpu_partial;
 
@@ -226,7 +227,8 @@ typedef struct picvr_scene {
     picvr_buffer tf_staging;
     picvr_buffer tf_range_max;       /* sparse table of the opacity column (fine majorants) */
     float tf_table[PICVR_TF_SIZE * 4];
-    picvr_range_max *tf_rm;
+    picvr_range_table *tf_rm;
+    picvr_range_table *tf_rmin;        /* the same table of minima (host only: the minorants) */
     float density;
     int use_phase_mis;               /* some light or the background needs MIS */
     int use_equiangular;             /* some light is served by equiangular sampling */

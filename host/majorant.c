@@ -7,7 +7,7 @@
    table (O(1) per query). */
 static float picvr_pick(float a, float b, int take_min) { return take_min ? fminf(a, b) : fmaxf(a, b); }
 
-static void picvr_range_build(picvr_range_max *rm, const float *table, int take_min) {
+static void picvr_range_build(picvr_range_table *rm, const float *table, int take_min) {
     memset(rm, 0, sizeof *rm);   /* entries past the end of a level are never read */
     for (int i = 0; i < PICVR_TF_SIZE; i++) rm->level[0][i] = table[i * 4 + 3];
     for (int k = 1; k < 13; k++)
@@ -15,7 +15,7 @@ static void picvr_range_build(picvr_range_max *rm, const float *table, int take_
             rm->level[k][i] = picvr_pick(rm->level[k - 1][i], rm->level[k - 1][i + (1 << (k - 1))], take_min);
 }
 
-static float picvr_range_query(const picvr_range_max *rm, int lo, int hi, int take_min) {
+static float picvr_range_query(const picvr_range_table *rm, int lo, int hi, int take_min) {
     int k = 0;
     while ((2 << k) <= hi - lo + 1) k++;
     return picvr_pick(rm->level[k][lo], rm->level[k][hi - (1 << k) + 1], take_min);
@@ -59,14 +59,8 @@ static picvr_status picvr_update_majorant(picvr_context *ctx) {
     if (!ctx->scene.has_volume) return PICVR_OK;
     size_t cells = (size_t)ctx->scene.grid[0] * ctx->scene.grid[1] * ctx->scene.grid[2];
     float *maj = (float *)picvr_host_alloc(&ctx->config.allocator, 3 * cells * sizeof(float));
-    picvr_range_max *rmin = (picvr_range_max *)picvr_host_alloc(&ctx->config.allocator, sizeof *rmin);
-    if (!maj || !rmin) {
-        if (maj) picvr_host_free(&ctx->config.allocator, maj);
-        if (rmin) picvr_host_free(&ctx->config.allocator, rmin);
-        return PICVR_ERROR_OUT_OF_HOST_MEMORY;
-    }
-    const picvr_range_max *rm = ctx->scene.tf_rm;
-    picvr_range_build(rmin, ctx->scene.tf_table, 1);
+    if (!maj) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
+    const picvr_range_table *rm = ctx->scene.tf_rm, *rmin = ctx->scene.tf_rmin;
     double diag = sqrt((double)ctx->scene.gpu.cell_size[0] * ctx->scene.gpu.cell_size[0] +
                        (double)ctx->scene.gpu.cell_size[1] * ctx->scene.gpu.cell_size[1] +
                        (double)ctx->scene.gpu.cell_size[2] * ctx->scene.gpu.cell_size[2]);
@@ -87,7 +81,6 @@ static picvr_status picvr_update_majorant(picvr_context *ctx) {
         controlled += mino[c] > 0.0f;
         if (m * diag > PICVR_FINE_THRESHOLD) ctx->scene.use_fine = 1;
     }
-    picvr_host_free(&ctx->config.allocator, rmin);
     /* Residual ratio tracking pays where bricks have a control; where (nearly) every
        brick's range reaches opacity 0 (CT: tissue beside air) it is ratio tracking with
        one more lookup per cell, so the variant leaves it out (docs/sampling.md). */

@@ -54,6 +54,7 @@ static picvr_status picvr_apply_tf(picvr_context *ctx, const picvr_tf_point *p, 
     ctx->scene.density = density;
     ctx->scene.gpu.density = density;
     picvr_range_build(ctx->scene.tf_rm, ctx->scene.tf_table, 0);
+    picvr_range_build(ctx->scene.tf_rmin, ctx->scene.tf_table, 1);
     picvr_status s = picvr_upload_tf_table(ctx);
     if (!s) s = picvr_upload_buffer(ctx, &ctx->scene.tf_range_max, ctx->scene.tf_rm, sizeof *ctx->scene.tf_rm);
     if (!s) s = picvr_update_majorant(ctx);

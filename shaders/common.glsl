@@ -342,6 +342,10 @@ float cell_minorant(Dda d) {
     return majorant[2u * cells + cell_index(d)];
 }
 
+// The control c of cell d whose majorant is maj: its minorant with USE_RESIDUAL (at most
+// maj; 0 in empty cells), else 0.
+float cell_control(Dda d, float maj) { return USE_RESIDUAL && maj > 0.0 ? min(cell_minorant(d), maj) : 0.0; }
+
 // One tentative collision at t under majorant m and control c (the minorant with
 // USE_RESIDUAL, else 0).  Delta tracking: real with probability sigma_t / m (returns
 // true); below the control c <= sigma_t that holds without looking sigma_t up.  Ratio
@@ -407,7 +411,7 @@ float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, ino
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, T = 1.0;
     float maj = cell_majorant(d);
-    float c = USE_RESIDUAL && maj > 0.0 ? min(cell_minorant(d), maj) : 0.0;
+    float c = cell_control(d, maj);
     for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
         float t_cell = min(dda_exit(d), t1);
         if (maj > 0.0) {
@@ -431,14 +435,14 @@ float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, ino
                 if (t >= t1) return ratio ? T : -1.0;
                 d = coarse_start(ro, rd, t);
                 maj = cell_majorant(d);
-                c = USE_RESIDUAL && maj > 0.0 ? min(cell_minorant(d), maj) : 0.0;
+                c = cell_control(d, maj);
                 continue;
             }
         }
         t = t_cell;
         if (t >= t1 || !dda_advance(d)) return ratio ? T : -1.0;
         maj = cell_majorant(d);
-        c = USE_RESIDUAL && maj > 0.0 ? min(cell_minorant(d), maj) : 0.0;
+        c = cell_control(d, maj);
     }
     truncated = true;
     return ratio ? T : -1.0;

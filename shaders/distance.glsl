@@ -19,15 +19,17 @@
 // The weights are the power heuristic's, w_A = q^2 / (q^2 + p_B^2) and w_B = p_B^2 /
 // (q^2 + p_B^2), with q(t) = sigma_t(t) exp(-tau_min(t)), a deterministic proxy of p_A
 // (tau_min: the minorant's optical depth from t0, so q >= p_A: B's weight is never
-// overstated where the proxy is loose, and B's estimate stays bounded by T^ / T there).  Unbiasedness: E[A] = int w_A(t) sigma_s
-// T L_s dt (delta tracking's density cancels sigma_t T), E[B] = int w_B(t) sigma_s T L_s
-// dt (E[T^(t)] = T(t), independent of the choice of t), and w_A + w_B = 1 at every t
-// where either density is positive (sampling_math.glsl, mis_power: a point only A
-// reaches gets w_A = 1 there), so E[A + B] = the integral, whatever q is; q close to
-// p_A only makes the variance small.  Delta tracking's escape
-// contributes nothing (the end term is C), and the coverage is 1 - T^(t1).
-// Leave-out: USE_EQUIANGULAR is on only when some light is served (a point, sphere or
-// rect light with power); otherwise the camera ray is the paper's delta tracking alone.
+// overstated where the proxy is loose, and B's estimate stays bounded by T^ / T there).
+// Unbiasedness: E[A] = int w_A(t) sigma_s T L_s dt (delta tracking's density cancels
+// sigma_t T), E[B] = int w_B(t) sigma_s T L_s dt (E[T^(t)] = T(t), independent of the
+// choice of t), and w_A + w_B = 1 at every t where either density is positive
+// (sampling_math.glsl, mis_power: a point only A reaches gets w_A = 1 there), so
+// E[A + B] = the integral, whatever q is; q close to p_A only makes the variance small.
+// Delta tracking's escape contributes nothing (the end term is C), and the coverage is
+// 1 - T^(t1).
+// Leave-out: USE_EQUIANGULAR is on only when some light is served (host/pipelines.c,
+// picvr_update_equiangular: a point, sphere or rect light whose 1/d^2 falls off steeply
+// across the volume); otherwise the camera ray is the paper's delta tracking alone.
 
 // Specialization: equiangular sampling and the MIS above (false: delta tracking only).
 layout(constant_id = 7) const bool USE_EQUIANGULAR = false;
@@ -47,15 +49,17 @@ float eq_light_span(uint i, vec3 ro, vec3 rd, float t0, float t1, out vec2 f) {
     return cm_eq_span(t0 - f.x, t1 - f.x, f.y);
 }
 
-// p_B(t): the mixture over the served lights of eq_pmf * equiangular density.
-float eq_mixture_pdf(vec3 ro, vec3 rd, float t0, float t1, float t) {
-    float p = 0.0;
+// p_B at ta and at tb: the mixture over the served lights of eq_pmf * equiangular
+// density, each light's foot and span computed once for both points.
+vec2 eq_mixture_pdfs(vec3 ro, vec3 rd, float t0, float t1, float ta, float tb) {
+    vec2 p = vec2(0.0);
     for (uint i = 0u; i < scene.light_count; i++) {
         float pmf = scene.lights[i].eq_pmf;
         if (pmf <= 0.0) continue;
         vec2 f;
         float span = eq_light_span(i, ro, rd, t0, t1, f);
-        p += pmf * cm_eq_pdf((t0 - f.x) + (t - t0), f.y, span);   // s = a + x, as sampled
+        float a = t0 - f.x;                       // s = a + x, as sampled
+        p += pmf * vec2(cm_eq_pdf(a + (ta - t0), f.y, span), cm_eq_pdf(a + (tb - t0), f.y, span));
     }
     return p;
 }

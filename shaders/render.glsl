@@ -153,16 +153,12 @@ CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, ino
     if (need_end)
         c.T_end = T_b > 0.0 ? T_b * transmittance(ro + e.rd * t_mid, e.rd, seg.t1 - t_mid, rng, truncated) : 0.0;
     bool b_counts = s_b > 0.0 && T_b > 0.0;
-    vec2 tau = minorant_depths(ro, e.rd, seg.t0, e.t, b_counts ? c.t_b : -1.0);
+    float t_b_counts = b_counts ? c.t_b : -1.0;
+    vec2 tau = minorant_depths(ro, e.rd, seg.t0, e.t, t_b_counts);
+    vec2 p_b = eq_mixture_pdfs(ro, e.rd, seg.t0, seg.t1, e.t, t_b_counts);
     c.w_a = 1.0;
-    if (e.t >= 0.0) {
-        float q = free_flight_proxy(sigma_t(e.x), tau.x);
-        c.w_a = cm_mis_power(q, eq_mixture_pdf(ro, e.rd, seg.t0, seg.t1, e.t));
-    }
-    if (b_counts) {
-        float q = free_flight_proxy(s_b, tau.y);
-        c.f_b = cm_eq_weight(T_b, s_b, q, eq_mixture_pdf(ro, e.rd, seg.t0, seg.t1, c.t_b));
-    }
+    if (e.t >= 0.0) c.w_a = cm_mis_power(free_flight_proxy(sigma_t(e.x), tau.x), p_b.x);
+    if (b_counts) c.f_b = cm_eq_weight(T_b, s_b, free_flight_proxy(s_b, tau.y), p_b.y);
     return c;
 }
 

@@ -113,46 +113,48 @@ static void gpu_cpu_case(const picvr_light l[2], const picvr_background *bg, uin
     tu_finish(ctx);
 }
 
-/* A sphere light (MIS between light and phase sampling) and a sun with an angular size,
-   a background: the renderer's delta tracking (the sphere's 1/d^2 varies too little
-   across the volume for equiangular sampling). */
-void test_gpu_matches_cpu_reference_area_light_background(void **state) {
-    (void)state;
+/* The comparison with `first` as the first light, then a sun with an angular size
+   (MIS between light and phase sampling) and a background. */
+static void gpu_cpu_case_with_sun(const picvr_light *first, uint32_t seed) {
     picvr_light l[2];
     memset(l, 0, sizeof l);
-    l[0].type = PICVR_LIGHT_SPHERE;
-    l[0].position[0] = 25; l[0].position[1] = 10; l[0].position[2] = 20;
-    l[0].radius = 4;
-    l[0].color[0] = 1; l[0].color[1] = 0.8f; l[0].color[2] = 0.6f;
-    l[0].intensity = 3;
+    l[0] = *first;
     l[1].type = PICVR_LIGHT_DIRECTIONAL;
     l[1].direction[0] = -1; l[1].direction[1] = 1; l[1].direction[2] = 0.5f;
     l[1].angular_diameter = 0.2f;
     l[1].color[0] = 0.6f; l[1].color[1] = 0.7f; l[1].color[2] = 1;
     l[1].intensity = 1.5f;
     picvr_background bg = {{0.3f, 0.4f, 0.6f}, 0.7f};
-    gpu_cpu_case(l, &bg, 31);
+    gpu_cpu_case(l, &bg, seed);
+}
+
+/* A sphere light (MIS between light and phase sampling): the renderer's delta tracking
+   (the sphere's 1/d^2 varies too little across the volume for equiangular sampling). */
+void test_gpu_matches_cpu_reference_area_light_background(void **state) {
+    (void)state;
+    picvr_light sphere;
+    memset(&sphere, 0, sizeof sphere);
+    sphere.type = PICVR_LIGHT_SPHERE;
+    sphere.position[0] = 25; sphere.position[1] = 10; sphere.position[2] = 20;
+    sphere.radius = 4;
+    sphere.color[0] = 1; sphere.color[1] = 0.8f; sphere.color[2] = 0.6f;
+    sphere.intensity = 3;
+    gpu_cpu_case_with_sun(&sphere, 31);
 }
 
 /* A point light inside the ball's bounding sphere, so that camera rays also sample
    toward it by equiangular sampling (MIS with delta tracking, residual ratio tracking,
-   the background through the camera ray's transmittance estimate), the same sun and
-   background: against the reference's delta tracking and ratio tracking. */
+   the background through the camera ray's transmittance estimate): against the
+   reference's delta tracking and ratio tracking. */
 void test_gpu_matches_cpu_reference_point_light_equiangular(void **state) {
     (void)state;
-    picvr_light l[2];
-    memset(l, 0, sizeof l);
-    l[0].type = PICVR_LIGHT_POINT;
-    l[0].position[0] = 8; l[0].position[1] = 13; l[0].position[2] = 5;
-    l[0].color[0] = 1; l[0].color[1] = 0.8f; l[0].color[2] = 0.6f;
-    l[0].intensity = 300;
-    l[1].type = PICVR_LIGHT_DIRECTIONAL;
-    l[1].direction[0] = -1; l[1].direction[1] = 1; l[1].direction[2] = 0.5f;
-    l[1].angular_diameter = 0.2f;
-    l[1].color[0] = 0.6f; l[1].color[1] = 0.7f; l[1].color[2] = 1;
-    l[1].intensity = 1.5f;
-    picvr_background bg = {{0.3f, 0.4f, 0.6f}, 0.7f};
-    gpu_cpu_case(l, &bg, 37);
+    picvr_light point;
+    memset(&point, 0, sizeof point);
+    point.type = PICVR_LIGHT_POINT;
+    point.position[0] = 8; point.position[1] = 13; point.position[2] = 5;
+    point.color[0] = 1; point.color[1] = 0.8f; point.color[2] = 0.6f;
+    point.intensity = 300;
+    gpu_cpu_case_with_sun(&point, 37);
 }
 
 #else
