@@ -34,11 +34,11 @@
 #define PICVR_MAX_BATCH 1024u
 #define PICVR_SCHED_HISTORY 128u         /* rounds remembered for the time shares and the hit rate */
 #define PICVR_SHARE_WINDOW_MS 1000.0     /* stats.fraction_*: measured over the last second */
-#define PICVR_MAX_QUEUE 65535u
-#define PICVR_CONTROL_FRACTION 0.25     /* residual ratio tracking where at least this fraction
+#define PICVR_MAX_QUEUE 65535u           /* blocks per dispatch (shaders/block_select.comp) */
+#define PICVR_CONTROL_FRACTION 0.25      /* residual ratio tracking where at least this fraction
                                       of the bricks with medium have a control */
 #define PICVR_EQ_FALLOFF 25.0            /* equiangular sampling serves lights whose 1/d^2 varies
-                                      more than this across the volume (host/pipelines.c) */           /* blocks per dispatch (shaders/block_select.comp) */
+                                      more than this across the volume (host/pipelines.c) */
 
 /* Sizes of the shaders' buffer elements (std430), mirrored here; `make check-layout`
    (part of `make test`) compares them with glslang's reflection of the shaders. */

@@ -61,7 +61,7 @@ static int picvr_debug_view_on(const picvr_context *ctx) {
    samples it as well at less cost: bonsai under a distant sphere (falloff 2) and the
    engine under three large spheres near it (falloff 15) took longer to a given error
    with equiangular sampling, a thin medium under a point light just outside it (falloff
-   1700) 19x less (docs/sampling.md).  Sets scene.use_equiangular: some light is served.
+   1700) far less (docs/sampling.md).  Sets scene.use_equiangular: some light is served.
    Called when the lights or the volume's box change. */
 static void picvr_update_equiangular(picvr_context *ctx) {
     picvr_gpu_light *g = ctx->scene.gpu.lights;
