@@ -34,9 +34,9 @@
  *     vol.data = voxels;
  *     picvr_upload_volume(ctx, &vol);
  *
- *     picvr_tf_point tf[] = {                        // value, albedo rgb, opacity
- *         {0.00f, {1, 1, 1}, 0.0f}, {0.20f, {0.9f, 0.6f, 0.4f}, 0.0f},
- *         {0.35f, {0.9f, 0.6f, 0.4f}, 0.5f}, {1.00f, {1, 1, 1}, 1.0f}};
+ *     picvr_tf_point tf[] = {                        // value, albedo rgb, opacity, g
+ *         {0.00f, {1, 1, 1}, 0.0f, 0}, {0.20f, {0.9f, 0.6f, 0.4f}, 0.0f, 0},
+ *         {0.35f, {0.9f, 0.6f, 0.4f}, 0.5f, 0}, {1.00f, {1, 1, 1}, 1.0f, 0}};
  *     picvr_set_transfer_function(ctx, tf, 4, 1.0f);  // D = 1 per world unit
  *
  *     picvr_light sun = {0};
@@ -44,7 +44,7 @@
  *     sun.direction[0] = 1; sun.direction[1] = 1; sun.direction[2] = 1; // toward the sun
  *     sun.angular_diameter = 0.0093f;                // radians (the real sun)
  *     sun.color[0] = sun.color[1] = sun.color[2] = 1; sun.intensity = 3;
- *     picvr_background sky = {{0.5f, 0.6f, 0.8f}, 0.5f};
+ *     picvr_background sky = {{0.5f, 0.6f, 0.8f}, 0.5f, NULL, 0, 0, 0};  // no map
  *     picvr_set_lights(ctx, &sun, 1, &sky);
  *
  *     picvr_camera cam = {0};
@@ -85,11 +85,14 @@
  *   importance sampling so that every ray through the medium gathers light (config
  *   distance_sampling); at each scatter location direct light from one light chosen
  *   by power (shadow ray by residual ratio tracking, config transmittance), isotropic
- *   phase function, multiple importance sampling (power heuristic) between light and
- *   phase sampling for area lights, a sun with angular size and the background.  A
- *   ray that leaves the volume sees the background (and area lights), weighted by its
- *   estimated transmittance.  Single scattering only, as in Exposure Render.  Every
- *   estimator is unbiased (docs/sampling.md).
+ *   phase function (isotropic, or Henyey-Greenstein per transfer-function point),
+ *   multiple importance sampling (power heuristic) between light and phase sampling
+ *   for area lights, a sun with angular size and the background (constant or an
+ *   environment map).  A ray that leaves the volume sees the background (and area
+ *   lights), weighted by its estimated transmittance.  Single scattering by default,
+ *   as in Exposure Render; picvr_set_scattering makes paths of many scatter events
+ *   (a volumetric path tracer).  Every estimator is unbiased (docs/sampling.md,
+ *   docs/paths.md).
  * Units of lights (colour * intensity):  sphere and rectangle: emitted radiance;
  *   directional: irradiance on a plane facing the light; point: radiant intensity
  *   (W/sr); background: radiance from every direction.
@@ -377,6 +380,11 @@ typedef struct picvr_tf_point {
                          (equal values allowed: a step) */
     float albedo[3];  /* single-scattering albedo per channel, in [0,1] */
     float opacity;    /* extinction before the density factor, >= 0 (usually <= 1) */
+    float g;          /* Henyey-Greenstein asymmetry of the phase function, in (-1, 1):
+                         0 isotropic (the default), > 0 forward scattering (clouds: about
+                         0.8), < 0 backward; interpolated like albedo.  With
+                         picvr_scattering's second lobe the phase function at x is
+                         (1 - back_weight) HG(g(x)) + back_weight HG(back_g) */
 } picvr_tf_point;
 
 /* Piecewise-linear transfer function over the normalized data value; constant
@@ -411,9 +419,24 @@ typedef struct picvr_light {
     float edge_v[3];
 } picvr_light;
 
+/* The background: light from every direction, seen by rays that leave the volume and
+   lighting every scatter event.  Constant, or an environment map: radiance from
+   direction w (pointing away from the volume, toward where the light comes from) =
+   color * intensity * map(w'), where w' is w turned by -env_rotation about +y and
+   map() the texel of an equirectangular (latitude-longitude) image holding w':
+   column floor(width * (0.5 + atan2(w'.x, -w'.z) / (2 pi))), row floor(height *
+   acos(w'.y) / pi), row 0 the top (+y, the zenith), so the image's centre column looks
+   along -z and its middle row is the horizon.  Texels are constant over their solid
+   angle (no filtering), and importance-sampled by luminance.  A 1x1 map is the constant
+   background. */
 typedef struct picvr_background {
     float color[3];          /* >= 0 */
-    float intensity;         /* >= 0; radiance = color * intensity from every direction */
+    float intensity;         /* >= 0; radiance = color * intensity (* map) */
+    const float *environment;/* NULL: constant.  Else env_width * env_height RGB texels,
+                                3 floats each (linear radiance, finite, >= 0, not all 0),
+                                rows top to bottom; copied */
+    uint32_t env_width, env_height; /* each 1..PICVR_MAX_ENV_SIZE */
+    float env_rotation;      /* radians, the map turned about +y (finite) */
 } picvr_background;
 
 /* Replaces all lights.  count may be 0; background may be NULL (black).  Default
@@ -421,6 +444,34 @@ typedef struct picvr_background {
    previous lights are kept.  Resets accumulation. */
 picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uint32_t count,
                               const picvr_background *background);
+
+/* ---- scattering ------------------------------------------------------------------ */
+
+#define PICVR_BOUNCES_UNLIMITED 0xffffffffu
+#define PICVR_MAX_ENV_SIZE 16384     /* environment map texels per side */
+
+/* How light scatters in the medium.  Zero fields: single scattering, one lobe. */
+typedef struct picvr_scattering {
+    uint32_t max_bounces;    /* scatter events a camera path may have after its first: 0
+                                single scattering (the paper's); n: paths of up to n + 1
+                                scatter events; PICVR_BOUNCES_UNLIMITED: no limit but
+                                Russian roulette (unbiased).  Clouds need tens */
+    float back_g;            /* the second Henyey-Greenstein lobe's g, in (-1, 1) */
+    float back_weight;       /* its weight in [0, 1); 0: one lobe (picvr_tf_point.g) */
+} picvr_scattering;
+
+/* Sets the scattering model (NULL: the defaults).  On error nothing changes.  Resets
+   accumulation.  Paths: next-event estimation (one light or the background, chosen by
+   power, MIS with phase sampling) at every scatter event; the phase-sampled direction
+   continues the path by delta tracking; from the third scatter event on, Russian
+   roulette ends a path with probability 1 - min(1, max channel of its throughput)
+   (survivors are divided by the survival probability: unbiased).  A path is bounded
+   by llvmpipe's loop limit: past PICVR_PATH_STEPS tracking steps in all it ends (biased,
+   counted in stats.truncated_paths).  The irradiance cache serves single scattering
+   with an isotropic phase function only: with max_bounces > 0, any g != 0 or a second
+   lobe, picvr_step renders by plain Monte Carlo and the cache idles. */
+picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *scattering);
+#define PICVR_PATH_STEPS 49152u
 
 /* ---- camera -------------------------------------------------------------------- */
 
@@ -540,6 +591,8 @@ typedef struct picvr_stats {
     double mean_luminance;       /* image mean of the pixel luminance (Rec. 709) */
     uint64_t truncated_paths;    /* samples whose tracking loop hit its iteration bound
                                     (biased; should stay 0 outside extreme media) */
+    double mean_path_length;     /* scatter events per camera sample (those that miss
+                                    the medium count 0) since the last reset */
     /* irradiance cache (all 0 when the cache is off) */
     uint32_t cache_entries;      /* entries in the cache */
     uint32_t cache_nodes;        /* octree nodes in use */

@@ -26,6 +26,7 @@
 #include "host/majorant.c"
 #include "host/transfer.c"
 #include "host/volume.c"
+#include "host/environment.c"
 #include "host/lights.c"
 #include "host/rounds.c"
 #include "host/step.c"

@@ -1,9 +1,17 @@
 /* bench_sampling.c - picvr-bench-sampling: the plain renderer's efficiency, before and
- * after its distance sampling and transmittance estimator, side by side in one run.
+ * after its distance sampling and transmittance estimator, side by side in one run; or,
+ * with --bounces, the path tracer's error against run time per bounce count.
  *
  *   picvr-bench-sampling [--scenes thin,bonsai,engine,cloud] [--data ../shared/data]
  *       [--size 256x256] [--time MS] [--slice MS] [--ref-time MS] [--ref-chunks N]
  *       [--seed 101] [--out bench/results/sampling] [--write-thin FILE]
+ *       [--bounces 0,1,4,unlimited]
+ *
+ * With --bounces the conditions are those picvr_scattering.max_bounces values (the
+ * default sampler), each against its own reference (their converged images differ);
+ * the table adds each reference's mean luminance over the first condition's (how much
+ * brighter the light of more scatter events makes the image) and the scatter events per
+ * camera sample (stats.mean_path_length).  Results go to OUT/paths.md, .csv.
  *
  * Conditions ("before" and "after"): picvr_config.distance_sampling FREE_FLIGHT with
  * transmittance RATIO (the paper's Exposure Render estimator, picvr's former default)
@@ -55,7 +63,16 @@ typedef struct options {
     uint32_t width, height;
     double time_ms, slice_ms, ref_ms;
     uint32_t ref_chunks, seed;
+    const char *bounces;      /* NULL: the before/after comparison */
 } options;
+
+/* One condition of a run: the sampler, and the bounce count. */
+typedef struct condition {
+    char name[32];
+    int before;               /* the paper's sampler (FREE_FLIGHT, RATIO) */
+    uint32_t bounces;         /* picvr_scattering.max_bounces */
+} condition;
+#define MAX_CONDITIONS 8
 
 typedef struct scene_def {
     const char *name, *file, *tf, *lights;
@@ -67,6 +84,7 @@ static const scene_def SCENES[] = {
     {"bonsai", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper1", 1.0f},
     {"engine", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper3", 1.0f},
     {"cloud", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud", "sun", 3.33f},
+    {"cloud-sky", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud", "sun-sky", 3.33f},
     {"bonsai-paper3", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper3", 1.0f},
     {"bonsai-paper4", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper4", 1.0f},
     {"engine-paper1", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper1", 1.0f},
@@ -142,8 +160,9 @@ static void free_scene(loaded_scene *ls)
     free(ls->thin);
 }
 
-static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, int before)
+static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const condition *cd)
 {
+    int before = cd->before;
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
@@ -159,6 +178,7 @@ static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, int be
         !pvc_check(picvr_set_transfer_function(ctx, ls->tf.points, ls->tf.count, ls->tf.density), "transfer function") ||
         !pvc_check(picvr_set_lights(ctx, ls->lights.lights, ls->lights.count, &ls->lights.background), "lights") ||
         !pvc_check(picvr_set_camera(ctx, &ls->cam), "camera") ||
+        !pvc_check(picvr_set_scattering(ctx, &(picvr_scattering){cd->bounces, 0.0f, 0.0f}), "scattering") ||
         !pvc_check(picvr_prepare(ctx), "picvr_prepare") ||
         !pvc_check(picvr_step_iterations(ctx, 1), "warm-up") || !pvc_check(picvr_reset(ctx), "picvr_reset")) {
         picvr_destroy(ctx);
@@ -204,7 +224,7 @@ typedef struct reference {
 
 /* The reference (step 1 at the top): chunks averaged by their pass counts; the error of
    the mean from the chunks' spread, sum_k n_k (y_k - y)^2 / ((K - 1) N) per pixel. */
-static int make_reference(const options *o, const loaded_scene *ls, reference *ref)
+static int make_reference(const options *o, const loaded_scene *ls, const condition *cd, reference *ref)
 {
     size_t pixels = (size_t)o->width * o->height;
     uint32_t K = o->ref_chunks < 2 ? 2 : o->ref_chunks;
@@ -216,7 +236,9 @@ static int make_reference(const options *o, const loaded_scene *ls, reference *r
     int ok = 1;
     uint64_t total = 0;
     for (uint32_t k = 0; k < K && ok; k++) {
-        picvr_context *ctx = open_context(ls, 1001 + k, 0);
+        condition after = *cd;
+        after.before = 0;
+        picvr_context *ctx = open_context(ls, 1001 + k, &after);
         ok = ctx != NULL;
         double spent = 0.0;
         while (ok && spent < o->ref_ms / K) {
@@ -264,6 +286,7 @@ typedef struct run {
     double t_ms[MAX_SLICES], err[MAX_SLICES], mean_ratio[MAX_SLICES];
     uint32_t passes[MAX_SLICES];
     double spent;
+    double path_length;       /* stats.mean_path_length at the end */
 } run;
 
 static int measure(run *r, const reference *ref, size_t pixels, float *rgba, double *lum)
@@ -276,6 +299,7 @@ static int measure(run *r, const reference *ref, size_t pixels, float *rgba, dou
     r->err[r->n] = sqrt(e2 > 0.0 ? e2 : 0.0);
     r->mean_ratio[r->n] = ref->mean > 0.0 ? mean_of(lum, pixels) / ref->mean : 0.0;
     r->passes[r->n] = st.iterations;
+    r->path_length = st.mean_path_length;
     r->n++;
     return 1;
 }
@@ -312,62 +336,102 @@ static double variance_per_sample(const run *r)
     return k ? s / k : 0.0;
 }
 
+/* The conditions of a run: before and after, or the --bounces list (at most
+   MAX_CONDITIONS; 0 on a bad list). */
+static int parse_conditions(const options *o, condition *cd)
+{
+    if (!o->bounces) {
+        memset(cd, 0, 2 * sizeof *cd);
+        snprintf(cd[0].name, sizeof cd[0].name, "before");
+        cd[0].before = 1;
+        snprintf(cd[1].name, sizeof cd[1].name, "after");
+        return 2;
+    }
+    char list[256];
+    snprintf(list, sizeof list, "%s", o->bounces);
+    char *save = NULL;
+    int n = 0;
+    for (char *tok = strtok_r(list, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+        if (n == MAX_CONDITIONS) return 0;
+        memset(&cd[n], 0, sizeof cd[n]);
+        if (!strcmp(tok, "unlimited")) cd[n].bounces = PICVR_BOUNCES_UNLIMITED;
+        else if (!pvc_parse_u32(tok, 0, 1000000, &cd[n].bounces)) return 0;
+        snprintf(cd[n].name, sizeof cd[n].name, "%s bounces", tok);
+        n++;
+    }
+    return n;
+}
+
 static int run_scene(const options *o, const scene_def *sd, FILE *md, FILE *csv)
 {
+    condition cd[MAX_CONDITIONS];
+    int nc = parse_conditions(o, cd);
+    if (!nc) { pvc_fail("bad --bounces list '%s'", o->bounces); return 0; }
     loaded_scene ls;
     if (!load_scene(o, sd, &ls)) return 0;
     size_t pixels = (size_t)o->width * o->height;
-    reference ref;
-    memset(&ref, 0, sizeof ref);
-    double t0 = pvc_now_ms();
-    int ok = make_reference(o, &ls, &ref);
-    if (ok) fprintf(stderr, "%s: reference of %llu passes in %.0f s, relative RMSE %.4f\n", sd->name,
-                    (unsigned long long)ref.passes, (pvc_now_ms() - t0) / 1000.0, ref.rel_err);
-    static run runs[2];
+    /* one reference per bounce count (before and after share theirs) */
+    static reference ref[MAX_CONDITIONS];
+    memset(ref, 0, sizeof ref);
+    int ok = 1, ref_of[MAX_CONDITIONS];
+    for (int c = 0; c < nc && ok; c++) {
+        ref_of[c] = c;
+        for (int k = 0; k < c; k++)
+            if (cd[k].bounces == cd[c].bounces) { ref_of[c] = k; break; }
+        if (ref_of[c] != c) continue;
+        double t0 = pvc_now_ms();
+        ok = make_reference(o, &ls, &cd[c], &ref[c]);
+        if (ok) fprintf(stderr, "%s, %s: reference of %llu passes in %.0f s, relative RMSE %.4f\n", sd->name, cd[c].name,
+                        (unsigned long long)ref[c].passes, (pvc_now_ms() - t0) / 1000.0, ref[c].rel_err);
+    }
+    static run runs[MAX_CONDITIONS];
     memset(runs, 0, sizeof runs);
     float *rgba = (float *)malloc(pixels * 16);
     double *lum = (double *)malloc(pixels * sizeof(double));
     if (!rgba || !lum) { pvc_fail("out of memory"); ok = 0; }
-    for (int c = 0; c < 2 && ok; c++) ok = (runs[c].ctx = open_context(&ls, o->seed, c == 0)) != NULL;
-    while (ok && (runs[0].spent < o->time_ms || runs[1].spent < o->time_ms)) {
-        for (int c = 0; c < 2 && ok; c++) {
+    for (int c = 0; c < nc && ok; c++) ok = (runs[c].ctx = open_context(&ls, o->seed, &cd[c])) != NULL;
+    for (int busy = 1; ok && busy;) {
+        busy = 0;
+        for (int c = 0; c < nc && ok; c++) {
             run *r = &runs[c];
             if (r->spent >= o->time_ms || r->n >= MAX_SLICES) continue;
+            busy = 1;
             double s0 = pvc_now_ms();
             ok = pvc_check(picvr_step(r->ctx, o->slice_ms), "picvr_step");
             r->spent += pvc_now_ms() - s0;
-            if (ok) ok = measure(r, &ref, pixels, rgba, lum);
+            if (ok) ok = measure(r, &ref[ref_of[c]], pixels, rgba, lum);
         }
-        if (runs[0].n >= MAX_SLICES && runs[1].n >= MAX_SLICES) break;
     }
     if (ok) {
-        static const char *names[2] = {"before", "after"};
-        for (int c = 0; c < 2; c++) {
+        for (int c = 0; c < nc; c++) {
             const run *r = &runs[c];
+            const reference *rf = &ref[ref_of[c]];
             double last_t = r->t_ms[r->n - 1] / 1000.0;
             double sps = pixels * (double)r->passes[r->n - 1] / last_t;
-            fprintf(md, "| %s | %s |", sd->name, names[c]);
+            fprintf(md, "| %s | %s |", sd->name, cd[c].name);
             for (int k = 0; k < N_TARGETS; k++) {
                 int ex;
                 double t = time_to(r, TARGETS[k], &ex);
                 if (t < 0.0) fprintf(md, " - |");
                 else fprintf(md, " %s%.3g |", ex ? "~" : "", t / 1000.0);
             }
-            fprintf(md, " %.3g | %.3g | %.4f | %.4f |\n", variance_per_sample(r), sps / 1e6, r->err[r->n - 1],
-                    r->mean_ratio[r->n - 1]);
+            fprintf(md, " %.3g | %.3g | %.4f | %.4f | %.3f | %.3f |\n", variance_per_sample(r), sps / 1e6, r->err[r->n - 1],
+                    r->mean_ratio[r->n - 1], ref[0].mean > 0.0 ? rf->mean / ref[0].mean : 0.0, r->path_length);
             for (int i = 0; i < r->n; i++)
-                fprintf(csv, "%s,%s,%.1f,%u,%.6f,%.6f\n", sd->name, names[c], r->t_ms[i], r->passes[i], r->err[i],
+                fprintf(csv, "%s,%s,%.1f,%u,%.6f,%.6f\n", sd->name, cd[c].name, r->t_ms[i], r->passes[i], r->err[i],
                         r->mean_ratio[i]);
         }
-        fprintf(md, "|  | reference: %llu passes, relative RMSE %.4f (removed in quadrature) | | | | | | | |\n",
-                (unsigned long long)ref.passes, ref.rel_err);
+        for (int c = 0; c < nc; c++)
+            if (ref_of[c] == c)
+                fprintf(md, "|  | reference (%s): %llu passes, relative RMSE %.4f (removed in quadrature) | | | | | | | | | |\n",
+                        cd[c].name, (unsigned long long)ref[c].passes, ref[c].rel_err);
         fflush(md);
         fflush(csv);
     }
-    for (int c = 0; c < 2; c++) picvr_destroy(runs[c].ctx);
+    for (int c = 0; c < nc; c++) picvr_destroy(runs[c].ctx);
     free(rgba);
     free(lum);
-    free(ref.lum);
+    for (int c = 0; c < nc; c++) free(ref[c].lum);
     free_scene(&ls);
     return ok;
 }
@@ -378,7 +442,7 @@ static void print_help(FILE *f)
 {
     fprintf(f,
         "usage: " PROGRAM " [options]   (see the comment at the top of bench/bench_sampling.c)\n"
-        "  --scenes A,B     of thin, bonsai (paper1), engine (paper3), cloud (sun),\n"
+        "  --scenes A,B     of thin, bonsai (paper1), engine (paper3), cloud (sun), cloud-sky,\n"
         "                   bonsai-paper3, bonsai-paper4, engine-paper1, engine-paper4\n"
         "                   (default thin)\n"
         "  --data DIR       data directory (default ../shared/data)\n"
@@ -390,12 +454,14 @@ static void print_help(FILE *f)
         "  --seed N         seed of both conditions' runs (default 101)\n"
         "  --out DIR        sampling.md and sampling.csv go there (default bench/results/sampling)\n"
         "  --write-thin F   write the thin medium to F (name it thin_64x64x64_float32.raw for\n"
-        "                   picvr-render --volume) and exit\n");
+        "                   picvr-render --volume) and exit\n"
+        "  --bounces LIST   compare these max_bounces values (0,1,4,unlimited) instead of the\n"
+        "                   two samplers; results in OUT/paths.md, .csv\n");
 }
 
 static const pvc_option OPTIONS[] = {
     {"help", 0}, {"scenes", 1}, {"data", 1}, {"size", 1}, {"time", 1}, {"slice", 1},
-    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {"write-thin", 1}, {NULL, 0}};
+    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {"write-thin", 1}, {"bounces", 1}, {NULL, 0}};
 
 static int apply_option(void *target, const char *name, const char *value)
 {
@@ -404,6 +470,7 @@ static int apply_option(void *target, const char *name, const char *value)
     else if (!strcmp(name, "data")) o->data = value;
     else if (!strcmp(name, "out")) o->out = value;
     else if (!strcmp(name, "write-thin")) o->write_thin = value;
+    else if (!strcmp(name, "bounces")) o->bounces = value;
     else if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "ref-chunks")) return pvc_parse_u32(value, 2, 1000, &o->ref_chunks) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "seed")) return pvc_parse_u32(value, 0, 999, &o->seed) ? 1 : (pvc_bad_value(name, value), 0);
@@ -420,7 +487,7 @@ static int apply_option(void *target, const char *name, const char *value)
 int main(int argc, char **argv)
 {
     pvc_set_program(PROGRAM);
-    options o = {"thin", "../shared/data", "bench/results/sampling", NULL, 256, 256, 60000.0, 500.0, 240000.0, 4, 101};
+    options o = {"thin", "../shared/data", "bench/results/sampling", NULL, 256, 256, 60000.0, 500.0, 240000.0, 4, 101, NULL};
     int rc = pvc_parse_options(argc, argv, OPTIONS, apply_option, &o, print_help);
     if (rc >= 0) return rc;
     if (o.write_thin) {   /* raw float32, x fastest, host byte order as picvr-render reads it */
@@ -435,16 +502,18 @@ int main(int argc, char **argv)
     char path[4096];
     snprintf(path, sizeof path, "mkdir -p '%s'", o.out);
     if (system(path) != 0) { pvc_fail("cannot make %s", o.out); return 1; }
-    snprintf(path, sizeof path, "%s/sampling.md", o.out);
+    const char *stem = o.bounces ? "paths" : "sampling";
+    snprintf(path, sizeof path, "%s/%s.md", o.out, stem);
     FILE *md = fopen(path, "w");
-    snprintf(path, sizeof path, "%s/sampling.csv", o.out);
+    snprintf(path, sizeof path, "%s/%s.csv", o.out, stem);
     FILE *csv = fopen(path, "w");
     if (!md || !csv) { pvc_fail("cannot write to %s", o.out); return 1; }
     fprintf(md, "%ux%u, %.0f s per condition side by side (slices of %.0f ms), seed %u; time in s to a true "
                 "relative RMSE; '~': extrapolated by err ~ t^-1/2\n\n", o.width, o.height, o.time_ms / 1000.0, o.slice_ms, o.seed);
-    fprintf(md, "| scene | sampler | t(0.05) | t(0.02) | t(0.01) | variance per sample | Msamples/s | final rel. RMSE | mean / reference |\n");
-    fprintf(md, "|---|---|---|---|---|---|---|---|---|\n");
-    fprintf(csv, "scene,sampler,ms,passes,rel_rmse,mean_ratio\n");
+    fprintf(md, "| scene | condition | t(0.05) | t(0.02) | t(0.01) | variance per sample | Msamples/s | final rel. RMSE | "
+                "mean / reference | reference mean / first's | scatter events per sample |\n");
+    fprintf(md, "|---|---|---|---|---|---|---|---|---|---|---|\n");
+    fprintf(csv, "scene,condition,ms,passes,rel_rmse,mean_ratio\n");
     int ok = 1;
     char list[1024];
     snprintf(list, sizeof list, "%s", o.scenes);
@@ -459,7 +528,7 @@ int main(int argc, char **argv)
     fclose(md);
     fclose(csv);
     if (ok) {
-        snprintf(path, sizeof path, "%s/sampling.md", o.out);
+        snprintf(path, sizeof path, "%s/%s.md", o.out, stem);
         FILE *f = fopen(path, "r");
         int ch;
         while (f && (ch = fgetc(f)) != EOF) putchar(ch);

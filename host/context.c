@@ -56,6 +56,12 @@ static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *c
     if (!(ctx->scene.tf_rmin = (picvr_range_table *)picvr_host_alloc(&ctx->config.allocator, sizeof *ctx->scene.tf_rmin))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_range_max, sizeof *ctx->scene.tf_rm,
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
+    picvr_env_info no_env;
+    memset(&no_env, 0, sizeof no_env);
+    picvr_buffer env;
+    if ((s = picvr_env_build(ctx, NULL, &no_env, &env))) return s;
+    picvr_env_install(ctx, NULL, &no_env, &env);
+    ctx->scene.gpu.vertex_cost = 64u;      /* as picvr_set_lights sets it without lights */
     return picvr_default_transfer_function(ctx);
 }
 
@@ -112,6 +118,8 @@ static void picvr_scene_destroy(picvr_context *ctx) {
     picvr_buffer_destroy(ctx, &ctx->scene.tf_staging);
     picvr_buffer_destroy(ctx, &ctx->scene.tf_range_max);
     picvr_buffer_destroy(ctx, &ctx->scene.majorant);
+    picvr_buffer_destroy(ctx, &ctx->scene.tf_g);
+    picvr_buffer_destroy(ctx, &ctx->scene.env);
     picvr_image_destroy(ctx, &ctx->scene.tf_image);
     picvr_image_destroy(ctx, &ctx->scene.volume);
 }

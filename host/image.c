@@ -5,6 +5,7 @@
 
 static void picvr_invalidate_accumulation(picvr_context *ctx) {
     ctx->image.block_samples = 0;
+    ctx->image.scatter_events = 0;
     ctx->image.block_cursor = 0;
     ctx->image.elapsed_ms = 0.0;
     ctx->results.valid = 0;

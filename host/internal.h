@@ -79,6 +79,10 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_EQUIANGULAR 32u   /* constant 7 USE_EQUIANGULAR */
 #define PICVR_KEY_RESIDUAL 64u      /* constant 8 USE_RESIDUAL */
 #define PICVR_KEY_QMC 128u          /* constant 9 USE_QMC */
+#define PICVR_KEY_BOUNCES 256u      /* constant 10 USE_BOUNCES */
+#define PICVR_KEY_HG 512u           /* constant 11 USE_HG */
+#define PICVR_KEY_ENV_MAP 1024u     /* constant 12 USE_ENV_MAP */
+#define PICVR_SPEC_CONSTANTS 13u
 
 /* The kernels of one variant: creation and update have one (KERNEL_MAIN); rendering
    has its tracking kernel there, then its shading kernel and, cached, the lookup
@@ -123,6 +127,11 @@ typedef struct picvr_gpu_scene {
     uint32_t superpixel_side, superpixels_per_row, superpixel_count, superpixel_unused;
     uint32_t debug_view, view_unused[3];
     float light_log_k[3], mono_channel;
+    uint32_t max_bounces;
+    float back_g, back_weight;
+    uint32_t vertex_cost;
+    uint32_t env_w, env_h;
+    float env_cos, env_sin;
     picvr_gpu_light lights[PICVR_MAX_LIGHTS];
 } picvr_gpu_scene;
 
@@ -234,6 +243,12 @@ typedef struct picvr_scene {
     int use_equiangular;             /* some light is served by equiangular sampling */
     int use_control;                 /* enough bricks have a positive minorant for residual
                                         ratio tracking (host/majorant.c) */
+    picvr_scattering scattering;     /* as set (picvr_set_scattering) */
+    int tf_has_g;                    /* some transfer-function point has g != 0 */
+    picvr_buffer tf_g;               /* g per table entry (binding 18), or a placeholder */
+    picvr_buffer env;                /* the environment map's texels and CDFs (binding 19),
+                                        or a placeholder (host/environment.c) */
+    int use_env;                     /* the background is a map of more than one texel */
     picvr_camera camera;
 } picvr_scene;
 
@@ -248,6 +263,7 @@ typedef struct picvr_image_state {
     uint32_t block_cursor;           /* position k in the round-robin order (k * stride) mod B */
     uint32_t block_stride;           /* coprime with block_total, near block_total / golden ratio */
     uint64_t block_samples;          /* blocks rendered since the accumulation was reset */
+    uint64_t scatter_events;         /* camera paths' scatter events since then */
     double elapsed_ms;               /* wall time of the rounds since then */
 } picvr_image_state;
 
@@ -325,8 +341,10 @@ struct picvr_context {
    2 transfer function, 3 majorant grid, 4-6 accumulation planes, 7 stats partials,
    8 opacity range-max table, 9-13 cache entries, nodes, refs, counters, requests,
    14 superpixels (screen-space locking), 15 the rendering queue, 16 and 17 the rendering
-   procedure's event queues for shading and for the cache lookup. */
-#define PICVR_NUM_BINDINGS 18
+   procedure's event queues for shading and for the cache lookup, 18 the phase function's
+   g per transfer-function entry, 19 the environment map. */
+#define PICVR_NUM_BINDINGS 20
+#define PICVR_PLACEHOLDER_BYTES 16u      /* bindings 18, 19 when the scene needs neither */
 #define PICVR_CACHE_PREBUILT_MAX_DEPTH 4u  /* levels of the octree's pre-built top (§4.4) */
 #define PICVR_CACHE_NODE_RADII 1.0f     /* as in shaders/cache.glsl (insertion_depth) */
 

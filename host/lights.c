@@ -116,19 +116,18 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
         picvr_status s = picvr_validate_light(&lights[i]);
         if (s) return s;
     }
-    if (bg) {
-        if (!picvr_finite3(bg->color) || !isfinite(bg->intensity)) return PICVR_ERROR_NON_FINITE;
-        if (bg->intensity < 0.0f || bg->color[0] < 0.0f || bg->color[1] < 0.0f || bg->color[2] < 0.0f)
-            return PICVR_ERROR_INVALID_LIGHT;
-        for (int c = 0; c < 3; c++)
-            if ((double)bg->color[c] * bg->intensity > FLT_MAX) return PICVR_ERROR_INVALID_LIGHT;
-    }
+    picvr_env_info env;
+    picvr_status s = picvr_env_validate(ctx, bg, &env);
+    if (s) return s;
+    picvr_buffer env_buf;
+    if ((s = picvr_env_build(ctx, bg, &env, &env_buf))) return s;
+    picvr_env_install(ctx, bg, &env, &env_buf);
     /* Scene radius for the power of lights at infinity: the volume's bounding sphere
        (1 before a volume is uploaded; only the ratios matter). */
     double R = ctx->scene.has_volume ? ctx->scene.gpu.bound_radius : 1.0;
     double power[PICVR_MAX_LIGHTS + 1], total = 0.0;
     for (uint32_t i = 0; i < count; i++) total += power[i] = picvr_light_power(&lights[i], R);
-    double bg_power = bg ? picvr_luminance(bg->color) * bg->intensity * 4.0 * PICVR_PI * PICVR_PI * R * R : 0.0;
+    double bg_power = env.lum_omega * PICVR_PI * R * R;
     total += bg_power;
 
     int mis = 0;
@@ -143,9 +142,8 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
         g->cdf = (float)cdf;
         if (!picvr_light_is_delta(g) && pmf > 0.0) mis = 1;
     }
-    float bgr[3] = {0, 0, 0};
-    if (bg) for (int c = 0; c < 3; c++) bgr[c] = bg->color[c] * bg->intensity;
-    memcpy(ctx->scene.gpu.background, bgr, sizeof bgr);
+    float bgr[3];
+    memcpy(bgr, ctx->scene.gpu.background, sizeof bgr);
     ctx->scene.gpu.background_pmf = total > 0.0 ? (float)(bg_power / total) : 0.0f;
     if (bg_power > 0.0) mis = 1;
     float emit[PICVR_MAX_LIGHTS + 1][3];
@@ -154,9 +152,17 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
     for (int c = 0; c < 3; c++) emit[count][c] = bg_power > 0.0 ? bgr[c] : 0.0f;
     picvr_light_chromaticity((const float (*)[3])emit, count + 1, ctx->scene.gpu.light_log_k,
                              &ctx->scene.gpu.mono_channel);
+    if (env.is_map && bg_power > 0.0) {   /* a map's texels need not share one chromaticity */
+        memset(ctx->scene.gpu.light_log_k, 0, sizeof ctx->scene.gpu.light_log_k);
+        ctx->scene.gpu.mono_channel = 3.0f;
+    }
     ctx->scene.gpu.light_count = count;
+    /* the pool charge of a path vertex (shaders/path.glsl) for its loops other than
+       tracking: over the lights (choice, area-light hits, sun cones) and the map's two
+       binary searches */
+    ctx->scene.gpu.vertex_cost = 4u * count + 64u;
     ctx->scene.use_phase_mis = mis;
     picvr_update_equiangular(ctx);
-    picvr_status s = picvr_cache_clear(ctx);
+    s = picvr_cache_clear(ctx);
     return s ? s : picvr_clear_accumulation(ctx);
 }

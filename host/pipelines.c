@@ -86,6 +86,21 @@ static void picvr_update_equiangular(picvr_context *ctx) {
     ctx->scene.use_equiangular = last >= 0;
 }
 
+/* Whether the phase function is anisotropic somewhere (USE_HG): some transfer-function
+   point's g, or a second lobe that is not isotropic itself. */
+static int picvr_use_hg(const picvr_context *ctx) {
+    const picvr_scattering *sc = &ctx->scene.scattering;
+    return ctx->scene.tf_has_g || (sc->back_weight > 0.0f && sc->back_g != 0.0f);
+}
+
+/* Whether the cache serves the scene: it holds single-scattered light for an isotropic
+   phase function, so with more scatter events or an anisotropic phase function it idles
+   (the rendering variant queues every event for plain shading, shaders/render_track.glsl,
+   and the rounds plan no creation or update). */
+static int picvr_cache_serves(const picvr_context *ctx) {
+    return ctx->cache.on && ctx->scene.scattering.max_bounces == 0 && !picvr_use_hg(ctx);
+}
+
 /* The key of procedure proc's variant for the current scene.  Only the constants a
    procedure reads are in its key, so that a change elsewhere makes no new variant:
    creation samples light but looks nothing up, the update procedure tracks and looks
@@ -101,18 +116,21 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
     uint32_t mis_mode = ctx->config.distance_sampling == PICVR_DISTANCE_MIS;
     uint32_t equi = ctx->scene.use_equiangular && mis_mode ? PICVR_KEY_EQUIANGULAR : 0u;
     uint32_t qmc = mis_mode ? PICVR_KEY_QMC : 0u;
-    if (proc == PICVR_PROC_CREATE) return mis | fine;
+    uint32_t env = ctx->scene.use_env ? PICVR_KEY_ENV_MAP : 0u;
+    uint32_t paths = (ctx->scene.scattering.max_bounces > 0 ? PICVR_KEY_BOUNCES : 0u) |
+                     (picvr_use_hg(ctx) ? PICVR_KEY_HG : 0u);
+    if (proc == PICVR_PROC_CREATE) return mis | fine | env;
     if (proc == PICVR_PROC_UPDATE) return fine | mono | qmc;
-    if (!ctx->cache.on) return mis | fine | residual | equi | qmc;
-    return mis | fine | mono | residual | equi | qmc | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
+    if (!ctx->cache.on) return mis | fine | residual | equi | qmc | env | paths;
+    return mis | fine | mono | residual | equi | qmc | env | paths | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
 }
 
 /* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
    the procedure has no such kernel; on a failure none is left).  One set of constants
    for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
    creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
-   MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR, 8 USE_RESIDUAL and 9 USE_QMC from
-   the key. */
+   MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR, 8 USE_RESIDUAL, 9 USE_QMC, 10
+   USE_BOUNCES, 11 USE_HG and 12 USE_ENV_MAP from the key. */
 static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
@@ -122,19 +140,20 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
         mod[PICVR_KERNEL_SHADE] = ctx->pipes.shade_module;
         if (ctx->cache.on) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
     }
-    uint32_t value[10] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP,
+    uint32_t value[PICVR_SPEC_CONSTANTS] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP,
                          (key & PICVR_KEY_DEBUG_VIEW) != 0, (key >> PICVR_KEY_MONO_SHIFT) & 3u,
                          ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE,
                          ctx->cache.on ? ctx->cache.cfg.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS,
                          (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0,
-                         (key & PICVR_KEY_QMC) != 0};
-    VkSpecializationMapEntry entry[10];
-    for (uint32_t i = 0; i < 10; i++) {
+                         (key & PICVR_KEY_QMC) != 0, (key & PICVR_KEY_BOUNCES) != 0,
+                         (key & PICVR_KEY_HG) != 0, (key & PICVR_KEY_ENV_MAP) != 0};
+    VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
+    for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;
         entry[i].offset = 4 * i;
         entry[i].size = 4;
     }
-    VkSpecializationInfo spec = {10, entry, sizeof value, value};
+    VkSpecializationInfo spec = {PICVR_SPEC_CONSTANTS, entry, sizeof value, value};
     picvr_status s = PICVR_OK;
     for (int k = 0; k < PICVR_KERNELS; k++) {
         out[k] = VK_NULL_HANDLE;
@@ -282,7 +301,8 @@ static void picvr_update_descriptors(picvr_context *ctx) {
         {ctx->cache.refs.buf, 0, VK_WHOLE_SIZE}, {ctx->cache.counters.buf, 0, VK_WHOLE_SIZE},
         {ctx->cache.requests.buf, 0, VK_WHOLE_SIZE}, {ctx->cache.superpixels.buf, 0, VK_WHOLE_SIZE},
         {ctx->image.render_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->image.shade_queue.buf, 0, VK_WHOLE_SIZE},
-        {ctx->image.lookup_queue.buf, 0, VK_WHOLE_SIZE}};
+        {ctx->image.lookup_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->scene.tf_g.buf, 0, VK_WHOLE_SIZE},
+        {ctx->scene.env.buf, 0, VK_WHOLE_SIZE}};
     VkWriteDescriptorSet w[PICVR_NUM_BINDINGS];
     memset(w, 0, sizeof w);
     uint32_t n = 0;

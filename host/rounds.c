@@ -180,12 +180,13 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
         VkBufferCopy c = {0, 0, sizeof(picvr_cache_counters)};
         vkCmdCopyBuffer(ctx->vk.cmd, ctx->cache.counters.buf, ctx->rounds.readback.buf, 1, &c);
     }
-    VkBufferCopy q = {16, sizeof(picvr_cache_counters), 4};                 /* render_queue.totals.x */
+    /* render_queue.totals: x blocks rendered, y and z the scatter events (64 bits) */
+    VkBufferCopy q = {16, sizeof(picvr_cache_counters), 12};
     vkCmdCopyBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, ctx->rounds.readback.buf, 1, &q);
     picvr_barrier_all(ctx);
     if (ctx->cache.on)   /* hits, misses, requests */
         vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.counters.buf, offsetof(picvr_cache_counters, hits), 3 * 4, 0);
-    vkCmdFillBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, 16, 4, 0);
+    vkCmdFillBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, 16, 12, 0);
     picvr_barrier_all(ctx);
 }
 
@@ -228,13 +229,15 @@ static picvr_status picvr_round_device_ms(picvr_context *ctx, const picvr_round_
 static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_plan *p, double wall_ms, uint32_t created) {
     picvr_buffer_invalidate(ctx, &ctx->rounds.readback);
     const uint8_t *rb = (const uint8_t *)ctx->rounds.readback.mapped;   /* counters, then blocks */
-    uint32_t blocks, hits = 0, misses = 0;
+    uint32_t blocks, events[2], hits = 0, misses = 0;
     memcpy(&blocks, rb + sizeof(picvr_cache_counters), sizeof blocks);
+    memcpy(events, rb + sizeof(picvr_cache_counters) + 4, sizeof events);
     double dev[3], rebuild_ms;
     picvr_status s = picvr_round_device_ms(ctx, p, wall_ms, created, blocks, dev, &rebuild_ms);
     if (s) return s;
     picvr_sched_account(&ctx->sched, dev, rebuild_ms, created, p->update_groups, blocks, wall_ms, ctx->cache.on);
     ctx->image.block_samples += blocks;
+    ctx->image.scatter_events += (uint64_t)events[1] << 32 | events[0];
     ctx->rounds.count++;
     ctx->image.elapsed_ms += wall_ms;
     ctx->cache.since_rebuild_ms = p->rebuild ? wall_ms : ctx->cache.since_rebuild_ms + wall_ms;

@@ -28,7 +28,7 @@ picvr_status picvr_prepare(picvr_context *ctx) {
 /* What the plan of a timed round needs to know of the cache and the image. */
 static picvr_plan_inputs picvr_plan_inputs_now(const picvr_context *ctx) {
     picvr_plan_inputs in;
-    in.cache_on = ctx->cache.on;
+    in.cache_on = picvr_cache_serves(ctx);
     in.requests_pending = ctx->cache.requests_pending;
     in.max_requests = ctx->cache.cfg.max_requests;
     in.rebuild_due = ctx->cache.since_rebuild_ms >= ctx->cache.cfg.rebuild_interval_ms;
@@ -75,7 +75,7 @@ static picvr_status picvr_step_passes(picvr_context *ctx, uint32_t passes) {
         memset(&p, 0, sizeof p);
         p.whole_passes = 1;
         uint32_t k = 1;
-        if (ctx->cache.on) {
+        if (picvr_cache_serves(ctx)) {
             p.create_budget = UINT32_MAX;
             p.request_cap = picvr_pass_request_cap(ctx);
             p.update_groups = (ctx->image.block_total + 15) / 16;

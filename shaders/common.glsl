@@ -10,6 +10,7 @@
 // loops (primary, light sample, phase sample): 3 * 4096 << 65535.
 
 #define PI 3.14159265358979
+#include "sampling_math.glsl"
 #define INV_4PI 0.0795774715459477
 #ifndef MAX_TRACK_STEPS
 #define MAX_TRACK_STEPS 4096u   // a kernel may lower it before including this file
@@ -71,6 +72,11 @@ layout(set = 0, binding = 0, std140) uniform Scene {
                                               // picvr_light_chromaticity): ln(k_c / k_m)
                                               // (CM_LN_E_MIN - CM_LN_E_MAX where k_c = 0);
                                               // the channel m, also MONO_CHANNEL
+    uint max_bounces; float back_g; float back_weight; uint vertex_cost;
+                                              // picvr_scattering (0xffffffff: unlimited);
+                                              // path-pool charge per path vertex (path.glsl)
+    uint env_w; uint env_h; float env_cos; float env_sin; // environment map texels;
+                                              // cos, sin of its rotation about +y
     Light lights[MAX_LIGHTS];
 } scene;
 
@@ -137,6 +143,15 @@ void basis(vec3 n, out vec3 t, out vec3 b) {
     float c = n.x * n.y * a;
     t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
     b = vec3(c, s + n.y * n.y * a, -n.y);
+}
+
+// A direction at angle acos(cos_t) from unit axis, at azimuth 2 pi u.
+vec3 around(vec3 axis, float cos_t, float u) {
+    float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+    float phi = 2.0 * PI * u;
+    vec3 t, b;
+    basis(axis, t, b);
+    return normalize(cos_t * axis + sin_t * (cos(phi) * t + sin(phi) * b));
 }
 
 // Uniform direction in the cone of solid angle 2 pi omc around unit axis, where
@@ -206,6 +221,44 @@ float sigma_t_in_box(vec3 x) {
 }
 
 vec3 albedo_at(vec3 x) { return transfer(data_value(x)).rgb; }
+
+// ---- the phase function (picvr_tf_point.g, picvr_scattering's second lobe) ----
+// Specialization: Henyey-Greenstein lobes (false: isotropic, f = 1 / (4 pi), the paper's;
+// the host turns it on when some g or the second lobe is not 0).
+layout(constant_id = 11) const bool USE_HG = false;
+// g per transfer-function entry (host/transfer.c); a 4-float placeholder without USE_HG.
+layout(set = 0, binding = 18, std430) readonly buffer TfPhase { float tf_g[]; };
+
+// The phase function at a scatter point: d the direction the light travels into it (the
+// ray's), g the first lobe's asymmetry there.  cos(theta) = dot(d, w) for a scattered
+// direction w, so g > 0 scatters forward.
+struct Phase { vec3 d; float g; };
+
+// g at x, interpolated between table entries as the texture interpolates the albedo.
+Phase phase_at(vec3 x, vec3 d) {
+    Phase ph;
+    ph.d = d;
+    ph.g = 0.0;
+    if (USE_HG) {
+        float f = data_value(x) * (TF_SIZE - 1.0);
+        uint i = min(uint(f), uint(TF_SIZE) - 2u);
+        ph.g = mix(tf_g[i], tf_g[i + 1u], clamp(f - float(i), 0.0, 1.0));
+    }
+    return ph;
+}
+
+// The phase function's value (per steradian) for the scattered direction w; also the
+// solid-angle pdf of phase_sample, which samples it exactly.
+float phase_eval(Phase ph, vec3 w) {
+    if (!USE_HG) return INV_4PI;
+    return cm_phase_eval(ph.g, scene.back_g, scene.back_weight, dot(ph.d, w));
+}
+
+// A direction drawn from the phase function (exactly: f / pdf = 1).
+vec3 phase_sample(Phase ph, float u1, float u2) {
+    if (!USE_HG) return uniform_sphere(u1, u2);
+    return around(ph.d, cm_phase_sample_cos(ph.g, scene.back_g, scene.back_weight, u1), u2);
+}
 
 // ---- majorant grids: bricks (coarse) and voxels (fine) ----
 // Coarse: one majorant per brick of `brick` voxels (with a one-voxel apron), plus an
@@ -373,15 +426,23 @@ float next_tentative(bool ratio, float t, float t_end, float m, float c, inout f
     return t_try;
 }
 
+// Specialization: paths of more than one scatter event (shaders/path.glsl).
+layout(constant_id = 10) const bool USE_BOUNCES = false;
+// With USE_BOUNCES, the loop iterations this invocation's tracking loops may still take
+// together (llvmpipe's cap is on their sum, and a path runs two of them per scatter
+// event): each loop runs at most min(MAX_TRACK_STEPS, path_pool) and takes what it ran.
+#define PATH_STEPS 49152u   // picvr.h: PICVR_PATH_STEPS
+uint path_pool = PATH_STEPS;
+
 // Tracking through one dense brick at voxel resolution, from t to t_end, with the
 // brick's control c (it bounds sigma_t from below in each voxel too), sharing the
-// caller's step counter.  Returns true when the walk ended the whole track: a real
-// collision (delta tracking; t holds it) or a zero transmittance (ratio tracking).
+// caller's step counter and its bound.  Returns true when the walk ended the whole track:
+// a real collision (delta tracking; t holds it) or a zero transmittance (ratio tracking).
 bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, float c, inout float T,
-                  inout Rng rng, inout uint steps) {
+                  inout Rng rng, inout uint steps, uint limit) {
     Dda f = fine_start(ro, rd, t);
     float m = max(fine_majorant(f), c);
-    for (; steps < MAX_TRACK_STEPS; steps++) {
+    for (; steps < limit; steps++) {
         float t_seg = min(dda_exit(f), t_end);
         float t_try = next_tentative(ratio, t, t_seg, m, c, T, rng);
         if (t_try < t_seg) {
@@ -403,36 +464,40 @@ bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, floa
 // USE_RESIDUAL, its minorant as the control (residual ratio tracking; delta tracking
 // saves lookups with it).  One flat loop: every iteration is one tentative collision,
 // cell step or empty-space jump (also inside fine_segment), so that SIMD lanes advance
-// together, and all count against one bound; past it the track is truncated (biased,
-// counted) and treated as passing.  Returns, for delta tracking, the distance of a real
-// collision or -1 when the ray passes; for ratio tracking, the transmittance estimate
-// (Eq. 2).
+// together, and all count against one bound (MAX_TRACK_STEPS, and the path's pool);
+// past it the track is truncated (biased, counted) and treated as passing.  Returns, for
+// delta tracking, the distance of a real collision or -1 when the ray passes; for ratio
+// tracking, the transmittance estimate (Eq. 2).
 float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, T = 1.0;
     float maj = cell_majorant(d);
     float c = cell_control(d, maj);
-    for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
+    uint limit = USE_BOUNCES ? min(MAX_TRACK_STEPS, path_pool) : MAX_TRACK_STEPS;
+    uint i = 0u;
+    bool ended = false;      // a collision (delta) or a zero transmittance (ratio)
+    bool passed = false;     // the ray left [t0, t1]
+    for (; i < limit; i++) {
         float t_cell = min(dda_exit(d), t1);
         if (maj > 0.0) {
             if (USE_FINE && (ratio ? maj - c : maj) * (t_cell - t) > FINE_THRESHOLD) {
-                if (fine_segment(ratio, ro, rd, t, t_cell, c, T, rng, i)) return ratio ? 0.0 : t;
-                if (i >= MAX_TRACK_STEPS) break;
+                if (fine_segment(ratio, ro, rd, t, t_cell, c, T, rng, i, limit)) { ended = true; break; }
+                if (i >= limit) break;
             } else {
                 float t_try = next_tentative(ratio, t, t_cell, maj, c, T, rng);
                 if (t_try < t_cell) {
                     t = t_try;
-                    if (tentative_collision(ratio, ro + rd * t, maj, c, T, rng)) return ratio ? 0.0 : t;
+                    if (tentative_collision(ratio, ro + rd * t, maj, c, T, rng)) { ended = true; break; }
                     continue;
                 }
             }
             // a control alone does not end a path: roulette it as a collision would
-            if (ratio && T < 0.1 && ratio_collide(T, 0.0, 1.0, rng)) return 0.0;
+            if (ratio && T < 0.1 && ratio_collide(T, 0.0, 1.0, rng)) { ended = true; break; }
         } else {
             float jump = empty_skip(d, rd);
             if (jump > 0.0) {
                 t += jump;
-                if (t >= t1) return ratio ? T : -1.0;
+                if (t >= t1) { passed = true; break; }
                 d = coarse_start(ro, rd, t);
                 maj = cell_majorant(d);
                 c = cell_control(d, maj);
@@ -440,11 +505,13 @@ float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, ino
             }
         }
         t = t_cell;
-        if (t >= t1 || !dda_advance(d)) return ratio ? T : -1.0;
+        if (t >= t1 || !dda_advance(d)) { passed = true; break; }
         maj = cell_majorant(d);
         c = cell_control(d, maj);
     }
-    truncated = true;
+    if (USE_BOUNCES) path_pool -= min(i + 1u, path_pool);
+    if (ended) return ratio ? 0.0 : t;
+    if (!passed) truncated = true;
     return ratio ? T : -1.0;
 }
 
@@ -571,6 +638,77 @@ float transmittance(vec3 x, vec3 w, float dist, inout Rng rng, inout bool trunca
 #endif
 }
 
+// ---- the background: constant, or an environment map (picvr.h, picvr_background) ----
+// Specialization: the environment map (false: the constant scene.background).
+layout(constant_id = 12) const bool USE_ENV_MAP = false;
+// Built by host/environment.c: per texel (rows top to bottom) 4 floats, its radiance
+// (colour * intensity included) and the solid-angle pdf of env_sample in it; then the
+// marginal CDF over rows (env_h + 1 values, 0 .. 1), then per row the CDF over its
+// columns (env_w + 1 values each).  A 4-float placeholder without USE_ENV_MAP.
+layout(set = 0, binding = 19, std430) readonly buffer Environment { float env[]; };
+
+// The texel that holds direction w: w' = w turned by -rotation about +y, column from
+// atan2(w'.x, -w'.z), row from acos(w'.y) (row 0 the zenith).  Edges clamp.
+uint env_texel(vec3 w) {
+    float x = scene.env_cos * w.x - scene.env_sin * w.z;
+    float z = scene.env_sin * w.x + scene.env_cos * w.z;
+    float u = 0.5 + atan(x, -z) * (0.5 / PI);
+    float v = acos(clamp(w.y, -1.0, 1.0)) * (1.0 / PI);
+    uint col = min(uint(max(u, 0.0) * float(scene.env_w)), scene.env_w - 1u);
+    uint row = min(uint(max(v, 0.0) * float(scene.env_h)), scene.env_h - 1u);
+    return row * scene.env_w + col;
+}
+
+// Radiance arriving from direction w (w points away from the scene).
+vec3 background_radiance(vec3 w) {
+    if (!USE_ENV_MAP) return scene.background;
+    uint i = env_texel(w);
+    return vec3(env[4u * i], env[4u * i + 1u], env[4u * i + 2u]);
+}
+
+// The solid-angle pdf of background_sample for direction w.
+float background_pdf(vec3 w) { return USE_ENV_MAP ? env[4u * env_texel(w) + 3u] : INV_4PI; }
+
+// The largest i < n with cdf[base + i] <= u, for cdf[base] = 0 <= u < 1 = cdf[base + n]:
+// the interval [cdf[i], cdf[i + 1]) holding u, never one of zero width.  At most
+// log2(PICVR_MAX_ENV_SIZE) + 1 iterations.
+uint env_search(uint base, uint n, float u) {
+    uint lo = 0u, hi = n;
+    while (hi - lo > 1u) {
+        uint mid = (lo + hi) / 2u;
+        if (env[base + mid] <= u) lo = mid; else hi = mid;
+    }
+    return lo;
+}
+
+// u's position in [a, b) rescaled to [0, 1): the second use of one random number.
+float env_rescale(float u, float a, float b) { return b > a ? clamp((u - a) / (b - a), 0.0, 0.99999994) : 0.5; }
+
+// A direction drawn from the background in proportion to its luminance times solid
+// angle (exact for the constant one: uniform on the sphere), and its solid-angle pdf.
+// In a texel: uniform in azimuth and in cos(theta), so uniform in solid angle.
+vec3 background_sample(float u1, float u2, out float pdf, out vec3 radiance) {
+    if (!USE_ENV_MAP) { pdf = INV_4PI; radiance = scene.background; return uniform_sphere(u1, u2); }
+    uint W = scene.env_w, H = scene.env_h;
+    uint marginal = 4u * W * H;
+    uint row = env_search(marginal, H, u1);
+    uint cond = marginal + H + 1u + row * (W + 1u);
+    uint col = env_search(cond, W, u2);
+    float a = env_rescale(u1, env[marginal + row], env[marginal + row + 1u]);
+    float b = env_rescale(u2, env[cond + col], env[cond + col + 1u]);
+    float c0 = cos(PI * float(row) / float(H)), c1 = cos(PI * float(row + 1u) / float(H));
+    float cos_t = clamp(mix(c0, c1, a), -1.0, 1.0);
+    float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+    float phi = 2.0 * PI * ((float(col) + b) / float(W) - 0.5);
+    vec3 wr = vec3(sin_t * sin(phi), cos_t, -sin_t * cos(phi));        // w'
+    vec3 w = vec3(scene.env_cos * wr.x + scene.env_sin * wr.z, wr.y,
+                  -scene.env_sin * wr.x + scene.env_cos * wr.z);
+    uint i = row * W + col;            // the texel's own values, whatever w rounds to
+    pdf = env[4u * i + 3u];
+    radiance = vec3(env[4u * i], env[4u * i + 1u], env[4u * i + 2u]);
+    return w;
+}
+
 // ---- lights ----
 
 // Nearest hit of the ray with any sphere or rect light in (0, tmax): the light's
@@ -670,10 +808,10 @@ vec3 camera_ray(uvec2 px, inout Rng rng) {
     return normalize(scene.cam_fwd + sx * scene.cam_right.xyz + sy * scene.cam_up.xyz);
 }
 
-// ---- direct lighting at a point (Eq. 4 integrand, single scattering) ----
+// ---- direct lighting at a point (Eq. 4 integrand) ----
 // Light-sampling strategy: one light (or the background) chosen by power.
-// Returns f * L * T * w / pdf with f = 1/(4 pi) the isotropic phase function.
-vec3 sample_one_light(vec3 x, inout Rng rng, inout bool truncated) {
+// Returns f * L * T * w / pdf with f the phase function ph (1/(4 pi) when isotropic).
+vec3 sample_one_light(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
     uint li = select_light(rnd(rng));
     float u1 = rnd(rng), u2 = rnd(rng);
     vec3 w;
@@ -684,9 +822,11 @@ vec3 sample_one_light(vec3 x, inout Rng rng, inout bool truncated) {
     if (li == uint(MAX_LIGHTS)) {
         pmf = scene.background_pmf;
         if (pmf <= 0.0) return vec3(0.0);
-        w = uniform_sphere(u1, u2);
-        L = scene.background;
-        a = pmf * INV_4PI;
+        float pdf;
+        w = background_sample(u1, u2, pdf, L);
+        // Rule: a direction of pdf 0 (a black texel, never drawn) adds nothing.
+        if (pdf <= 0.0) return vec3(0.0);
+        a = pmf * pdf;
     } else {
         Light l = scene.lights[li];
         int type = l.type;
@@ -742,43 +882,57 @@ vec3 sample_one_light(vec3 x, inout Rng rng, inout bool truncated) {
         }
     }
     if (all(equal(L, vec3(0.0)))) return vec3(0.0);
+    float f = phase_eval(ph, w);
+    // Rule: a direction the phase function does not scatter into needs no shadow ray.
+    if (f <= 0.0) return vec3(0.0);
     float T = transmittance(x, w, dist, rng, truncated);
-    if (a <= 0.0) return INV_4PI * L * T / pmf;                       // delta light
-    float mis = USE_PHASE_MIS ? power_weight(a, INV_4PI) : 1.0;
-    return INV_4PI * L * T * (mis / a);
+    if (a <= 0.0) return f * L * T / pmf;                             // delta light
+    float mis = USE_PHASE_MIS ? power_weight(a, f) : 1.0;
+    return f * L * T * (mis / a);
 }
 
-// Phase-sampling strategy: f / pdf = 1 for the isotropic phase function, so the
-// estimate is L * T * w.  The direction sees the nearest area light or, escaping,
-// the background plus every sun cone that contains it.
-vec3 sample_phase(vec3 x, inout Rng rng, inout bool truncated) {
-    vec3 w = uniform_sphere(rnd(rng), rnd(rng));
-    float t_hit;
-    int hit = nearest_area_light(x, w, 1e30, t_hit);
-    vec3 Le = vec3(0.0);
+// The emission a phase-sampled direction w from x sees (hit: the area light it hits
+// first, at t_hit, or -1), weighted by the power heuristic against light sampling; f is
+// the phase pdf of w.  An escaping direction sees the background and every sun cone
+// that contains it.
+vec3 phase_emission(vec3 x, vec3 w, int hit, float t_hit, float f) {
     if (hit >= 0) {
         uint i = uint(hit);
-        Le = area_light_radiance(i, w) *
-             power_weight(INV_4PI, scene.lights[i].pmf * light_pdf(i, x, w, t_hit));
-    } else {
-        Le = scene.background * power_weight(INV_4PI, scene.background_pmf * INV_4PI);
-        for (uint i = 0u; i < scene.light_count; i++) {
-            Light l = scene.lights[i];
-            if (l.type != LIGHT_DIRECTIONAL || l.size <= 0.0) continue;
-            if (1.0 - dot(w, l.pos) <= l.size)
-                Le += l.radiance * power_weight(INV_4PI, l.pmf * light_pdf(i, x, w, 0.0));
-        }
+        return area_light_radiance(i, w) * power_weight(f, scene.lights[i].pmf * light_pdf(i, x, w, t_hit));
     }
+    vec3 Le = vec3(0.0);
+    if (scene.background_pmf > 0.0)
+        Le = background_radiance(w) * power_weight(f, scene.background_pmf * background_pdf(w));
+    for (uint i = 0u; i < scene.light_count; i++) {
+        Light l = scene.lights[i];
+        if (l.type != LIGHT_DIRECTIONAL || l.size <= 0.0) continue;
+        if (1.0 - dot(w, l.pos) <= l.size)
+            Le += l.radiance * power_weight(f, l.pmf * light_pdf(i, x, w, 0.0));
+    }
+    return Le;
+}
+
+// Phase-sampling strategy: f / pdf = 1 (phase_sample is exact), so the estimate is
+// Le * T * w, the transmittance by ratio tracking.
+vec3 sample_phase(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
+    float u1 = rnd(rng), u2 = rnd(rng);
+    vec3 w = phase_sample(ph, u1, u2);
+    float t_hit;
+    int hit = nearest_area_light(x, w, 1e30, t_hit);
+    vec3 Le = phase_emission(x, w, hit, t_hit, phase_eval(ph, w));
     if (all(equal(Le, vec3(0.0)))) return vec3(0.0);
     return Le * transmittance(x, w, t_hit, rng, truncated);
 }
 
 // Irradiance (Eq. 4) at x from all lights: one light sample and one phase sample,
-// combined by MIS; both estimators above include f = 1/(4 pi), so E = 4 pi * (sum).
-// Separate streams for the two samples, so that a caller can replay the same light
-// and phase choices at several points (common random numbers, cache_create.comp).
+// combined by MIS, with the isotropic phase function (the cache's quantity: creation
+// runs only where the phase function is isotropic); both estimators include f = 1/(4 pi),
+// so E = 4 pi * (sum).  Separate streams for the two samples, so that a caller can replay
+// the same light and phase choices at several points (common random numbers,
+// cache_create.comp).
 vec3 irradiance_sample(vec3 x, Rng light_rng, Rng phase_rng, inout bool truncated) {
-    vec3 s = sample_one_light(x, light_rng, truncated);
-    if (USE_PHASE_MIS) s += sample_phase(x, phase_rng, truncated);
+    Phase iso = Phase(vec3(0.0, 0.0, 1.0), 0.0);
+    vec3 s = sample_one_light(x, iso, light_rng, truncated);
+    if (USE_PHASE_MIS) s += sample_phase(x, iso, phase_rng, truncated);
     return 4.0 * PI * s;
 }

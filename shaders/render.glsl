@@ -13,6 +13,7 @@
 #include "common.glsl"
 #include "sampling_math.glsl"
 #include "distance.glsl"
+#include "path.glsl"
 #include "queue.glsl"
 
 layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  // rgb, coverage
@@ -77,17 +78,40 @@ void accumulate_sample(uint idx, vec3 radiance, float coverage, bool truncated) 
 // whichever round, block order or kernel produced it.
 Rng pixel_rng(uint idx) { return rng_init(idx, floatBitsToUint(accum_stat[idx].z), pc.seed); }
 
+struct ScatterEvent { uint idx; uvec2 px; vec3 rd; float t; vec3 x; Rng rng; bool truncated; };
+
 // In-scattered radiance at x by plain Monte Carlo: one light and one phase sample (MIS).
-vec3 direct_light(vec3 x, inout Rng rng, inout bool truncated) {
-    vec3 L = sample_one_light(x, rng, truncated);
-    if (USE_PHASE_MIS) L += sample_phase(x, rng, truncated);
+vec3 direct_light(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
+    vec3 L = sample_one_light(x, ph, rng, truncated);
+    if (USE_PHASE_MIS) L += sample_phase(x, ph, rng, truncated);
     return L;
+}
+
+// The light scattered toward the camera at the event e (albedo included) and the event's
+// scatter events: the direct light alone, or with USE_BOUNCES the whole path
+// (path.glsl), `direct` its first event's own part.
+vec3 event_radiance(inout ScatterEvent e, out vec3 direct, out uint events) {
+    events = 1u;
+    if (!USE_BOUNCES) {
+        direct = albedo_at(e.x) * direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
+        return direct;
+    }
+    vec3 indirect;
+    scattered_radiance(e.x, e.rd, e.rng, e.truncated, direct, indirect, events);
+    return direct + indirect;
+}
+
+// Adds a path's scatter events to the counters of picvr_stats.mean_path_length: a 64-bit
+// sum in two words (the high word takes the carry).
+void count_events(uint n) {
+    if (n == 0u) return;
+    uint old = atomicAdd(render_queue.totals.y, n);
+    if (old + n < old) atomicAdd(render_queue.totals.z, 1u);
 }
 
 // A scatter event, as the event kernels take it up again: t < 0 (only with
 // USE_EQUIANGULAR, where every ray through the volume is queued) when delta tracking
 // passed.
-struct ScatterEvent { uint idx; uvec2 px; vec3 rd; float t; vec3 x; Rng rng; bool truncated; };
 
 // Queue Q (shade_queue or lookup_queue) gains the event (idx, t, rng, truncated): a
 // macro, as GLSL passes no buffers to functions.
@@ -128,7 +152,7 @@ CameraSegment camera_segment(vec3 rd) {
     CameraSegment c;
     float t_light;
     int light_hit = nearest_area_light(scene.cam_pos, rd, 1e30, t_light);
-    c.end_radiance = light_hit >= 0 ? area_light_radiance(uint(light_hit), rd) : scene.background;
+    c.end_radiance = light_hit >= 0 ? area_light_radiance(uint(light_hit), rd) : background_radiance(rd);
     if (!box_interval(scene.cam_pos, rd, c.t0, c.t1)) { c.t0 = 0.0; c.t1 = 0.0; }
     c.t1 = min(c.t1, t_light);
     return c;
@@ -167,18 +191,23 @@ CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, ino
 // delta tracking collided).  B is shaded by plain Monte Carlo.  coverage: 1 - T^(t1) in
 // [0, 1], or delta tracking's 0/1 outcome (also unbiased) where part C is left out:
 // nothing but black is seen at the end of the segment.
-vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, out float coverage) {
+vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, out float coverage, out uint events) {
     CameraSegment seg = camera_segment(e.rd);
     bool need_end = any(greaterThan(seg.end_radiance, vec3(0.0)));
     CameraSample c = camera_sample(e, seg, need_end, e.rng, e.truncated);
     vec3 L = need_end ? c.T_end * seg.end_radiance : vec3(0.0);
+    events = 0u;
     if (e.t >= 0.0) {
-        if (!a_known) Ls_a = albedo_at(e.x) * direct_light(e.x, e.rng, e.truncated);
-        L += c.w_a * Ls_a;
+        // B estimates the direct part only, so only A's direct part is weighted against
+        // it; the light of later scatter events has A alone as its estimator (weight 1).
+        vec3 all_a = Ls_a;
+        if (!a_known) all_a = event_radiance(e, Ls_a, events);
+        else events = 1u;
+        L += c.w_a * Ls_a + (all_a - Ls_a);
     }
     if (c.f_b > 0.0) {
         vec3 xb = scene.cam_pos + e.rd * c.t_b;
-        L += c.f_b * albedo_at(xb) * direct_light(xb, e.rng, e.truncated);
+        L += c.f_b * albedo_at(xb) * direct_light(xb, phase_at(xb, e.rd), e.rng, e.truncated);
     }
     coverage = need_end ? clamp(1.0 - c.T_end, 0.0, 1.0) : (e.t >= 0.0 ? 1.0 : 0.0);
     return L;

@@ -15,7 +15,7 @@ layout(local_size_x = EVENT_GROUP, local_size_y = 1) in;
 // estimate at the same point, 1).  The plain sample uses the numbers after the hit's, so
 // it is independent of the choice of x and unbiased.
 vec3 cache_error_sample(vec3 x, vec3 cached, inout Rng rng, inout bool truncated) {
-    return vec3(luminance(cached), luminance(albedo_at(x) * direct_light(x, rng, truncated)), 1.0);
+    return vec3(luminance(cached), luminance(albedo_at(x) * direct_light(x, phase_at(x, vec3(0.0, 0.0, 1.0)), rng, truncated)), 1.0);
 }
 
 void main() {
@@ -37,15 +37,17 @@ void main() {
             QUEUE_EVENT(shade_queue, e.idx, e.t, e.rng, e.truncated)
             return;
         }
-        Ls = direct_light(e.x, e.rng, e.truncated);
+        Ls = direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
     }
     vec3 radiance = albedo_at(e.x) * Ls;
     float coverage = 1.0;
+    uint events;
     if (USE_EQUIANGULAR && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE))
-        radiance = finish_camera_sample(e, true, radiance, coverage);
+        radiance = finish_camera_sample(e, true, radiance, coverage, events);
     if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE)
         radiance = near_centre ? vec3(1.0) : hit ? vec3(0.1, 0.8, 0.2) : vec3(0.8, 0.1, 0.1);
     if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE_ERROR)
         radiance = hit ? cache_error_sample(e.x, radiance, e.rng, e.truncated) : vec3(0.0);
+    count_events(1u);
     accumulate_sample(e.idx, radiance, coverage, e.truncated);
 }

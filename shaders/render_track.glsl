@@ -31,6 +31,8 @@ void main() {
     }
     if (t >= 0.0) {
 #ifdef PICVR_CACHE
+        // the cache serves isotropic single scattering only: otherwise it idles
+        if (USE_BOUNCES || USE_HG) { QUEUE_EVENT(shade_queue, idx, t, rng, truncated) return; }
         QUEUE_EVENT(lookup_queue, idx, t, rng, truncated)
 #else
         QUEUE_EVENT(shade_queue, idx, t, rng, truncated)
@@ -40,6 +42,6 @@ void main() {
     vec3 radiance;
     if (USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE) radiance = vec3(0.0);   // the debug views show scatter events only
     else if (light_hit >= 0) radiance = area_light_radiance(uint(light_hit), rd);
-    else radiance = scene.background;
+    else radiance = background_radiance(rd);
     accumulate_sample(idx, radiance, 0.0, truncated);
 }

@@ -4,7 +4,9 @@
 // with free-flight (delta-tracking) sampling by multiple importance sampling (Veach's
 // power heuristic).  Written
 // in the common subset of C and GLSL (its rules are at the top of cache_math.glsl):
-// the shaders compile it in float, tests/test_sampling.c in double and float.
+// the shaders compile it in float, tests/test_sampling.c in double and float.  At its
+// end, the Henyey-Greenstein phase function and its two-lobe mix (evaluation and
+// inverse-CDF sampling of the scattering cosine; tests/test_phase.c).
 //
 // Geometry.  The ray x(t) = o + t w (w unit), a light's centre c.  Delta = dot(c - o, w)
 // is the parameter of the foot of the perpendicular from c to the ray and D its length
@@ -104,6 +106,112 @@ CM_API real CM_FN(eq_weight)(real T, real sigma, real q, real p) {
     if (!(w > CM_REAL(0.0))) return CM_REAL(0.0);
     real v = T * sigma / p * w;
     return cm_isfinite(v) ? v : CM_REAL(0.0);
+}
+
+// ---- Henyey-Greenstein phase function ------------------------------------------------
+//
+//   p_g(cos) = (1 - g^2) / (4 pi (1 + g^2 - 2 g cos)^(3/2))   per steradian,
+// cos the cosine between the propagation direction before the scattering and after it;
+// g > 0 scatters forward and is the mean cosine.  2 pi p_g(cos) is the density of cos on
+// [-1, 1], and its CDF F(cos) = (1 - g^2) / (2 g) (1 / sqrt(1 + g^2 - 2 g cos) - 1 / (1 +
+// g)) is inverted exactly by hg_sample_cos.
+//
+// Inputs are sanitized first (each rule is also stated at its function): g non-finite
+// -> 0 (isotropic), then clamped to [-CM_HG_G_MAX, CM_HG_G_MAX]; cos non-finite -> 0,
+// clamped to [-1, 1]; u non-finite -> 0, clamped to [0, 1]; a lobe weight non-finite ->
+// 0, clamped to [0, 1].  Every output is finite; every density is > 0.
+//
+// CM_HG_G_MAX = 1 - 1e-6 keeps (1 - |g|)^2 >= 1e-12 and the peak density (1 + |g|) /
+// (4 pi (1 - |g|)^2) <= 1.6e11, finite in float with room for the caller's products, and
+// 1 - |g| exact in float.  It costs nothing a float cosine could show: such a lobe is
+// ~1e-6 rad wide, far below the 3.5e-4 rad that the float spacing of cos near 1 (6e-8)
+// resolves, so its float samples are cos = 1 (a delta) either way.
+
+#ifndef CM_PHASE_CONSTANTS
+#define CM_PHASE_CONSTANTS 1
+#define CM_HG_G_MAX      CM_REAL(0.999999)                    // |g| is clamped to this
+#define CM_INV_4PI       CM_REAL(0.07957747154594767)         // 1 / (4 pi)
+#define CM_ONE_BELOW     CM_REAL(0.999999940395355224609375)  // 1 - 2^-24: largest float < 1
+#endif
+
+// g sanitized: non-finite -> 0 (isotropic), then clamped to [-CM_HG_G_MAX, CM_HG_G_MAX].
+CM_API real CM_FN(hg_g)(real g) {
+    if (!cm_isfinite(g)) return CM_REAL(0.0);
+    return cm_clamp(g, -CM_HG_G_MAX, CM_HG_G_MAX);
+}
+
+// The HG density per steradian.  With a = |g| and c' = sign(g) cos (the cosine to the
+// lobe's peak), the base 1 + g^2 - 2 g cos is computed as (1 - a)^2 + 2 a (1 - c'): a sum
+// of two terms >= 0, so at the peak (cos -> sign(g), |g| -> 1), where the textbook form
+// subtracts two numbers near 2 to get ~(1 - a)^2, it keeps full relative precision; the
+// numerator 1 - g^2 is (1 - a)(1 + a) for the same reason.  The base is >= 1e-12 (the
+// clamp of g), so the result lies in [(1 - a) / (4 pi (1 + a)^2), 1.6e11], > 0.
+// Rules: g as in hg_g; cos non-finite -> 0, clamped to [-1, 1].
+CM_API real CM_FN(hg_eval)(real g, real cos_theta) {
+    g = CM_FN(hg_g)(g);
+    real c = cm_isfinite(cos_theta) ? cm_clamp(cos_theta, CM_REAL(-1.0), CM_REAL(1.0)) : CM_REAL(0.0);
+    real a = cm_abs(g);
+    real cp = g < CM_REAL(0.0) ? -c : c;
+    real om = CM_REAL(1.0) - a;
+    real d = om * om + CM_REAL(2.0) * a * (CM_REAL(1.0) - cp);
+    return CM_INV_4PI * om * (CM_REAL(1.0) + a) / (d * cm_sqrt(d));
+}
+
+// The exact inverse of the HG CDF: cos for u in [0, 1] (u = 0 gives -1, u = 1 gives 1,
+// nondecreasing in u).  The textbook form cos = (1 + g^2 - t^2) / (2 g), t = (1 - g^2) /
+// (1 - g + 2 g u), is 0/0 at g -> 0 and subtracts numbers near 2 at |g| -> 1.  Factoring
+// (1 + g)^2 - t^2 and t^2 - (1 - g)^2 instead (the 1/g cancels) gives, with v = 1 - u and
+// q = 1 - g + 2 g u,
+//   1 - cos = 2 v (1 + g u)     ((1 - g) / q)^2,
+//   1 + cos = 2 u (1 - g + g u) ((1 + g) / q)^2,
+// with every factor a sum of terms >= 0 for |g| < 1: q = (1 - g) v + (1 + g) u, 1 + g u
+// = v + (1 + g) u, 1 - g + g u = (1 - g) v + u.  So both distances to the ends carry
+// full relative precision for every g (g = 0 gives exactly 1 - 2v and 2u - 1, the
+// isotropic sample, with no special case), and cos is formed from the smaller of the two,
+// 1 - (1 - cos) or (1 + cos) - 1: one rounding at the peak.  q >= 1e-6 (the clamp of g).
+// Rules: g as in hg_g; u non-finite -> 0 (cos = -1), clamped to [0, 1]; the result is
+// clamped to [-1, 1].
+CM_API real CM_FN(hg_sample_cos)(real g, real u) {
+    g = CM_FN(hg_g)(g);
+    u = cm_isfinite(u) ? cm_clamp(u, CM_REAL(0.0), CM_REAL(1.0)) : CM_REAL(0.0);
+    real v = CM_REAL(1.0) - u;
+    real gm = CM_REAL(1.0) - g;
+    real gp = CM_REAL(1.0) + g;
+    real q = gm * v + gp * u;
+    real rm = gm / q;
+    real rp = gp / q;
+    real m = CM_REAL(2.0) * v * (v + gp * u) * rm * rm;   // 1 - cos
+    real p = CM_REAL(2.0) * u * (gm * v + u) * rp * rp;   // 1 + cos
+    real c = m < p ? CM_REAL(1.0) - m : p - CM_REAL(1.0);
+    return cm_clamp(c, CM_REAL(-1.0), CM_REAL(1.0));
+}
+
+// A lobe weight sanitized: non-finite -> 0, clamped to [0, 1].
+CM_API real CM_FN(phase_weight)(real w) {
+    return cm_isfinite(w) ? cm_clamp(w, CM_REAL(0.0), CM_REAL(1.0)) : CM_REAL(0.0);
+}
+
+// The two-lobe phase function per steradian: (1 - w) p_g(cos) + w p_back_g(cos), w =
+// back_weight.  Rules: w as in phase_weight; g, back_g and cos as in hg_eval.
+CM_API real CM_FN(phase_eval)(real g, real back_g, real back_weight, real cos_theta) {
+    real w = CM_FN(phase_weight)(back_weight);
+    return (CM_REAL(1.0) - w) * CM_FN(hg_eval)(g, cos_theta) + w * CM_FN(hg_eval)(back_g, cos_theta);
+}
+
+// A cos sample of the two-lobe mix from one uniform u: the back lobe when u < w (w =
+// back_weight), with u / w as its uniform, else the main lobe with (u - w) / (1 - w).
+// The chosen lobe has probability w (or 1 - w) and its rescaled uniform is uniform on
+// [0, 1), so 2 pi phase_eval(cos) is exactly the density of the result.  Rules: w as in
+// phase_weight, and w = 1 always picks the back lobe (no 0/0 at u = 1); u non-finite ->
+// 0, clamped to [0, 1]; a rescaled uniform >= 1 (only by rounding, or u = 1: at most one
+// ulp of probability) becomes CM_ONE_BELOW.
+CM_API real CM_FN(phase_sample_cos)(real g, real back_g, real back_weight, real u) {
+    real w = CM_FN(phase_weight)(back_weight);
+    u = cm_isfinite(u) ? cm_clamp(u, CM_REAL(0.0), CM_REAL(1.0)) : CM_REAL(0.0);
+    bool back = u < w || !(w < CM_REAL(1.0));
+    real r = back ? u / w : (u - w) / (CM_REAL(1.0) - w);
+    r = r < CM_REAL(1.0) ? r : CM_ONE_BELOW;
+    return CM_FN(hg_sample_cos)(back ? back_g : g, r);
 }
 
 #ifdef CM_GLSL

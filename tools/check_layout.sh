@@ -34,6 +34,7 @@ sed -n 's/^#define CACHE_NODE_RADII \([0-9.]*\).*/CACHE_NODE_RADII \1/p' shaders
 for v in EVENT_WORDS EVENT_GROUP; do
     sed -n "s/^#define $v \([0-9]*\)u.*/$v \1/p" shaders/render.glsl
 done >> "$tmp/shader"
+sed -n "s/^#define PATH_STEPS \([0-9]*\)u.*/PATH_STEPS \1/p" shaders/common.glsl >> "$tmp/shader"
 fail=0
 while read -r name value; do
     got=$(awk -v n="$name" '$1 == n { print $2 }' "$tmp/shader")

@@ -43,6 +43,14 @@ int main(void)
     PICVR_SCENE(superpixel_count);
     PICVR_SCENE(debug_view);
     PICVR_SCENE(light_log_k);
+    PICVR_SCENE(max_bounces);
+    PICVR_SCENE(back_g);
+    PICVR_SCENE(back_weight);
+    PICVR_SCENE(vertex_cost);
+    PICVR_SCENE(env_w);
+    PICVR_SCENE(env_h);
+    PICVR_SCENE(env_cos);
+    PICVR_SCENE(env_sin);
 #define PICVR_LIGHT(m) \
     printf("Scene.lights.%s %u\n", #m, (unsigned)(offsetof(picvr_gpu_scene, lights) + offsetof(picvr_gpu_light, m)))
     PICVR_LIGHT(pos);
@@ -81,5 +89,6 @@ int main(void)
            (int)PICVR_VIEW_CACHE, (int)PICVR_VIEW_CACHE_ERROR);
     printf("CACHE_NODE_RADII %g\n", (double)PICVR_CACHE_NODE_RADII);
     printf("EVENT_WORDS %u\nEVENT_GROUP %u\n", PICVR_EVENT_WORDS, PICVR_EVENT_GROUP);
+    printf("PATH_STEPS %u\n", PICVR_PATH_STEPS);
     return 0;
 }

@@ -14,7 +14,7 @@ int main(void) {
     picvr_context *ctx = NULL;
     picvr_volume_desc vol = {0};
     picvr_camera cam = {0};
-    picvr_background sky = {{1, 1, 1}, 1};
+    picvr_background sky = {{1, 1, 1}, 1, NULL, 0, 0, 0};
     picvr_stats st;
     memset(voxels, 128, sizeof voxels);
     memset(&st, 0, sizeof st);

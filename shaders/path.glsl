@@ -1,0 +1,82 @@
+// path.glsl - the light scattered at a camera path's first scatter event, with the rest
+// of the path (picvr_scattering.max_bounces > 0, USE_BOUNCES): a volumetric path tracer.
+// Include after common.glsl.
+//
+// At every scatter event x_k (k = 1, 2, ...; the first is the camera ray's, from delta
+// tracking) the path adds next-event estimation: one light or the background chosen by
+// power, its transmittance by (residual) ratio tracking, weighted by the power heuristic
+// against the phase function's pdf (sample_one_light).  The phase-sampled direction then
+// serves twice: as the other MIS strategy of x_k's direct light, and as the path's next
+// segment, tracked by delta tracking: if it leaves the medium, it adds the emission it
+// sees weighted against light sampling (phase_emission; the delta-tracking escape is an
+// unbiased 0/1 estimate of that direction's transmittance) and the path ends; if it
+// collides, x_{k+1} is the next scatter event.  At the last event the path may have, the
+// phase sample's transmittance is estimated by ratio tracking instead (sample_phase:
+// less variance, as single scattering always did).
+//
+// Weights.  The throughput beta_k = albedo(x_1) ... albedo(x_k) (RGB): delta tracking
+// samples x_{k+1} with density sigma_t T, the phase sample is exact (f / pdf = 1), so
+// each event leaves sigma_s / sigma_t = albedo.  Extinction is one scalar in picvr (the
+// transfer function's opacity), so chromatic albedo is exact in this form: the free
+// flights are the same for every channel and no spectral MIS is needed.
+// Russian roulette: from the third scatter event on, the path survives with probability
+// q = min(1, max channel of beta) and beta is divided by q, which keeps every channel's
+// expectation.  (A survivor's beta then has its largest channel at least min(1, ...),
+// so dim paths end and bright ones go on.)
+//
+// Bound.  llvmpipe caps an invocation's loop iterations at 65535 in all, so the path's
+// tracking loops draw from one pool (common.glsl, path_pool, PATH_STEPS) and each event
+// is charged scene.vertex_cost more for its other loops (lights, the environment's
+// search).  A path that runs the pool dry ends there: biased, and counted in
+// stats.truncated_paths, like a tracking loop at its bound.
+
+#define BOUNCES_UNLIMITED 0xffffffffu
+
+// The light scattered at x (the first scatter event; the camera ray travels along d) toward
+// the camera, albedo included: `direct` the light of x's own next-event estimate (the
+// part the caller may weight against another strategy), `indirect` the light of the
+// events after x.  events: scatter events of the path (x counts 1).
+void scattered_radiance(vec3 x, vec3 d, inout Rng rng, inout bool truncated, out vec3 direct,
+                        out vec3 indirect, out uint events) {
+    vec3 beta = albedo_at(x);
+    direct = vec3(0.0);
+    indirect = vec3(0.0);
+    events = 1u;
+    for (uint n = 0u; n < PATH_STEPS; n++) {
+        vec3 L = vec3(0.0);
+        Phase ph = phase_at(x, d);
+        bool dry = path_pool < scene.vertex_cost;
+        path_pool -= min(scene.vertex_cost, path_pool);
+        bool last = scene.max_bounces != BOUNCES_UNLIMITED && events > scene.max_bounces;
+        if (dry && !last) truncated = true;          // ended by the pool: biased, counted
+        bool end = last || dry;
+        L += sample_one_light(x, ph, rng, truncated);
+        vec3 w = vec3(0.0);
+        float t = -1.0;
+        if (end) {
+            if (USE_PHASE_MIS) L += sample_phase(x, ph, rng, truncated);
+        } else {
+            float u1 = rnd(rng), u2 = rnd(rng);
+            w = phase_sample(ph, u1, u2);
+            float t_light, t0, t1;
+            int hit = nearest_area_light(x, w, 1e30, t_light);
+            if (box_interval(x, w, t0, t1)) {
+                t1 = min(t1, t_light);
+                if (t1 > t0) t = delta_track(x, w, t0, t1, rng, truncated);
+            }
+            if (t < 0.0) L += phase_emission(x, w, hit, t_light, phase_eval(ph, w));
+        }
+        if (events == 1u) direct = beta * L; else indirect += beta * L;
+        if (end || t < 0.0) break;
+        x += w * t;
+        d = w;
+        events++;
+        beta *= albedo_at(x);
+        if (events >= 3u) {
+            // Rule: q = 0 (a black albedo) ends the path, as rnd() >= 0 always.
+            float q = min(1.0, max(beta.r, max(beta.g, beta.b)));
+            if (rnd(rng) >= q) break;
+            beta /= q;
+        }
+    }
+}
