@@ -83,7 +83,7 @@ static const scene_def SCENES[] = {
     {"thin", NULL, "thin", "point", 1.0f},
     {"bonsai", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper1", 1.0f},
     {"engine", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper3", 1.0f},
-    {"cloud", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud", "sun", 3.33f},
+    {"cloud", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud-iso", "sun", 3.33f},
     {"cloud-sky", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud", "sun-sky", 3.33f},
     {"bonsai-paper3", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper3", 1.0f},
     {"bonsai-paper4", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper4", 1.0f},

@@ -197,6 +197,15 @@ int pvc_parse_switch(const char *text, picvr_switch *out)
     return 1;
 }
 
+int pvc_parse_bounces(const char *text, uint32_t *out)
+{
+    if (text && !strcmp(text, "unlimited")) {
+        *out = PICVR_BOUNCES_UNLIMITED;
+        return 1;
+    }
+    return pvc_parse_u32(text, 0, PICVR_BOUNCES_UNLIMITED - 1, out);
+}
+
 const char *pvc_switch_name(picvr_switch s)
 {
     return s == PICVR_SWITCH_ON ? "on" : s == PICVR_SWITCH_OFF ? "off" : "default";
@@ -396,6 +405,11 @@ static void json_value(FILE *f, const char *base, const pvc_json_field *field)
     switch (field->type) {
     case PVC_JSON_U32: memcpy(&u32, p, sizeof u32); fprintf(f, "%u", u32); break;
     case PVC_JSON_U64: memcpy(&u64, p, sizeof u64); fprintf(f, "%llu", (unsigned long long)u64); break;
+    case PVC_JSON_BOUNCES:
+        memcpy(&u32, p, sizeof u32);
+        if (u32 == PICVR_BOUNCES_UNLIMITED) fputs("\"unlimited\"", f);
+        else fprintf(f, "%u", u32);
+        break;
     case PVC_JSON_F32: memcpy(&f32, p, sizeof f32); json_number(f, f32); break;
     case PVC_JSON_F64: memcpy(&f64, p, sizeof f64); json_number(f, f64); break;
     case PVC_JSON_CHARS: json_escaped(f, p, strnlen(p, field->count)); break;

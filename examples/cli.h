@@ -103,6 +103,10 @@ int pvc_parse_size(const char *text, uint32_t max, uint32_t *width, uint32_t *he
 /* "on" or "off". */
 int pvc_parse_switch(const char *text, picvr_switch *out);
 
+/* picvr_scattering.max_bounces: "unlimited" (PICVR_BOUNCES_UNLIMITED) or a count N,
+   0 <= N < PICVR_BOUNCES_UNLIMITED. */
+int pvc_parse_bounces(const char *text, uint32_t *out);
+
 /* "on", "off" or "default". */
 const char *pvc_switch_name(picvr_switch s);
 
@@ -154,6 +158,8 @@ typedef enum pvc_json_type {
     PVC_JSON_LOG_LEVEL,       /* picvr_log_level, by pvc_log_level_name */
     PVC_JSON_DISTANCE,        /* picvr_distance_sampling, by pvc_distance_sampling_name */
     PVC_JSON_TRANSMITTANCE,   /* picvr_transmittance_estimator, by pvc_transmittance_name */
+    PVC_JSON_BOUNCES,         /* uint32_t max_bounces: a number, "unlimited" for
+                                 PICVR_BOUNCES_UNLIMITED */
     PVC_JSON_OBJECT           /* a struct described by fields[count] */
 } pvc_json_type;
 

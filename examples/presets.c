@@ -52,7 +52,8 @@ typedef struct tf_entry {
     const char *name, *description;
     float density;
     uint32_t count;
-    picvr_tf_point points[PVP_MAX_TF_POINTS];
+    picvr_tf_point points[PVP_MAX_TF_POINTS];  /* value, albedo, opacity, HG g (0 if left out) */
+    uint32_t max_bounces;                      /* 0 (single scattering) if left out */
 } tf_entry;
 
 #define GREY(g) {g, g, g}
@@ -92,9 +93,19 @@ static const tf_entry tf_table[] = {
       {0.50f, {0.90f, 0.88f, 0.55f}, 0.45f},
       {0.75f, {0.98f, 0.62f, 0.25f}, 0.70f},
       {1.00f, {1.00f, 0.45f, 0.20f}, 1.00f}}},
-    /* Disney cloud: values 0..1, spacing 3.33; a mean free path of 10 world units
-       (3 voxels) at full density. */
-    {"cloud", "clouds: white albedo 0.99, opacity = value, D = 0.1", 0.1f, 2,
+    /* Disney cloud: values 0..1 (most voxels inside 0.5-0.6), spacing 3.33; a mean free
+       path of 10 world units (3 voxels) at full density, 20 at the typical 0.5: an
+       optical depth of 10-26 through the middle (6 on average straight down, 10 along
+       z).  Clouds scatter forward (g about 0.8, Mie) and their look is multiple
+       scattering.  Unlimited bounces (Russian roulette alone; with albedo 0.99,
+       absorption ends a path after 100 events on average at most): unbiased, and no
+       dearer than a limit of 64, which few paths through this cloud reach. */
+    {"cloud", "clouds: white albedo 0.99, HG g 0.8, opacity = value, D = 0.1, unlimited bounces",
+     0.1f, 2, {{0.00f, GREY(0.99f), 0.00f, 0.8f}, {1.00f, GREY(0.99f), 1.00f, 0.8f}},
+     PICVR_BOUNCES_UNLIMITED},
+    /* The same medium isotropic and single-scattering: the cloud of the benchmarks (the
+       irradiance cache serves g = 0 only). */
+    {"cloud-iso", "cloud isotropic (g 0), single scattering: the benchmarks' cloud", 0.1f, 2,
      {{0.00f, GREY(0.99f), 0.00f}, {1.00f, GREY(0.99f), 1.00f}}},
     /* The thin medium of the sampling benchmark (bench/bench_sampling.c, values 0..1,
        spacing 1): an optical depth of about 3 across its densest part. */
@@ -115,6 +126,7 @@ pvp_status pvp_tf_preset(const char *name, pvp_tf *tf)
         memcpy(tf->points, tf_table[i].points, sizeof tf->points);
         tf->count = tf_table[i].count;
         tf->density = tf_table[i].density;
+        tf->max_bounces = tf_table[i].max_bounces;
         return PVP_OK;
     }
     return PVP_ERROR_UNKNOWN_NAME;
@@ -309,6 +321,132 @@ static void build_sun(const scene_frame *f, pvp_lights *out)
     set_background(out, 0.45f, 0.60f, 1.00f, 0.25f);
 }
 
+/* ---- Sun and sky ------------------------------------------------------------------------
+   sun-sky is a clear day: the sun (a directional light of the real sun's angular diameter,
+   warm white, PVP_SUN_ELEVATION degrees high) and the sky and ground as an equirectangular
+   map (picvr_background's convention: row 0 the zenith +y, the centre column along -z).
+   Sky: the analytic model of Preetham, Shirley and Smits ("A practical analytic model for
+   daylight", SIGGRAPH 1999) at turbidity SKY_TURBIDITY (clear): luminance Y and CIE
+   chromaticity x, y are each the zenith's value times the Perez distribution
+       F(theta, gamma) / F(0, theta_s),  F = (1 + A e^(B / cos theta)) (1 + C e^(D gamma)
+                                                                        + E cos^2 gamma),
+   theta the view's zenith angle, gamma its angle to the sun, theta_s the sun's zenith
+   angle, A-E and the zenith values the paper's fits in the turbidity (Appendix A.2);
+   xyY -> XYZ -> linear sRGB (Rec. 709 primaries, D65).  That gives a Rayleigh-blue zenith,
+   a brighter, paler horizon and the soft circumsolar glow (C e^(D gamma)); the sun's own
+   disk is the directional light, not in the map.  Ground (below the horizon): a grey
+   Lambertian plane of albedo GROUND_ALBEDO lit by the sun and the sky, radiance
+   albedo / pi * (E_sun sin(elevation) + E_sky).  Scale: the map is normalized so that the
+   sky's irradiance on a horizontal plane, E_sky, is SKY_FRACTION of the sun's normal
+   irradiance SUN_IRRADIANCE (a clear sky at this elevation gives 15-25 % of the global
+   light as diffuse; here E_sky / (E_sky + E_sun sin 35) = 0.21).  The map is built once
+   with the sun at the centre column; env_rotation turns it (and the light's direction
+   goes with it) to the azimuth the camera asks for. */
+#define SKY_TURBIDITY 3.0f
+#define SUN_IRRADIANCE 14.0f    /* as the sun preset's; a sunlit cloud about 1-2 */
+#define SKY_FRACTION 0.15f      /* sky irradiance on a horizontal plane / SUN_IRRADIANCE */
+#define GROUND_ALBEDO 0.15f
+static const float SUN_COLOR[3] = {1.00f, 0.95f, 0.87f};
+
+/* The Perez distribution with coefficients k[0..4] = A, B, C, D, E. */
+static float perez(const float k[5], float cos_theta, float gamma)
+{
+    float cg = cosf(gamma);
+    return (1.0f + k[0] * expf(k[1] / fmaxf(cos_theta, 1e-3f))) *
+           (1.0f + k[2] * expf(k[3] * gamma) + k[4] * cg * cg);
+}
+
+/* Linear sRGB of Preetham's sky in direction w (w.y > 0), the sun at zenith angle
+   theta_s in direction sun; relative units. */
+static vec3 preetham(vec3 w, vec3 sun, float theta_s)
+{
+    const float T = SKY_TURBIDITY;
+    /* Rows Y, x, y; columns A, B, C, D, E. */
+    const float k[3][5] = {
+        {0.1787f * T - 1.4630f, -0.3554f * T + 0.4275f, -0.0227f * T + 5.3251f,
+         0.1206f * T - 2.5771f, -0.0670f * T + 0.3703f},
+        {-0.0193f * T - 0.2592f, -0.0665f * T + 0.0008f, -0.0004f * T + 0.2125f,
+         -0.0641f * T - 0.8989f, -0.0033f * T + 0.0452f},
+        {-0.0167f * T - 0.2608f, -0.0950f * T + 0.0092f, -0.0079f * T + 0.2102f,
+         -0.0441f * T - 1.6537f, -0.0109f * T + 0.0529f}};
+    float t1 = theta_s, t2 = t1 * t1, t3 = t2 * t1;
+    float chi = (4.0f / 9.0f - T / 120.0f) * (PI_F - 2.0f * theta_s);
+    float zenith[3] = {
+        (4.0453f * T - 4.9710f) * tanf(chi) - 0.2155f * T + 2.4192f,
+        T * T * (0.00166f * t3 - 0.00375f * t2 + 0.00209f * t1) +
+            T * (-0.02903f * t3 + 0.06377f * t2 - 0.03202f * t1 + 0.00394f) +
+            (0.11693f * t3 - 0.21196f * t2 + 0.06052f * t1 + 0.25886f),
+        T * T * (0.00275f * t3 - 0.00610f * t2 + 0.00317f * t1) +
+            T * (-0.04214f * t3 + 0.08970f * t2 - 0.04153f * t1 + 0.00516f) +
+            (0.15346f * t3 - 0.26756f * t2 + 0.06670f * t1 + 0.26688f)};
+    float gamma = acosf(fminf(fmaxf(dot(w, sun), -1.0f), 1.0f)), v[3];
+    for (int i = 0; i < 3; i++)
+        v[i] = zenith[i] * perez(k[i], w.y, gamma) / perez(k[i], 1.0f, theta_s);
+    float Y = v[0], X = v[1] / v[2] * Y, Z = (1.0f - v[1] - v[2]) / v[2] * Y;
+    return v3(fmaxf(3.2406f * X - 1.5372f * Y - 0.4986f * Z, 0.0f),
+              fmaxf(-0.9689f * X + 1.8758f * Y + 0.0415f * Z, 0.0f),
+              fmaxf(0.0557f * X - 0.2040f * Y + 1.0570f * Z, 0.0f));
+}
+
+/* The direction of texel (column, row) of a width x height map (picvr.h's convention). */
+static vec3 texel_direction(uint32_t column, uint32_t row, uint32_t width, uint32_t height)
+{
+    float theta = PI_F * ((float)row + 0.5f) / (float)height;
+    float phi = 2.0f * PI_F * (((float)column + 0.5f) / (float)width - 0.5f);
+    return v3(sinf(theta) * sinf(phi), cosf(theta), -sinf(theta) * cosf(phi));
+}
+
+static float sky_map[PVP_SKY_WIDTH * PVP_SKY_HEIGHT * 3];
+
+/* Fills sky_map once (see "Sun and sky"), the sun in the centre column. */
+static const float *sun_sky_map(void)
+{
+    static int built = 0;
+    if (built) return sky_map;
+    const uint32_t W = PVP_SKY_WIDTH, H = PVP_SKY_HEIGHT;
+    float elevation = PVP_SUN_ELEVATION * PI_F / 180.0f, theta_s = 0.5f * PI_F - elevation;
+    vec3 sun = v3(0.0f, sinf(elevation), -cosf(elevation));
+    double irradiance = 0.0;  /* of the sky, unscaled, on a horizontal plane */
+    for (uint32_t row = 0; row < H / 2; row++)
+        for (uint32_t column = 0; column < W; column++) {
+            vec3 w = texel_direction(column, row, W, H);
+            vec3 L = preetham(w, sun, theta_s);
+            store(&sky_map[3 * (row * W + column)], L);
+            float solid_angle = 2.0f * PI_F / W * PI_F / H * sqrtf(1.0f - w.y * w.y);
+            irradiance += (L.x * 0.2126f + L.y * 0.7152f + L.z * 0.0722f) * w.y * solid_angle;
+        }
+    float k = (float)(SKY_FRACTION * SUN_IRRADIANCE / irradiance);
+    float ground = GROUND_ALBEDO / PI_F * SUN_IRRADIANCE * (sinf(elevation) + SKY_FRACTION);
+    for (uint32_t i = 0; i < W * H * 3; i++)  /* rows 0 .. H/2 - 1: the sky */
+        sky_map[i] = i < W * H / 2 * 3 ? k * sky_map[i] : ground;
+    built = 1;
+    return sky_map;
+}
+
+/* The sun over the camera's left shoulder (the azimuth of the sun preset) at
+   PVP_SUN_ELEVATION, and the sky map turned to it. */
+static void build_sun_sky(const scene_frame *f, pvp_lights *out)
+{
+    vec3 h = camera_direction(f, -0.45f, 0.0f, 0.40f);  /* its horizontal part: the azimuth */
+    h.y = 0.0f;
+    h = length(h) > 1e-6f ? normalize(h) : v3(0.0f, 0.0f, 1.0f);
+    /* picvr turns the map by env_rotation about +y (right-handed): the centre column's
+       horizontal direction (0, 0, -1) goes to (-sin a, 0, -cos a). */
+    float a = atan2f(-h.x, -h.z), elevation = PVP_SUN_ELEVATION * PI_F / 180.0f;
+    float c = cosf(elevation);
+    picvr_light *l = next_light(out);
+    l->type = PICVR_LIGHT_DIRECTIONAL;
+    store(l->direction, v3(-sinf(a) * c, sinf(elevation), -cosf(a) * c));
+    l->angular_diameter = 0.0093f;
+    memcpy(l->color, SUN_COLOR, sizeof l->color);
+    l->intensity = SUN_IRRADIANCE;
+    set_background(out, 1.0f, 1.0f, 1.0f, 1.0f);
+    out->background.environment = sun_sky_map();
+    out->background.env_width = PVP_SKY_WIDTH;
+    out->background.env_height = PVP_SKY_HEIGHT;
+    out->background.env_rotation = a;
+}
+
 /* A point light just above the camera: irradiance S at the front of the volume. */
 static void build_headlight(const scene_frame *f, pvp_lights *out)
 {
@@ -351,6 +489,8 @@ static const lights_entry lights_table[] = {
     {"studio", "warm key sphere + cool fill rect + dim background (the default)",
      build_studio},
     {"sun", "the sun (0.0093 rad) and a blue sky", build_sun},
+    {"sun-sky", "the sun 35 degrees high and a clear sky (Preetham) over a grey ground",
+     build_sun_sky},
     {"headlight", "a point light just above the camera", build_headlight},
     {"point", "a point light just outside the volume, above right in front", build_point},
 };

@@ -27,6 +27,11 @@ extern "C" {
    the update at Table 1's largest share, 0.02: together under picvr's limit of 0.9. */
 #define PVP_WARM_CREATE_SHARE 0.85f
 
+/* sun-sky: the sun's elevation (degrees) and the size of its sky map (texels). */
+#define PVP_SUN_ELEVATION 35.0f
+#define PVP_SKY_WIDTH 256
+#define PVP_SKY_HEIGHT 128
+
 /* Default orbit view: a 3/4 view from the front right, a little from above. */
 #define PVP_DEFAULT_AZIMUTH 35.0f    /* degrees about +y, from +z toward +x */
 #define PVP_DEFAULT_ELEVATION 20.0f  /* degrees above the x-z plane */
@@ -41,11 +46,14 @@ typedef enum pvp_status {
     PVP_ERROR_BAD_ARGUMENT    /* camera parameters out of range */
 } pvp_status;
 
-/* A transfer function ready for picvr_set_transfer_function(points, count, density). */
+/* A transfer function ready for picvr_set_transfer_function(points, count, density),
+   with the scattering it is meant for. */
 typedef struct pvp_tf {
     picvr_tf_point points[PVP_MAX_TF_POINTS];
     uint32_t count;
     float density;            /* D, per world unit */
+    uint32_t max_bounces;     /* picvr_scattering.max_bounces the preset is made for: 0
+                                 (single scattering) but for cloud */
 } pvp_tf;
 
 /* Lights ready for picvr_set_lights(lights, count, &background). */
@@ -58,15 +66,24 @@ typedef struct pvp_lights {
 /* A static English name for the status; never NULL. */
 const char *pvp_status_string(pvp_status status);
 
-/* Transfer-function presets: ct-bonsai, ct-bone, ct-engine, sim, cloud, ramp. */
+/* Transfer-function presets: ct-bonsai, ct-bone, ct-engine, sim, cloud, cloud-iso,
+   thin, ramp.  cloud: HG g 0.8 per point and unlimited bounces (multiple scattering);
+   cloud-iso: the same medium isotropic, for single scattering (the benchmarks' cloud of
+   earlier versions, which the irradiance cache can serve). */
 pvp_status pvp_tf_preset(const char *name, pvp_tf *tf);
 
 /* Light presets: paper1, paper3, paper4 (the set-ups of the paper's section 8, no
    background), paper1-bg, paper3-bg, paper4-bg (plus a modest background), studio,
-   sun, headlight.  All are placed in the frame of `camera` (position and up; the
-   view direction is toward the box centre), like a light kit that moves with the
-   camera, so the visible side is lit from any view.  camera NULL: the default orbit
-   view. */
+   sun, sun-sky, headlight, point.  All are placed in the frame of `camera` (position
+   and up; the view direction is toward the box centre), like a light kit that moves
+   with the camera, so the visible side is lit from any view.  camera NULL: the default
+   orbit view.
+   sun-sky: the sun at PVP_SUN_ELEVATION degrees above the world's horizon (the x-z
+   plane; +y up), its azimuth over the camera's left shoulder, and a clear sky over a
+   grey ground as an environment map (presets.c, "Sun and sky", gives the model).  Its
+   background.environment points to a map inside presets.c, built at the first call
+   (not thread-safe then) and never changed or freed after: constant for the program's
+   life, whatever camera is passed (env_rotation turns it to the sun). */
 pvp_status pvp_lights_preset(const char *name, const float box_min[3],
                              const float box_max[3], const picvr_camera *camera,
                              pvp_lights *lights);

@@ -13,6 +13,7 @@
  * stops rendering early; the outputs are still written).
  */
 #include <errno.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -20,6 +21,8 @@
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
+
+#include <stb/stb_image.h>
 
 #include "cli.h"
 #include "picvr.h"
@@ -75,6 +78,20 @@ static void print_help(FILE *f)
         "  --tf PRESET            transfer function (default ramp)\n"
         "  --density D            override the preset's density factor D (per world unit)\n"
         "  --lights PRESET        light set-up (default studio)\n"
+        "  --env FILE.hdr         a Radiance .hdr (RGBE) equirectangular map as the\n"
+        "                         background, replacing the --lights preset's (its lights\n"
+        "                         stay): row 0 the zenith (+y), the centre column along -z\n"
+        "  --env-rotate DEG       turn the --env map about +y (default 0)\n"
+        "  --env-intensity X      scale the --env map's radiance, X >= 0 (default 1)\n"
+        "  --bounces N|unlimited  scatter events a path may have after its first: 0 single\n"
+        "                         scattering (the paper's), unlimited: until Russian\n"
+        "                         roulette ends it (default: the --tf preset's, 0 but\n"
+        "                         for cloud: unlimited)\n"
+        "  --g G                  Henyey-Greenstein g over the whole transfer function, in\n"
+        "                         (-1, 1): 0 isotropic, > 0 forward (default: the preset's\n"
+        "                         per point, 0 but for cloud: 0.8)\n"
+        "  --phase-back G,W       a second HG lobe, g G in (-1, 1), weight W in [0, 1):\n"
+        "                         phase = (1 - W) HG(g) + W HG(G) (default 0,0: one lobe)\n"
         "  --camera AZ,EL,DIST    orbit around the box centre: azimuth and elevation in\n"
         "                         degrees, distance as a factor of the distance at which\n"
         "                         the box just fills the view (default %g,%g,%g)\n"
@@ -155,7 +172,9 @@ static const pvc_option OPTIONS[] = {
     {"sampling", 1}, {"transmittance", 1},
     {"medium", 1}, {"samples", 1}, {"cache-param", 1}, {"shares", 1}, {"warm", 1},
     {"turns", 1}, {"debug-view", 1}, {"device", 1}, {"exposure", 1}, {"camera", 1},
-    {"fov", 1}, {"out", 1}, {"out-float", 1}, {"log", 1}, {"json", 1}, {NULL, 0}};
+    {"fov", 1}, {"out", 1}, {"out-float", 1}, {"log", 1}, {"json", 1}, {"bounces", 1},
+    {"g", 1}, {"phase-back", 1}, {"env", 1}, {"env-rotate", 1}, {"env-intensity", 1},
+    {NULL, 0}};
 
 static int positive_all(const float *v, int n)
 {
@@ -211,6 +230,17 @@ static int parse_camera(const char *value, render_options *o)
     return 1;
 }
 
+/* --phase-back G,W with G in (-1, 1), W in [0, 1). */
+static int parse_phase_back(const char *value, float back[2])
+{
+    float v[2];
+    if (!pvc_parse_floats(value, 2, v) || !(v[0] > -1.0f && v[0] < 1.0f) ||
+        !(v[1] >= 0.0f && v[1] < 1.0f))
+        return 0;
+    memcpy(back, v, sizeof v);
+    return 1;
+}
+
 /* Each apply_*_option: 1 applied, 0 a bad value, -1 not an option of its group. */
 
 /* The input and the look: volume layout, density, camera. */
@@ -231,6 +261,26 @@ static int apply_scene_option(void *target, const char *name, const char *value)
         return o->have_density = pvc_parse_float(value, &o->density) && o->density >= 0.0f;
     if (!strcmp(name, "camera")) return parse_camera(value, o);
     if (!strcmp(name, "fov")) return pvc_parse_float(value, &o->fov) && o->fov > 0.0f && o->fov <= 179.0f;
+    return -1;
+}
+
+/* Scattering and the environment map. */
+static int apply_light_option(void *target, const char *name, const char *value)
+{
+    render_options *o = target;
+    if (!strcmp(name, "bounces")) return o->have_bounces = pvc_parse_bounces(value, &o->bounces);
+    if (!strcmp(name, "g"))
+        return o->have_g = pvc_parse_float(value, &o->g) && o->g > -1.0f && o->g < 1.0f;
+    if (!strcmp(name, "phase-back")) return parse_phase_back(value, o->phase_back);
+    if (!strcmp(name, "env")) {
+        o->env_path = value;
+        return 1;
+    }
+    if (!strcmp(name, "env-rotate"))
+        return o->have_env_rotate = pvc_parse_float(value, &o->env_rotate);
+    if (!strcmp(name, "env-intensity"))
+        return o->have_env_intensity =
+                   pvc_parse_float(value, &o->env_intensity) && o->env_intensity >= 0.0f;
     return -1;
 }
 
@@ -300,8 +350,9 @@ static int apply_option(void *target, const char *name, const char *value)
         o->lights_name = value;
         return known_preset(name, value, pvp_lights_name);
     }
-    static const pvc_group_fn groups[] = {apply_scene_option, apply_cache_option,
-                                          apply_run_option, apply_output_option};
+    static const pvc_group_fn groups[] = {apply_scene_option, apply_light_option,
+                                          apply_cache_option, apply_run_option,
+                                          apply_output_option};
     return pvc_apply_by_group(groups, sizeof groups / sizeof groups[0], o, name, value);
 }
 
@@ -318,6 +369,7 @@ static void set_defaults(render_options *o)
     o->elevation = PVP_DEFAULT_ELEVATION;
     o->distance = PVP_DEFAULT_DISTANCE;
     o->fov = PVP_DEFAULT_FOV;
+    o->env_intensity = 1.0f;
 }
 
 /* The rules between options; returns 0 after saying which one is broken. */
@@ -335,6 +387,10 @@ static int options_consistent(const render_options *o)
         pvc_fail("--warm fills the cache: give --cache object or --cache screen");
         return 0;
     }
+    if ((o->have_env_rotate || o->have_env_intensity) && !o->env_path) {
+        pvc_fail("--env-rotate and --env-intensity apply to a map: give --env FILE");
+        return 0;
+    }
     return 1;
 }
 
@@ -344,6 +400,9 @@ static int parse_options(int argc, char **argv, render_options *o)
     set_defaults(o);
     int status = pvc_parse_options(argc, argv, OPTIONS, apply_option, o, print_help);
     if (status < 0 && !options_consistent(o)) return EXIT_USAGE;
+    pvp_tf tf;  /* the preset's bounces unless --bounces; --tf was checked */
+    if (status < 0 && !o->have_bounces && pvp_tf_preset(o->tf_name, &tf) == PVP_OK)
+        o->bounces = tf.max_bounces;
     return status;
 }
 
@@ -365,6 +424,124 @@ static int resolve_layout(const render_options *o, pvio_layout *layout)
         pvc_fail("%s", err);
         return 0;
     }
+    return 1;
+}
+
+/* ---- environment map ----------------------------------------------------------------- */
+
+/* --env: linear RGB texels, rows top to bottom (malloc'd by stb_image). */
+typedef struct env_map {
+    float *rgb;
+    uint32_t width, height;
+} env_map;
+
+/* The whole file (malloc'd) and its size; NULL after reporting a failure. */
+static unsigned char *read_file(const char *path, size_t *size)
+{
+    errno = 0;
+    FILE *f = fopen(path, "rb");
+    size_t cap = 1 << 16, n = 0;
+    unsigned char *buf = f ? malloc(cap) : NULL, *grown;
+    while (buf) {
+        n += fread(buf + n, 1, cap - n, f);
+        if (n < cap || ferror(f)) break;
+        grown = cap < ((size_t)1 << 31) ? realloc(buf, cap *= 2) : NULL;
+        if (!grown) free(buf);
+        buf = grown;
+    }
+    if (f && buf && ferror(f)) {
+        free(buf);
+        buf = NULL;
+    }
+    if (!buf) pvc_fail("cannot read %s: %s", path, errno ? strerror(errno) : "too large");
+    if (f) fclose(f);
+    *size = n;
+    return buf;
+}
+
+/* Whether the pixel data at p (n bytes) holds all width x height pixels as stb_image
+   reads them: new-style RLE scanlines (2, 2, width; per component, runs of count - 128
+   copies of one byte or counts 1..128 of literal bytes), else flat RGBE from there on.
+   stb_image trusts its input here: past the end it reads zeros, and a zero count never
+   advances its RLE loop (a truncated or corrupt file would hang it). */
+static int hdr_pixels_complete(const unsigned char *p, size_t n, uint32_t width, uint32_t height)
+{
+    size_t i = 0;
+    if (width < 8 || width >= 32768) return n >= (size_t)width * height * 4;
+    for (uint32_t y = 0; y < height; y++) {
+        if (n - i < 4) return 0;
+        if (p[i] != 2 || p[i + 1] != 2 || (p[i + 2] & 0x80)) /* flat from here to the end */
+            return n - i >= (size_t)width * height * 4;
+        if (((uint32_t)p[i + 2] << 8 | p[i + 3]) != width) return 0;
+        i += 4;
+        for (int k = 0; k < 4; k++)
+            for (uint32_t x = 0; x < width;) {
+                if (i >= n) return 0;
+                uint32_t count = p[i++], run = count > 128;
+                if (run) count -= 128;
+                if (count == 0 || count > width - x || n - i < (run ? 1 : count)) return 0;
+                i += run ? 1 : count;
+                x += count;
+            }
+    }
+    return 1;
+}
+
+/* Loads --env: a Radiance .hdr (RGBE, "-Y H +X W": rows top to bottom) of at most
+   PICVR_MAX_ENV_SIZE texels a side, not all black.  0 after reporting why not. */
+static int load_env(const char *path, env_map *env)
+{
+    static const unsigned char EXR_MAGIC[4] = {0x76, 0x2f, 0x31, 0x01};
+    size_t size, start = 0, line = 0;
+    unsigned char *data = read_file(path, &size);
+    if (!data) return 0;
+    const char *why = NULL;
+    char size_line[64] = "";
+    unsigned w = 0, h = 0;
+    /* The pixels start after the blank line that ends the header and the size line. */
+    for (size_t i = 1; i < size && !start; i++)
+        if (data[i - 1] == '\n' && data[i] == '\n') line = start = i + 1;
+    while (start && start < size && data[start] != '\n') start++;
+    if (start && start < size && start - line < sizeof size_line) {
+        memcpy(size_line, data + line, start - line);
+        size_line[start++ - line] = '\0';
+    }
+    if (size == 0) why = "the file is empty";
+    else if (size >= 4 && !memcmp(data, EXR_MAGIC, 4))
+        why = "OpenEXR is not supported: convert it to a Radiance .hdr";
+    else if (!(size >= 11 && !memcmp(data, "#?RADIANCE\n", 11)) &&
+             !(size >= 7 && !memcmp(data, "#?RGBE\n", 7)))
+        why = "not a Radiance .hdr (RGBE) file";
+    else if (sscanf(size_line, "-Y %u +X %u", &h, &w) != 2)
+        why = "no size line \"-Y H +X W\" after the header (truncated, or rows not top to bottom)";
+    else if (w < 1 || h < 1 || w > PICVR_MAX_ENV_SIZE || h > PICVR_MAX_ENV_SIZE)
+        why = "its size is out of 1..16384 texels a side";
+    else if (size > INT_MAX || !hdr_pixels_complete(data + start, size - start, w, h))
+        why = "the pixel data is truncated or corrupt";
+    if (why) {
+        pvc_fail("--env %s: %s", path, why);
+        free(data);
+        return 0;
+    }
+    int x = 0, y = 0, comp;
+    float *rgb = stbi_loadf_from_memory(data, (int)size, &x, &y, &comp, 3);
+    free(data);
+    if (!rgb) {
+        pvc_fail("--env %s: stb_image cannot decode it: %s", path, stbi_failure_reason());
+        return 0;
+    }
+    size_t n = (size_t)x * (size_t)y * 3, i = 0;
+    while (i < n && rgb[i] == 0.0f) i++;
+    why = (unsigned)x != w || (unsigned)y != h ? "its size line is ambiguous"
+          : i == n                             ? "every texel is black" : NULL;
+    if (why) {
+        pvc_fail("--env %s: %s", path, why);
+        stbi_image_free(rgb);
+        return 0;
+    }
+    env->rgb = rgb;
+    env->width = w;
+    env->height = h;
     return 1;
 }
 
@@ -588,8 +765,9 @@ static int upload_volume(picvr_context *ctx, const render_options *o, const pvio
     return pvc_check(picvr_upload_volume(ctx, &desc), "picvr_upload_volume");
 }
 
-/* Camera from the orbit parameters, then the presets built around the volume's box. */
-static int set_up_scene(picvr_context *ctx, const render_options *o)
+/* Camera from the orbit parameters, then the presets built around the volume's box,
+   the scattering, and env (if any) as the background. */
+static int set_up_scene(picvr_context *ctx, const render_options *o, const env_map *env)
 {
     float box_min[3], box_max[3];
     if (!pvc_check(picvr_volume_box(ctx, box_min, box_max), "picvr_volume_box")) return 0;
@@ -613,15 +791,27 @@ static int set_up_scene(picvr_context *ctx, const render_options *o)
         return 0;
     }
     float density = o->have_density ? o->density : tf.density;
+    for (uint32_t i = 0; o->have_g && i < tf.count; i++) tf.points[i].g = o->g;
     if (!pvc_check(picvr_set_transfer_function(ctx, tf.points, tf.count, density),
                "picvr_set_transfer_function"))
         return 0;
+    picvr_scattering scattering = {o->bounces, o->phase_back[0], o->phase_back[1]};
+    if (!pvc_check(picvr_set_scattering(ctx, &scattering), "picvr_set_scattering")) return 0;
 
     pvp_lights lights;
     if ((ps = pvp_lights_preset(o->lights_name, box_min, box_max, &cam,
                                 &lights)) != PVP_OK) {
         pvc_fail("--lights %s: %s", o->lights_name, pvp_status_string(ps));
         return 0;
+    }
+    if (env->rgb) {
+        picvr_background *b = &lights.background;
+        b->color[0] = b->color[1] = b->color[2] = 1.0f;
+        b->intensity = o->env_intensity;
+        b->environment = env->rgb;
+        b->env_width = env->width;
+        b->env_height = env->height;
+        b->env_rotation = o->env_rotate * 3.14159265358979f / 180.0f;
     }
     return pvc_check(picvr_set_lights(ctx, lights.lights, lights.count, &lights.background),
                  "picvr_set_lights");
@@ -687,14 +877,17 @@ static int render(const render_options *o, const pvio_layout *layout)
     r.turns.path = o->turns_path[0] ? o->turns_path : NULL;
     r.turns.id = o->turns_id;
     int ok = !o->log_path || open_log(o->log_path, &r.log);
-    /* The file first: a bad file should not cost a Vulkan start-up.  The host copy
-       is freed right after the upload (picvr keeps its own). */
+    /* The files first: a bad file should not cost a Vulkan start-up.  The host copies
+       are freed right after the upload (picvr keeps its own). */
     pvio_volume vol = {{0, 0, 0}, PICVR_VOXEL_UINT8, {0, 0, 0}, NULL, 0};
+    env_map env = {NULL, 0, 0};
+    ok = ok && (!o->env_path || load_env(o->env_path, &env));
     ok = ok && load_volume(o, layout, &vol);
     ok = ok && pvc_check(picvr_create(&cfg, &r.ctx), "picvr_create");
     ok = ok && upload_volume(r.ctx, o, &vol);
     pvio_free(&vol);
-    ok = ok && set_up_scene(r.ctx, o);
+    ok = ok && set_up_scene(r.ctx, o, &env);
+    stbi_image_free(env.rgb);  /* picvr keeps its own copy */
     if (ok) {
         install_interrupt_handler();
         if (o->warm_ms > 0.0) ok = warm_up(&r, o, &cfg.scheduler);

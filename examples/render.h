@@ -19,6 +19,13 @@ typedef struct render_options {
     float range[2];
     const char *tf_name, *lights_name;
     float density;
+    int have_bounces, have_g;
+    uint32_t bounces;          /* --bounces, else the --tf preset's (resolved after parsing) */
+    float g;                   /* --g: one HG g over the whole transfer function */
+    float phase_back[2];       /* --phase-back G,W: back_g, back_weight (0,0: one lobe) */
+    const char *env_path;      /* --env FILE.hdr; NULL: the --lights preset's background */
+    float env_rotate, env_intensity; /* --env-rotate (degrees), --env-intensity */
+    int have_env_rotate, have_env_intensity;
     uint32_t width, height;
     double time_ms, round_ms;
     uint32_t iterations;       /* 0: render for time_ms instead */

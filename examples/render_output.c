@@ -4,6 +4,7 @@
  * summary line on stdout.
  */
 #include <errno.h>
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -89,11 +90,29 @@ int render_print_cache_error(picvr_context *ctx, const render_options *o)
 
 /* ---- the JSON summary ----------------------------------------------------------------- */
 
+typedef struct scattering_summary {
+    picvr_scattering scattering;  /* as set: --bounces (else the preset's), --phase-back */
+    float g;                      /* --g; NaN (null): the transfer function's own per point */
+} scattering_summary;
+
+typedef struct env_summary {
+    const char *file;             /* --env; NULL: the --lights preset's background */
+    float rotation_degrees, intensity;
+} env_summary;
+
+/* The "config" object: what the library resolved, then what picvr-render set besides
+   (the scattering and the environment map are not part of picvr_config). */
+typedef struct run_config {
+    picvr_config library;
+    scattering_summary scattering;
+    env_summary environment;
+} run_config;
+
 /* What --json writes: the final statistics, the scene's names and the configuration
    the library resolved (picvr_get_config: every default filled in). */
 typedef struct summary {
     picvr_stats stats;
-    picvr_config config;
+    run_config config;
     const char *device_type, *volume, *tf, *lights;
     uint32_t seed;
 } summary;
@@ -135,9 +154,26 @@ static const pvc_json_field SCHEDULER_FIELDS[] = {
 
 #define COUNT(table) (sizeof table / sizeof table[0])
 
+#define SCATTERING(member) offsetof(scattering_summary, member)
+static const pvc_json_field SCATTERING_FIELDS[] = {
+    {"max_bounces", PVC_JSON_BOUNCES, SCATTERING(scattering.max_bounces)},
+    {"back_g", PVC_JSON_F32, SCATTERING(scattering.back_g)},
+    {"back_weight", PVC_JSON_F32, SCATTERING(scattering.back_weight)},
+    {"g", PVC_JSON_F32, SCATTERING(g)},
+};
+#undef SCATTERING
+
+#define ENV(member) offsetof(env_summary, member)
+static const pvc_json_field ENV_FIELDS[] = {
+    {"file", PVC_JSON_STRING, ENV(file)},
+    {"rotation_degrees", PVC_JSON_F32, ENV(rotation_degrees)},
+    {"intensity", PVC_JSON_F32, ENV(intensity)},
+};
+#undef ENV
+
 /* The application's pointers (log, allocator, Vulkan handles) and the device name it
    asked for are left out: the device in use is the summary's device_name. */
-#define CONFIG(member) offsetof(picvr_config, member)
+#define CONFIG(member) offsetof(run_config, library.member)
 static const pvc_json_field CONFIG_FIELDS[] = {
     {"seed", PVC_JSON_U32, CONFIG(seed)},
     {"validation", PVC_JSON_SWITCH, CONFIG(validation)},
@@ -146,10 +182,15 @@ static const pvc_json_field CONFIG_FIELDS[] = {
     {"transmittance", PVC_JSON_TRANSMITTANCE, CONFIG(transmittance)},
     {"cache", PVC_JSON_OBJECT, CONFIG(cache), COUNT(CACHE_FIELDS), CACHE_FIELDS},
     {"scheduler", PVC_JSON_OBJECT, CONFIG(scheduler), COUNT(SCHEDULER_FIELDS), SCHEDULER_FIELDS},
+    {"scattering", PVC_JSON_OBJECT, offsetof(run_config, scattering), COUNT(SCATTERING_FIELDS),
+     SCATTERING_FIELDS},
+    {"environment", PVC_JSON_OBJECT, offsetof(run_config, environment), COUNT(ENV_FIELDS),
+     ENV_FIELDS},
 };
 #undef CONFIG
 
-/* The keys before "config" are those of earlier versions, in their order. */
+/* The keys up to "config" are those of earlier versions, in their order; newer ones
+   follow it. */
 #define AT(member) offsetof(summary, member)
 static const pvc_json_field SUMMARY_FIELDS[] = {
     {"iterations", PVC_JSON_U32, AT(stats.iterations)},
@@ -191,20 +232,26 @@ static const pvc_json_field SUMMARY_FIELDS[] = {
     {"fraction_update", PVC_JSON_F64, AT(stats.fraction_update)},
     {"target_create", PVC_JSON_F64, AT(stats.target_create)},
     {"target_update", PVC_JSON_F64, AT(stats.target_update)},
-    {"priorities", PVC_JSON_SWITCH, AT(config.scheduler.priorities)},
-    {"curvature_limit", PVC_JSON_SWITCH, AT(config.cache.curvature_limit)},
-    {"medium_model", PVC_JSON_SWITCH, AT(config.cache.medium_model)},
+    {"priorities", PVC_JSON_SWITCH, AT(config.library.scheduler.priorities)},
+    {"curvature_limit", PVC_JSON_SWITCH, AT(config.library.cache.curvature_limit)},
+    {"medium_model", PVC_JSON_SWITCH, AT(config.library.cache.medium_model)},
     {"max_samples", PVC_JSON_U32, AT(stats.cache_max_samples)},
     {"seed", PVC_JSON_U32, AT(seed)},
     {"config", PVC_JSON_OBJECT, AT(config), COUNT(CONFIG_FIELDS), CONFIG_FIELDS},
+    {"mean_path_length", PVC_JSON_F64, AT(stats.mean_path_length)},
 };
 #undef AT
 
 int render_write_json(picvr_context *ctx, const render_options *o, const picvr_stats *stats)
 {
-    summary s = {*stats, {0}, picvr_device_type_string(stats->device_type), o->volume_path,
+    summary s = {*stats, {{0}}, picvr_device_type_string(stats->device_type), o->volume_path,
                  o->tf_name, o->lights_name, o->seed};
-    if (!pvc_check(picvr_get_config(ctx, &s.config), "picvr_get_config")) return 0;
+    if (!pvc_check(picvr_get_config(ctx, &s.config.library), "picvr_get_config")) return 0;
+    scattering_summary sc = {{o->bounces, o->phase_back[0], o->phase_back[1]},
+                             o->have_g ? o->g : NAN};
+    env_summary env = {o->env_path, o->env_rotate, o->env_intensity};
+    s.config.scattering = sc;
+    s.config.environment = env;
     FILE *f = fopen(o->json_path, "w");
     if (f) {
         pvc_json_write(f, &s, SUMMARY_FIELDS, COUNT(SUMMARY_FIELDS));
@@ -232,6 +279,7 @@ void render_print_summary(const render_options *o, const picvr_stats *s, int int
            s->width, s->height, s->iterations, s->elapsed_ms / 1e3, s->samples_per_second,
            s->est_rel_error, s->est_error, s->mean_luminance,
            (int)sizeof s->device_name, s->device_name, picvr_device_type_string(s->device_type));
+    if (s->mean_path_length > 0.0) printf(", mean path %.3g scatter events", s->mean_path_length);
     if (s->truncated_paths) printf(", %llu truncated paths",
                                    (unsigned long long)s->truncated_paths);
     if (s->validation_messages) printf(", %u validation messages", s->validation_messages);

@@ -28,6 +28,16 @@ if [ -n "$line" ]; then
 else
     count check-build 1
 fi
+# the command-line renderer's options and file checks (its own summary line)
+out=$(sh tools/check_cli.sh "$B"); rc=$?
+echo "$out"
+line=$(echo "$out" | sed -n 's/^check_cli: \([0-9]*\) passed, \([0-9]*\) failed$/\1 \2/p')
+if [ -n "$line" ]; then
+    set -- $line; pass=$((pass + $1)); fail=$((fail + $2))
+    [ "$2" = 0 ] || failed="$failed check-cli"
+else
+    count check-cli 1
+fi
 "$B/picvr-bench-error" --self-test
 count bench-self-test $?
 # the test suite: cmocka's own summary, "[  PASSED  ] N test(s)." / "[  FAILED  ] N test(s)"

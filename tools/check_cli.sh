@@ -1,0 +1,111 @@
+#!/bin/sh
+# check_cli.sh BUILD_DIR - picvr-render's command line, on a tiny volume in a temporary
+# folder: bad option values are refused with a message and exit status 2; --env files
+# it cannot read (missing, empty, not .hdr, OpenEXR, truncated, corrupt, all black) with
+# a message and status 1, never a crash or a hang; the scattering and environment
+# options render (lavapipe: seconds) and reach the JSON.  Ends with one line
+# "check_cli: N passed, N failed"; exit status 1 if anything failed.
+set -u
+B=${1:-build}
+R=$B/picvr-render
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+pass=0
+fail=0
+
+# expect STATUS PATTERN ARGS...: picvr-render ARGS exits with STATUS and its stderr (its
+# stdout for status 0) has a line matching PATTERN.
+expect() {
+    want=$1 pattern=$2
+    shift 2
+    timeout 120 "$R" "$@" > "$T/out" 2> "$T/err"
+    rc=$?
+    [ "$want" = 0 ] && cp "$T/out" "$T/err"
+    if [ "$rc" = "$want" ] && grep -q -e "$pattern" "$T/err"; then
+        pass=$((pass + 1))
+    else
+        fail=$((fail + 1))
+        echo "check_cli: FAIL (status $rc, expected $want and /$pattern/): picvr-render $*"
+        sed 's/^/    /' "$T/err" | head -n 5
+    fi
+}
+
+# The volume: 4x4x4 voxels of 255.  Maps: 4x2 flat RGBE texels of 1.0 (width < 8), and
+# 8x2 in new-style RLE (a run of 8 per component per row).
+V="$T/cube_4x4x4_uint8.raw"
+printf '\377%.0s' $(seq 64) > "$V"
+HEAD='#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n'
+printf "$HEAD-Y 2 +X 4\n" > "$T/flat.hdr"
+printf '\200\200\200\201%.0s' $(seq 8) >> "$T/flat.hdr"
+printf "$HEAD-Y 2 +X 8\n" > "$T/rle.hdr"
+printf '\002\002\000\010\210\200\210\200\210\200\210\201%.0s' 1 2 >> "$T/rle.hdr"
+head -c 21 "$T/rle.hdr" > "$T/header-only.hdr"
+size=$(wc -c < "$T/rle.hdr")
+head -c $((size - 3)) "$T/rle.hdr" > "$T/truncated-rle.hdr"   # hangs stb_image itself
+head -c $((size - 12)) "$T/rle.hdr" > "$T/truncated-row.hdr"
+size=$(wc -c < "$T/flat.hdr")
+head -c $((size - 1)) "$T/flat.hdr" > "$T/truncated-flat.hdr"
+{ printf "$HEAD-Y 2 +X 8\n"; printf '\002\002\000\010\000\200%.0s' 1 2; } > "$T/zero-count.hdr"
+{ printf "$HEAD-Y 1 +X 4\n"; printf '\000\000\000\000%.0s' 1 2 3 4; } > "$T/black.hdr"
+: > "$T/empty.hdr"
+printf 'not an image\n' > "$T/text.hdr"
+printf '\211PNG\r\n\032\n0000' > "$T/png.hdr"
+printf 'v/1\001\002\000\000\000' > "$T/map.exr"
+RUN="--volume $V --size 8x8 --iterations 1 --quiet"
+
+# usage errors: status 2
+expect 2 "bad value for --bounces" $RUN --bounces -1
+expect 2 "bad value for --bounces" $RUN --bounces 2.5
+expect 2 "bad value for --bounces" $RUN --bounces infinite
+expect 2 "bad value for --bounces" $RUN --bounces 4294967295
+expect 2 "needs a value" $RUN --bounces
+expect 2 "bad value for --g" $RUN --g 1
+expect 2 "bad value for --g" $RUN --g -1
+expect 2 "bad value for --g" $RUN --g nan
+expect 2 "bad value for --g" $RUN --g 0.5x
+expect 2 "bad value for --phase-back" $RUN --phase-back 0.5
+expect 2 "bad value for --phase-back" $RUN --phase-back 1,0.5
+expect 2 "bad value for --phase-back" $RUN --phase-back -0.3,1
+expect 2 "bad value for --phase-back" $RUN --phase-back -0.3,-0.1
+expect 2 "bad value for --env-intensity" $RUN --env "$T/flat.hdr" --env-intensity -1
+expect 2 "bad value for --env-rotate" $RUN --env "$T/flat.hdr" --env-rotate inf
+expect 2 "give --env FILE" $RUN --env-rotate 90
+expect 2 "give --env FILE" $RUN --env-intensity 2
+expect 2 "unknown --lights" $RUN --lights sun-skies
+
+# --env files that cannot be used: status 1
+expect 1 "cannot read .*No such file" $RUN --env "$T/missing.hdr"
+expect 1 "cannot read .*directory" $RUN --env "$T"
+expect 1 "the file is empty" $RUN --env "$T/empty.hdr"
+expect 1 "not a Radiance .hdr" $RUN --env "$T/text.hdr"
+expect 1 "not a Radiance .hdr" $RUN --env "$T/png.hdr"
+expect 1 "OpenEXR is not supported" $RUN --env "$T/map.exr"
+expect 1 "no size line" $RUN --env "$T/header-only.hdr"
+expect 1 "truncated or corrupt" $RUN --env "$T/truncated-rle.hdr"
+expect 1 "truncated or corrupt" $RUN --env "$T/truncated-row.hdr"
+expect 1 "truncated or corrupt" $RUN --env "$T/truncated-flat.hdr"
+expect 1 "truncated or corrupt" $RUN --env "$T/zero-count.hdr"
+expect 1 "every texel is black" $RUN --env "$T/black.hdr"
+
+# accepted: status 0, the summary line; the JSON holds the settings
+expect 0 "mean_luminance" $RUN --env "$T/flat.hdr"
+expect 0 "mean_luminance" $RUN --bounces unlimited --g 0.5 --phase-back -0.3,0.2 --tf cloud \
+    --lights sun-sky --env "$T/rle.hdr" --env-rotate 90 --env-intensity 2 --json "$T/run.json"
+for key in '"mean_path_length": ' '"max_bounces": "unlimited"' '"back_g": -0.3' \
+           '"back_weight": 0.2' '"g": 0.5' '"rotation_degrees": 90' '"intensity": 2' \
+           '"file": ".*rle.hdr"'; do
+    if grep -q -e "$key" "$T/run.json"; then pass=$((pass + 1)); else
+        fail=$((fail + 1)); echo "check_cli: FAIL: --json lacks $key"; fi
+done
+expect 0 "mean_luminance" $RUN --tf cloud --bounces 0 --lights sun-sky --json "$T/single.json"
+for key in '"max_bounces": 0' '"g": null' '"file": null'; do
+    if grep -q -e "$key" "$T/single.json"; then pass=$((pass + 1)); else
+        fail=$((fail + 1)); echo "check_cli: FAIL: --json lacks $key"; fi
+done
+for key in '--bounces N|unlimited' '--g G' '--phase-back G,W' '--env FILE' '--env-rotate DEG' \
+           '--env-intensity X' 'sun-sky' 'cloud-iso'; do
+    expect 0 "$key" --help
+done
+
+echo "check_cli: $pass passed, $fail failed"
+[ "$fail" = 0 ]
