@@ -463,9 +463,10 @@ typedef struct picvr_scattering {
 /* Sets the scattering model (NULL: the defaults).  On error nothing changes.  Resets
    accumulation.  Paths: next-event estimation (one light or the background, chosen by
    power, MIS with phase sampling) at every scatter event; the phase-sampled direction
-   continues the path by delta tracking; from the third scatter event on, Russian
-   roulette ends a path with probability 1 - min(1, max channel of its throughput)
-   (survivors are divided by the survival probability: unbiased).  A path is bounded
+   continues the path by delta tracking; before it goes on from its second (or a later)
+   scatter event, Russian roulette ends it with probability 1 - min(1, max channel of
+   its throughput) (what a survivor gathers later is divided by the survival
+   probability: unbiased).  A path is bounded
    by llvmpipe's loop limit: past PICVR_PATH_STEPS tracking steps in all it ends (biased,
    counted in stats.truncated_paths).  The irradiance cache serves single scattering
    with an isotropic phase function only: with max_bounces > 0, any g != 0 or a second
@@ -592,7 +593,10 @@ typedef struct picvr_stats {
     uint64_t truncated_paths;    /* samples whose tracking loop hit its iteration bound
                                     (biased; should stay 0 outside extreme media) */
     double mean_path_length;     /* scatter events per camera sample (those that miss
-                                    the medium count 0) since the last reset */
+                                    the medium count 0) since the last reset.  With
+                                    priorities on, picvr_step gives more samples to the
+                                    pixels whose error falls fastest, so the mean is
+                                    over those samples, not over the pixels alike */
     /* irradiance cache (all 0 when the cache is off) */
     uint32_t cache_entries;      /* entries in the cache */
     uint32_t cache_nodes;        /* octree nodes in use */

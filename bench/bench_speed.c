@@ -137,6 +137,7 @@ static const picvr_tf_point bench_tf[] = {
    (for bonsai, R = 221.7: the light sits ~1.8 R from the centre, the camera ~2.9 R). */
 static void bench_lights(float R, picvr_light *sphere, picvr_background *sky)
 {
+    memset(sky, 0, sizeof *sky);   /* no environment map */
     memset(sphere, 0, sizeof *sphere);
     sphere->type = PICVR_LIGHT_SPHERE;
     sphere->position[0] = 1.0f * R; sphere->position[1] = 1.3f * R; sphere->position[2] = 0.7f * R;

@@ -39,6 +39,7 @@ static picvr_status picvr_env_validate(const picvr_context *ctx, const picvr_bac
         if (info->scale[c] > FLT_MAX) return PICVR_ERROR_INVALID_LIGHT;
         info->constant[c] = (float)info->scale[c];
     }
+    if (!isfinite(bg->env_rotation)) return PICVR_ERROR_NON_FINITE;
     if (!bg->environment) {
         info->lum_omega = 4.0 * PICVR_PI * (0.2126 * info->scale[0] + 0.7152 * info->scale[1] + 0.0722 * info->scale[2]);
         return PICVR_OK;
@@ -46,7 +47,6 @@ static picvr_status picvr_env_validate(const picvr_context *ctx, const picvr_bac
     uint32_t w = bg->env_width, h = bg->env_height;
     if (w == 0 || h == 0) return PICVR_ERROR_INVALID_DIMENSIONS;
     if (w > PICVR_MAX_ENV_SIZE || h > PICVR_MAX_ENV_SIZE) return PICVR_ERROR_SIZE_OVERFLOW;
-    if (!isfinite(bg->env_rotation)) return PICVR_ERROR_NON_FINITE;
     uint64_t texels = (uint64_t)w * h;
     info->bytes = (4 * texels + (h + 1) + (uint64_t)h * (w + 1)) * sizeof(float);
     if (texels > 1 && info->bytes > ctx->vk.props.limits.maxStorageBufferRange) return PICVR_ERROR_SIZE_OVERFLOW;

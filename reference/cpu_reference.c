@@ -139,6 +139,12 @@ static int tf_segment(const picvr_tf_point *tf, uint32_t count, double v)
 
 double cref_tf_eval(const picvr_tf_point *tf, uint32_t count, double v, double albedo[3])
 {
+    return cref_tf_eval_ex(tf, count, v, albedo, NULL);
+}
+
+double cref_tf_eval_ex(const picvr_tf_point *tf, uint32_t count, double v, double albedo[3],
+                       double *g)
+{
     if (!(v >= 0.0)) v = 0.0;               /* also maps NaN to 0 */
     if (v > 1.0) v = 1.0;
     int i = tf_segment(tf, count, v);
@@ -156,6 +162,7 @@ double cref_tf_eval(const picvr_tf_point *tf, uint32_t count, double v, double a
     if (albedo)
         for (int k = 0; k < 3; k++)
             albedo[k] = a->albedo[k] + t * ((double)b->albedo[k] - a->albedo[k]);
+    if (g) *g = a->g + t * ((double)b->g - a->g);
     return a->opacity + t * ((double)b->opacity - a->opacity);
 }
 
@@ -385,9 +392,12 @@ enum { TRACK_ESCAPED = 0, TRACK_COLLIDED = 1, TRACK_TRUNCATED = 2 };
 
 /* Delta tracking from o along unit d over [t0, t1]: exponential steps against each
    brick's majorant, restarted at the brick's entry (memoryless, so exact).  A
-   tentative collision is real with probability sigma_t / majorant. */
+   tentative collision is real with probability sigma_t / majorant.  *budget is what
+   is left of the path's free-flight steps (CREF_PATH_STEPS in all); the ray is cut
+   (TRACK_TRUNCATED) past CREF_MAX_STEPS of its own or when the budget runs out. */
 static int delta_track(const cref_scene *s, const double o[3], const double d[3],
-                       double t0, double t1, rng_t *rng, double *t_hit, uint64_t *viol)
+                       double t0, double t1, rng_t *rng, int *budget, double *t_hit,
+                       uint64_t *viol)
 {
     dda_t w;
     dda_init(&w, s, o, d, t0, t1);
@@ -399,7 +409,7 @@ static int delta_track(const cref_scene *s, const double o[3], const double d[3]
         for (;;) {
             t += exp_step(rng, m);          /* m > 0 */
             if (t >= tb) break;
-            if (++steps > CREF_MAX_STEPS) return TRACK_TRUNCATED;
+            if (++steps > CREF_MAX_STEPS || --*budget < 0) return TRACK_TRUNCATED;
             double x[3];
             ray_at(o, d, t, x);
             double sig = sigma_t_at(s, x);
@@ -560,48 +570,303 @@ static light_hit nearest_area_light(const cref_scene *s, const double o[3],
     return h;
 }
 
-/* ==== lights: sampling and MIS ======================================================= */
+/* ==== phase function ================================================================== */
 /*
- * Power heuristic, written so that no pdf is ever divided by: with p_l = p_select *
- * p_light(w) and p_f = 1/(4 pi) (= the phase function f):
- *   light sample:  f L T w_l / p_l = f L T p_l / (p_l^2 + p_f^2)
- *   phase sample:  f L T w_f / p_f =   L T p_f^2 / (p_l^2 + p_f^2)
- * For a light sampled uniformly in a solid angle Omega (sphere cone, sun cone,
- * background 4 pi), p_light = 1/Omega; multiplying through by Omega^2:
- *   light: f (L Omega) T p_sel / (p_sel^2 + (p_f Omega)^2)
- *   phase:   (L Omega) T p_f^2 Omega / (p_sel^2 + (p_f Omega)^2)
- * which stays finite for tiny cones and is exact for the delta sun (Omega = 0,
- * L Omega = E): light term = f E T / p_sel.  For a rect, p_light = d^2 / (A cos):
- *   light: f L T p_sel d^2 A cos / ((p_sel d^2)^2 + (p_f A cos)^2)
- *   phase:   L T (p_f A cos)^2   / ((p_sel d^2)^2 + (p_f A cos)^2)
- * Denominators are > 0 whenever the sample can carry light (p_sel > 0 for a light
- * with power; cos > 0 and d > 0 for a rect).
+ * Henyey-Greenstein with cos = dot(direction the light travels before, direction
+ * after).  A path traced from the camera travels along d (toward the scatter point) and
+ * gathers light arriving from w (pointing away from the point, toward the light): the
+ * light travels along -w, then along -d, so cos = dot(-w, -d) = dot(d, w), and sampling
+ * draws w around the axis d.  g > 0 is forward scattering.
  */
 
-static inline double mis_cone_light(double p_sel, double omega)
+/* The largest float below 1: picvr.h takes g in (-1, 1) as floats, so clamping into
+   [-HG_G_MAX, HG_G_MAX] changes no valid input and keeps 1 - |g| >= 2^-24. */
+#define HG_G_MAX (1.0 - 0x1.0p-24)
+
+/* Rule: NaN -> 0 (isotropic), else clamped into [-HG_G_MAX, HG_G_MAX]. */
+static inline double hg_clamp_g(double g)
 {
-    double den = p_sel * p_sel + (INV_4PI * omega) * (INV_4PI * omega);
-    return den > 0.0 ? INV_4PI * p_sel / den : 0.0;   /* rule: den > 0 */
+    if (!(g == g)) return 0.0;
+    return g > HG_G_MAX ? HG_G_MAX : (g < -HG_G_MAX ? -HG_G_MAX : g);
 }
 
-static inline double mis_cone_phase(double p_sel, double omega)
+double cref_hg_eval(double g, double cos_t)
 {
-    double den = p_sel * p_sel + (INV_4PI * omega) * (INV_4PI * omega);
-    return den > 0.0 ? INV_4PI * INV_4PI * omega / den : 0.0;
+    g = hg_clamp_g(g);
+    if (!(cos_t >= -1.0)) cos_t = -1.0;     /* also NaN */
+    if (cos_t > 1.0) cos_t = 1.0;
+    /* 1 + g^2 - 2 g cos as a sum of two terms >= 0 (no cancellation near |g| = 1):
+       g >= 0: (1 - g)^2 + 2 g (1 - cos);  g < 0: (1 + g)^2 + 2 |g| (1 + cos).
+       So den >= (1 - |g|)^2 >= 2^-48 > 0. */
+    double den = g >= 0.0 ? (1.0 - g) * (1.0 - g) + 2.0 * g * (1.0 - cos_t)
+                          : (1.0 + g) * (1.0 + g) - 2.0 * g * (1.0 + cos_t);
+    return INV_4PI * (1.0 - g) * (1.0 + g) / (den * sqrt(den));   /* den > 0 */
 }
 
-static inline double mis_rect_light(double p_sel, double d2, double a_cos)
+double cref_hg_sample(double g, double u)
 {
-    double x = p_sel * d2, y = INV_4PI * a_cos;
+    g = hg_clamp_g(g);
+    if (!(u >= 0.0)) u = 0.0;
+    if (u > 1.0) u = 1.0;
+    /* Inverse CDF cos = (1 + g^2 - ((1 - g^2) / (1 + g s))^2) / (2 g) with s = 2u - 1,
+       rearranged so that nothing divides by g (exact at g = 0: cos = s):
+         cos = (s + g) / a + g (1 - g^2) (1 - s^2) / (2 a^2),  a = 1 + g s,
+       with 1 - s^2 = 4 u (1 - u) (no cancellation) and a >= 1 - |g| >= 2^-24 > 0. */
+    double s = 2.0 * u - 1.0;
+    double a = 1.0 + g * s;
+    double c = (s + g) / a + 2.0 * g * (1.0 - g) * (1.0 + g) * u * (1.0 - u) / (a * a);
+    return c > 1.0 ? 1.0 : (c < -1.0 ? -1.0 : c);   /* rounding only */
+}
+
+/* The phase function at one scatter point: (1 - back_w) HG(g) + back_w HG(back_g). */
+typedef struct phase_t {
+    double g, back_g, back_w;
+} phase_t;
+
+static double phase_eval(const phase_t *p, double cos_t)
+{
+    double f = cref_hg_eval(p->g, cos_t);
+    if (p->back_w > 0.0) f = (1.0 - p->back_w) * f + p->back_w * cref_hg_eval(p->back_g, cos_t);
+    return f;
+}
+
+static int phase_isotropic(const phase_t *p)
+{
+    return p->g == 0.0 && (p->back_w == 0.0 || p->back_g == 0.0);
+}
+
+/* The uniform sphere from two uniforms: z = 1 - 2 u1, phi = 2 pi u2. */
+static void sphere_dir(double u1, double u2, double w[3])
+{
+    double z = 1.0 - 2.0 * u1;
+    double r = sqrt(1.0 - z * z > 0.0 ? 1.0 - z * z : 0.0);  /* clamped >= 0 */
+    double phi = 2.0 * PI * u2;
+    w[0] = r * cos(phi); w[1] = r * sin(phi); w[2] = z;
+}
+
+/* Uniform direction on the sphere (z drawn first, then phi). */
+static void sample_sphere_dir(rng_t *rng, double w[3])
+{
+    double u1 = rng_next(rng);
+    double u2 = rng_next(rng);
+    sphere_dir(u1, u2, w);
+}
+
+/* A direction drawn exactly from the phase function around the unit path direction d,
+   so that the sampling density is phase_eval(dot(d, w)): the back lobe when
+   u_lobe < back_w, cos from the lobe's inverse CDF with u1, azimuth 2 pi u2.  An
+   isotropic phase function uses the uniform sphere (sphere_dir(u1, u2)). */
+static void phase_dir(const phase_t *p, const double d[3], double u_lobe, double u1,
+                      double u2, double w[3])
+{
+    if (phase_isotropic(p)) { sphere_dir(u1, u2, w); return; }
+    double g = p->back_w > 0.0 && u_lobe < p->back_w ? p->back_g : p->g;
+    double c = cref_hg_sample(g, u1);
+    double s2 = (1.0 - c) * (1.0 + c);      /* sin^2 without cancellation, >= 0 */
+    dir_around(d, c, sqrt(s2 > 0.0 ? s2 : 0.0), 2.0 * PI * u2, w);
+}
+
+/* phase_dir with the sample's random numbers: the lobe's (only when the phase function
+   is not isotropic and back_w > 0), then u1, u2; an isotropic phase function draws
+   what single scattering always drew. */
+static void phase_sample_dir(const phase_t *p, const double d[3], rng_t *rng, double w[3])
+{
+    double ul = !phase_isotropic(p) && p->back_w > 0.0 ? rng_next(rng) : 1.0;
+    double u1 = rng_next(rng);
+    double u2 = rng_next(rng);
+    phase_dir(p, d, ul, u1, u2, w);
+}
+
+double cref_phase_eval(double g, double back_g, double back_weight, double cos_t)
+{
+    phase_t p = {g, back_g, back_weight};
+    return phase_eval(&p, cos_t);
+}
+
+void cref_phase_sample(double g, double back_g, double back_weight, const double d[3],
+                       double u_lobe, double u1, double u2, double w[3])
+{
+    phase_t p = {g, back_g, back_weight};
+    phase_dir(&p, d, u_lobe, u1, u2, w);
+}
+
+/* ==== background: constant or environment map ========================================= */
+/*
+ * Map convention (picvr.h, above picvr_background): w' = R_y(-rotation) w with the
+ * right-handed R_y(a) = [[cos a, 0, sin a], [0, 1, 0], [-sin a, 0, cos a]] (a > 0 turns
+ * +z toward +x); column floor(W (0.5 + atan2(w'.x, -w'.z) / 2pi)), row
+ * floor(H acos(w'.y) / pi), both clamped into the map (the edges phi = +-pi, theta = pi
+ * land in the last column / row).  Texel j covers phi in 2pi [c/W - 1/2, (c+1)/W - 1/2],
+ * theta in pi [r/H, (r+1)/H], solid angle Omega_j = (2pi/W)(cos theta_r - cos
+ * theta_{r+1}).  Light sampling picks texel j with probability lum_j Omega_j / total
+ * (lum_j: luminance of colour * intensity * texel_j; total = sum_j lum_j Omega_j, the
+ * integral of the background's luminance over the sphere), then uniform in phi and in
+ * cos theta within it: density lum_j / total per steradian.
+ */
+
+/* Luminance of texel i's radiance. */
+static inline double env_lum(const cref_scene *s, size_t i)
+{
+    const float *t = s->env.texels + 3 * i;
+    return 0.2126 * s->background[0] * t[0] + 0.7152 * s->background[1] * t[1] +
+           0.0722 * s->background[2] * t[2];
+}
+
+/* cos theta_r - cos theta_{r+1} = 2 sin((theta_r + theta_{r+1})/2) sin(pi / 2H): > 0. */
+static inline double env_dcos(const cref_env *e, uint32_t row)
+{
+    double h = PI / (double)e->height;      /* height >= 1 */
+    return 2.0 * sin(h * (row + 0.5)) * sin(0.5 * h);
+}
+
+static inline double env_texel_omega(const cref_env *e, uint32_t row)
+{
+    return 2.0 * PI / (double)e->width * env_dcos(e, row);  /* width >= 1 */
+}
+
+int cref_env_texel(const cref_scene *s, const double w[3], uint32_t *col, uint32_t *row)
+{
+    const cref_env *e = &s->env;
+    *col = *row = 0;
+    if (!e->texels) return 0;
+    double x = e->rot_cos * w[0] - e->rot_sin * w[2];   /* w' = R_y(-a) w */
+    double z = e->rot_sin * w[0] + e->rot_cos * w[2];
+    double y = w[1];
+    if (!(y >= -1.0)) y = -1.0;             /* also NaN */
+    if (y > 1.0) y = 1.0;
+    double u = 0.5 + atan2(x, -z) / (2.0 * PI);   /* atan2 is defined everywhere */
+    double v = acos(y) / PI;
+    double c = floor(u * e->width), r = floor(v * e->height);
+    if (!(c >= 0.0)) c = 0.0;               /* NaN (non-finite w) -> texel 0 */
+    if (!(r >= 0.0)) r = 0.0;
+    *col = c > e->width - 1.0 ? e->width - 1 : (uint32_t)c;
+    *row = r > e->height - 1.0 ? e->height - 1 : (uint32_t)r;
+    return 1;
+}
+
+double cref_background_eval(const cref_scene *s, const double w[3], double rgb[3])
+{
+    uint32_t c, r;
+    if (!cref_env_texel(s, w, &c, &r)) {
+        memcpy(rgb, s->background, 3 * sizeof *rgb);
+        return INV_4PI;
+    }
+    size_t i = (size_t)r * s->env.width + c;
+    for (int k = 0; k < 3; k++) rgb[k] = s->background[k] * s->env.texels[3 * i + (size_t)k];
+    /* rule: a black background (total 0) has density 0: light sampling never picks it */
+    return s->env.total > 0.0 ? env_lum(s, i) / s->env.total : 0.0;
+}
+
+/* Texel of the map whose CDF interval holds u * total: the first i with
+   cdf[i] > u total (a black texel's interval is empty, so it is never chosen); a u that
+   rounds onto the end takes the last texel of non-zero weight.  Bounded binary search. */
+static size_t env_pick(const cref_env *e, double u)
+{
+    size_t n = (size_t)e->width * e->height, lo = 0, hi = n - 1;
+    double target = u * e->total;
+    if (!(target < e->cdf[n - 1])) return e->last_texel;
+    while (lo < hi) {                       /* invariant: cdf[hi] > target */
+        size_t mid = lo + (hi - lo) / 2;
+        if (e->cdf[mid] > target) hi = mid; else lo = mid + 1;
+    }
+    return lo;
+}
+
+double cref_background_sample(const cref_scene *s, double u1, double u2, double u3,
+                              double w[3], double rgb[3])
+{
+    const cref_env *e = &s->env;
+    if (!e->texels) {                       /* constant: uniform sphere */
+        sphere_dir(u1, u2, w);
+        memcpy(rgb, s->background, 3 * sizeof *rgb);
+        return INV_4PI;
+    }
+    if (!(e->total > 0.0)) {                /* black: nothing to sample */
+        w[0] = 0.0; w[1] = 1.0; w[2] = 0.0;
+        rgb[0] = rgb[1] = rgb[2] = 0.0;
+        return 0.0;
+    }
+    size_t i = env_pick(e, u1);
+    uint32_t col = (uint32_t)(i % e->width), row = (uint32_t)(i / e->width);
+    double phi = 2.0 * PI * ((col + u2) / e->width - 0.5);
+    double h = PI / e->height;
+    double cos_t = cos(h * row) - u3 * env_dcos(e, row);
+    double s2 = (1.0 - cos_t) * (1.0 + cos_t);
+    double sin_t = sqrt(s2 > 0.0 ? s2 : 0.0);
+    double wx = sin_t * sin(phi), wz = -sin_t * cos(phi);   /* w' in map space */
+    w[0] = e->rot_cos * wx + e->rot_sin * wz;                /* w = R_y(a) w' */
+    w[1] = cos_t;
+    w[2] = -e->rot_sin * wx + e->rot_cos * wz;
+    for (int k = 0; k < 3; k++) rgb[k] = s->background[k] * e->texels[3 * i + (size_t)k];
+    return env_lum(s, i) / e->total;        /* total > 0 */
+}
+
+/* Draws a background direction with the sample's random numbers: two for a constant
+   background (the uniform sphere, as single scattering always drew), three for a map. */
+static double background_sample(const cref_scene *s, rng_t *rng, double w[3], double rgb[3])
+{
+    double u1 = rng_next(rng), u2 = rng_next(rng);
+    double u3 = s->env.texels ? rng_next(rng) : 0.0;
+    return cref_background_sample(s, u1, u2, u3, w, rgb);
+}
+
+/* ==== lights: sampling and MIS ======================================================= */
+/*
+ * Power heuristic, written so that no pdf is ever divided by.  f is the phase
+ * function's value for the direction, which is also the density of phase sampling
+ * (exact sampling); p_l = p_select * p_light(w):
+ *   light sample:  f L T w_l / p_l = f L T p_l / (p_l^2 + f^2)
+ *   phase sample:  f L T w_f / f   =   L T f^2 / (p_l^2 + f^2)
+ * For a light sampled uniformly in a solid angle Omega (sphere cone, sun cone),
+ * p_light = 1/Omega; multiplying through by Omega^2:
+ *   light: f (L Omega) T p_sel / (p_sel^2 + (f Omega)^2)
+ *   phase:   (L Omega) T f^2 Omega / (p_sel^2 + (f Omega)^2)
+ * which stays finite for tiny cones and is exact for the delta sun (Omega = 0,
+ * L Omega = E): light term = f E T / p_sel.  For a rect, p_light = d^2 / (A cos):
+ *   light: f L T p_sel d^2 A cos / ((p_sel d^2)^2 + (f A cos)^2)
+ *   phase:   L T (f A cos)^2     / ((p_sel d^2)^2 + (f A cos)^2)
+ * The background uses the general form with p_light = its sampling density.
+ * Denominators are > 0 whenever the sample can carry light (p_sel > 0 for a light
+ * with power; f > 0 always; cos > 0 and d > 0 for a rect); each is guarded anyway.
+ */
+
+static inline double mis_cone_light(double f, double p_sel, double omega)
+{
+    double fo = f * omega, den = p_sel * p_sel + fo * fo;
+    return den > 0.0 ? f * p_sel / den : 0.0;          /* rule: den > 0 */
+}
+
+static inline double mis_cone_phase(double f, double p_sel, double omega)
+{
+    double fo = f * omega, den = p_sel * p_sel + fo * fo;
+    return den > 0.0 ? f * fo / den : 0.0;
+}
+
+static inline double mis_rect_light(double f, double p_sel, double d2, double a_cos)
+{
+    double x = p_sel * d2, y = f * a_cos;
     double den = x * x + y * y;
-    return den > 0.0 ? INV_4PI * x * a_cos / den : 0.0;
+    return den > 0.0 ? f * x * a_cos / den : 0.0;
 }
 
-static inline double mis_rect_phase(double p_sel, double d2, double a_cos)
+static inline double mis_rect_phase(double f, double p_sel, double d2, double a_cos)
 {
-    double x = p_sel * d2, y = INV_4PI * a_cos;
+    double x = p_sel * d2, y = f * a_cos;
     double den = x * x + y * y;
     return den > 0.0 ? y * y / den : 0.0;
+}
+
+/* p_l = p_sel * density of the light's sampling at the direction. */
+static inline double mis_density_light(double f, double p_l)
+{
+    double den = p_l * p_l + f * f;
+    return den > 0.0 ? f * p_l / den : 0.0;
+}
+
+static inline double mis_density_phase(double f, double p_l)
+{
+    double den = p_l * p_l + f * f;
+    return den > 0.0 ? f * f / den : 0.0;
 }
 
 /* Solid angle a sphere light subtends from x: 4 pi inside it; else the cone
@@ -618,15 +883,6 @@ static double sphere_omega(const cref_light *L, const double x[3], double *one_m
     double cmax = sqrt(1.0 - s2 > 0.0 ? 1.0 - s2 : 0.0);
     *one_minus_cos = s2 / (1.0 + cmax);     /* 1 + cmax >= 1 */
     return 2.0 * PI * *one_minus_cos;
-}
-
-/* Uniform direction on the sphere. */
-static void sample_sphere_dir(rng_t *rng, double w[3])
-{
-    double z = 1.0 - 2.0 * rng_next(rng);
-    double r = sqrt(1.0 - z * z > 0.0 ? 1.0 - z * z : 0.0);  /* clamped >= 0 */
-    double phi = 2.0 * PI * rng_next(rng);
-    w[0] = r * cos(phi); w[1] = r * sin(phi); w[2] = z;
 }
 
 /* Uniform direction in the cone of the unit axis with 1 - cos(half angle) = omc. */
@@ -655,107 +911,279 @@ static int pick_light(const cref_scene *s, double u)
     return last;                            /* rounding: acc may end just below 1 */
 }
 
-/* Light-sampling estimate (RGB, before the albedo) at the scatter point x. */
-static void light_sample(const cref_scene *s, const double x[3], rng_t *rng,
-                         double out[3], int *trunc, uint64_t *viol)
+/* A light sample before its phase value and transmittance: direction w, distance tl
+   to the light (INFINITY: at infinity), radiance-like rad (colour * intensity, the
+   map's texel, L Omega for a sun) and the rest of the estimator's weight as a function
+   of the phase value f. */
+typedef struct light_dir {
+    double w[3], tl, rad[3];
+    int kind;                   /* 0 none, 1 cone (omega), 2 rect (d2, a_cos), 3 density
+                                   (p_l), 4 point (d2) */
+    double omega, d2, a_cos, p_l, p_sel;
+} light_dir;
+
+/* Draws the direction toward sphere light L from x (uniform in its cone; inside it,
+   the uniform sphere and the far surface). */
+static void sample_sphere_light(const cref_light *L, const double x[3], rng_t *rng,
+                                light_dir *ld)
 {
-    out[0] = out[1] = out[2] = 0.0;
-    int li = pick_light(s, rng_next(rng));
-    if (li < 0) return;
-    double w[3], tl = INFINITY, k = 0.0;    /* direction, distance, scalar weight */
-    const double *rad;                      /* radiance-like quantity, times k */
-    if ((uint32_t)li == s->light_count) {   /* background: uniform sphere, Omega 4 pi */
-        sample_sphere_dir(rng, w);
-        k = 4.0 * PI * mis_cone_light(s->background_p_select, 4.0 * PI);
-        rad = s->background;
+    double omc, axis[3], dist;
+    ld->omega = sphere_omega(L, x, &omc, axis, &dist);
+    if (omc >= 2.0) {
+        sample_sphere_dir(rng, ld->w);
+        ld->tl = hit_sphere(L, x, ld->w);
     } else {
-        const cref_light *L = &s->lights[li];
-        rad = L->radiance;
-        if (L->type == PICVR_LIGHT_SPHERE) {
-            double omc, axis[3], dist;
-            double omega = sphere_omega(L, x, &omc, axis, &dist);
-            if (omc >= 2.0) {               /* inside: uniform sphere, far surface */
-                sample_sphere_dir(rng, w);
-                tl = hit_sphere(L, x, w);
-            } else {
-                sample_cone_dir(rng, axis, omc, w);
-                tl = hit_sphere(L, x, w);
-                if (!isfinite(tl)) {        /* grazing sample missed by rounding */
-                    double c = dot3(w, axis);
-                    tl = dist * (c > 0.0 ? c : 0.0);
-                }
-            }
-            k = omega * mis_cone_light(L->p_select, omega);
-        } else if (L->type == PICVR_LIGHT_RECT) {
-            double y[3], v[3];
-            double a = rng_next(rng) - 0.5, b = rng_next(rng) - 0.5;
-            for (int i = 0; i < 3; i++) y[i] = L->pos[i] + a * L->edge_u[i] + b * L->edge_v[i];
-            sub3(y, x, v);
-            double d2 = dot3(v, v);
-            if (!(d2 > 1e-30)) return;      /* on the light: direction undefined */
-            tl = sqrt(d2);                  /* d2 > 0 */
-            for (int i = 0; i < 3; i++) w[i] = v[i] / tl;
-            double cos_l = -dot3(w, L->normal);
-            if (!(cos_l > 0.0)) return;     /* back side: one-sided emitter */
-            k = mis_rect_light(L->p_select, d2, L->area * cos_l);
-        } else if (L->type == PICVR_LIGHT_DIRECTIONAL) {
-            if (L->omega > 0.0) sample_cone_dir(rng, L->dir, 1.0 - L->cos_half, w);
-            else memcpy(w, L->dir, sizeof w);
-            k = mis_cone_light(L->p_select, L->omega);   /* radiance field holds E */
-        } else {                            /* point: I T / d^2, light sampling only */
-            double v[3];
-            sub3(L->pos, x, v);
-            double d2 = dot3(v, v);
-            if (!(d2 > 1e-30)) return;      /* at the light: singular, skip */
-            tl = sqrt(d2);
-            for (int i = 0; i < 3; i++) w[i] = v[i] / tl;
-            k = INV_4PI / (d2 * L->p_select);   /* d2 > 0, p_select > 0 (picked) */
+        sample_cone_dir(rng, axis, omc, ld->w);
+        ld->tl = hit_sphere(L, x, ld->w);
+        if (!isfinite(ld->tl)) {            /* grazing sample missed by rounding */
+            double c = dot3(ld->w, axis);
+            ld->tl = dist * (c > 0.0 ? c : 0.0);
         }
     }
-    if (!(k > 0.0)) return;
-    /* area lights are opaque: another one in front blocks this sample */
-    light_hit h = nearest_area_light(s, x, w, INFINITY);
-    if (h.idx >= 0 && h.idx != li && h.t < tl * (1.0 - 1e-9)) return;
-    double T = transmittance(s, x, w, tl, rng, trunc, viol);
-    for (int i = 0; i < 3; i++) out[i] = rad[i] * k * T;
+    ld->kind = 1;
 }
 
-/* Phase-sampling estimate (RGB, before the albedo): one uniform direction; it sees
-   the nearest area light or, escaping, the background plus any sun cone around it. */
-static void phase_sample(const cref_scene *s, const double x[3], rng_t *rng,
-                         double out[3], int *trunc, uint64_t *viol)
+/* Draws a point of rect L uniformly by area; kind 0 when it cannot light x (x on the
+   light, or its back side). */
+static void sample_rect_light(const cref_light *L, const double x[3], rng_t *rng,
+                              light_dir *ld)
+{
+    double y[3], v[3];
+    double a = rng_next(rng) - 0.5, b = rng_next(rng) - 0.5;
+    for (int i = 0; i < 3; i++) y[i] = L->pos[i] + a * L->edge_u[i] + b * L->edge_v[i];
+    sub3(y, x, v);
+    double d2 = dot3(v, v);
+    if (!(d2 > 1e-30)) return;              /* on the light: direction undefined */
+    ld->tl = sqrt(d2);                      /* d2 > 0 */
+    for (int i = 0; i < 3; i++) ld->w[i] = v[i] / ld->tl;
+    double cos_l = -dot3(ld->w, L->normal);
+    if (!(cos_l > 0.0)) return;             /* back side: one-sided emitter */
+    ld->d2 = d2;
+    ld->a_cos = L->area * cos_l;
+    ld->kind = 2;
+}
+
+/* Chooses a light (or the background) by power and draws a direction toward it. */
+static void choose_light_dir(const cref_scene *s, const double x[3], rng_t *rng,
+                             light_dir *ld, int *li_out)
+{
+    memset(ld, 0, sizeof *ld);
+    ld->tl = INFINITY;
+    int li = pick_light(s, rng_next(rng));
+    *li_out = li;
+    if (li < 0) return;
+    if ((uint32_t)li == s->light_count) {
+        double pdf = background_sample(s, rng, ld->w, ld->rad);
+        ld->p_l = s->background_p_select * pdf;
+        ld->kind = ld->p_l > 0.0 ? 3 : 0;
+        return;
+    }
+    const cref_light *L = &s->lights[li];
+    memcpy(ld->rad, L->radiance, sizeof ld->rad);
+    ld->p_sel = L->p_select;
+    if (L->type == PICVR_LIGHT_SPHERE) {
+        sample_sphere_light(L, x, rng, ld);
+    } else if (L->type == PICVR_LIGHT_RECT) {
+        sample_rect_light(L, x, rng, ld);
+    } else if (L->type == PICVR_LIGHT_DIRECTIONAL) {
+        if (L->omega > 0.0) sample_cone_dir(rng, L->dir, 1.0 - L->cos_half, ld->w);
+        else memcpy(ld->w, L->dir, sizeof ld->w);
+        ld->omega = L->omega;               /* the radiance field holds L Omega = E */
+        ld->kind = 1;
+    } else {                                /* point: I T / d^2, light sampling only */
+        double v[3];
+        sub3(L->pos, x, v);
+        double d2 = dot3(v, v);
+        if (!(d2 > 1e-30)) return;          /* at the light: singular, skip */
+        ld->tl = sqrt(d2);
+        for (int i = 0; i < 3; i++) ld->w[i] = v[i] / ld->tl;
+        ld->d2 = d2;
+        ld->kind = 4;
+    }
+    if (L->type == PICVR_LIGHT_SPHERE)      /* a cone light's weight needs L Omega */
+        for (int i = 0; i < 3; i++) ld->rad[i] *= ld->omega;
+}
+
+/* The estimator's scalar weight of a light sample for phase value f. */
+static double light_weight(const light_dir *ld, double f)
+{
+    switch (ld->kind) {
+    case 1: return mis_cone_light(f, ld->p_sel, ld->omega);
+    case 2: return mis_rect_light(f, ld->p_sel, ld->d2, ld->a_cos);
+    case 3: return mis_density_light(f, ld->p_l);
+    case 4: {
+        double den = ld->d2 * ld->p_sel;    /* d2 > 1e-30, p_sel > 0 (picked) */
+        return den > 0.0 ? f / den : 0.0;
+    }
+    default: return 0.0;
+    }
+}
+
+/* Light-sampling estimate (RGB, before the throughput) at the scatter point x, for a
+   path arriving along unit d with phase function ph. */
+static void light_sample(const cref_scene *s, const double x[3], const double d[3],
+                         const phase_t *ph, rng_t *rng, double out[3], int *trunc,
+                         uint64_t *viol)
 {
     out[0] = out[1] = out[2] = 0.0;
-    double w[3];
-    sample_sphere_dir(rng, w);
-    light_hit h = nearest_area_light(s, x, w, INFINITY);
-    double L[3] = {0, 0, 0};
-    if (h.idx >= 0) {
-        const cref_light *A = &s->lights[h.idx];
-        if (!h.front) return;               /* back of a rect: black, opaque */
+    light_dir ld;
+    int li;
+    choose_light_dir(s, x, rng, &ld, &li);
+    if (ld.kind == 0) return;
+    double k = light_weight(&ld, phase_eval(ph, dot3(d, ld.w)));
+    if (!(k > 0.0)) return;
+    /* area lights are opaque: another one in front blocks this sample */
+    light_hit h = nearest_area_light(s, x, ld.w, INFINITY);
+    if (h.idx >= 0 && h.idx != li && h.t < ld.tl * (1.0 - 1e-9)) return;
+    double T = transmittance(s, x, ld.w, ld.tl, rng, trunc, viol);
+    for (int i = 0; i < 3; i++) out[i] = ld.rad[i] * k * T;
+}
+
+/* MIS-weighted radiance that a phase-sampled ray from x along unit w brings when the
+   medium lets it through: the area light h it hits (front side; the back of a rect is
+   black) or, escaping, the background plus every sun cone around w.  f: the phase
+   value (= the phase-sampling density) of w. */
+static void escape_radiance(const cref_scene *s, const double x[3], const double w[3],
+                            const light_hit *h, double f, double L[3])
+{
+    L[0] = L[1] = L[2] = 0.0;
+    if (h->idx >= 0) {
+        const cref_light *A = &s->lights[h->idx];
+        if (!h->front) return;
         double k;
         if (A->type == PICVR_LIGHT_SPHERE) {
             double omc, axis[3], dist;
             double omega = sphere_omega(A, x, &omc, axis, &dist);
-            k = omega * mis_cone_phase(A->p_select, omega);
+            k = omega * mis_cone_phase(f, A->p_select, omega);
         } else {
-            k = mis_rect_phase(A->p_select, h.t * h.t, A->area * h.cos_l);
+            k = mis_rect_phase(f, A->p_select, h->t * h->t, A->area * h->cos_l);
         }
         for (int i = 0; i < 3; i++) L[i] = A->radiance[i] * k;
-    } else {
-        double k = 4.0 * PI * mis_cone_phase(s->background_p_select, 4.0 * PI);
-        for (int i = 0; i < 3; i++) L[i] = s->background[i] * k;
-        for (uint32_t j = 0; j < s->light_count; j++) {
-            const cref_light *D = &s->lights[j];
-            if (D->type != PICVR_LIGHT_DIRECTIONAL || !(D->omega > 0.0)) continue;
-            if (dot3(w, D->dir) < D->cos_half) continue;
-            double kd = mis_cone_phase(D->p_select, D->omega);  /* radiance holds E */
-            for (int i = 0; i < 3; i++) L[i] += D->radiance[i] * kd;
-        }
+        return;
     }
+    double bg[3];
+    double p_env = cref_background_eval(s, w, bg);
+    double k = mis_density_phase(f, s->background_p_select * p_env);
+    for (int i = 0; i < 3; i++) L[i] = bg[i] * k;
+    for (uint32_t j = 0; j < s->light_count; j++) {
+        const cref_light *D = &s->lights[j];
+        if (D->type != PICVR_LIGHT_DIRECTIONAL || !(D->omega > 0.0)) continue;
+        if (dot3(w, D->dir) < D->cos_half) continue;
+        double kd = mis_cone_phase(f, D->p_select, D->omega);  /* radiance holds E */
+        for (int i = 0; i < 3; i++) L[i] += D->radiance[i] * kd;
+    }
+}
+
+/* Phase-sampling estimate of the last scatter event of a path (RGB, before the
+   throughput): one direction from the phase function, its escape radiance times a
+   ratio-tracking transmittance estimate (the path does not continue). */
+static void phase_sample_last(const cref_scene *s, const double x[3], const double d[3],
+                              const phase_t *ph, rng_t *rng, double out[3], int *trunc,
+                              uint64_t *viol)
+{
+    out[0] = out[1] = out[2] = 0.0;
+    double w[3], L[3];
+    phase_sample_dir(ph, d, rng, w);
+    light_hit h = nearest_area_light(s, x, w, INFINITY);
+    escape_radiance(s, x, w, &h, phase_eval(ph, dot3(d, w)), L);
     if (!(L[0] > 0.0 || L[1] > 0.0 || L[2] > 0.0)) return;  /* skip the shadow ray */
     double T = transmittance(s, x, w, h.t, rng, trunc, viol);
     for (int i = 0; i < 3; i++) out[i] = L[i] * T;
+}
+
+/* ==== paths ============================================================================ */
+
+typedef struct sample_flags {
+    int truncated;
+    int scattered;
+    uint64_t events;            /* scatter events of the sample's path */
+} sample_flags;
+
+/* The medium at x: albedo (RGB) and phase function. */
+static void medium_at(const cref_scene *s, const double x[3], double albedo[3], phase_t *ph)
+{
+    cref_tf_eval_ex(s->tf, s->tf_count, sample_value(s, x), albedo, &ph->g);
+    ph->back_g = s->back_g;
+    ph->back_w = s->back_weight;
+}
+
+/* Russian roulette before the path continues from its k-th scatter event, k >= 2:
+   survive with q = min(1, max channel of tp), then tp /= q.  Returns 0 when the path
+   ends (also when tp is all zero: nothing more can arrive).  No random number is
+   drawn when q = 1. */
+static int roulette(double tp[3], rng_t *rng)
+{
+    double q = tp[0] > tp[1] ? tp[0] : tp[1];
+    if (tp[2] > q) q = tp[2];
+    if (!(q > 0.0)) return 0;
+    if (q >= 1.0) return 1;
+    if (rng_next(rng) >= q) return 0;
+    for (int i = 0; i < 3; i++) tp[i] /= q;                  /* q > 0 */
+    return 1;
+}
+
+/* Continues a path from x along a phase-sampled unit w by delta tracking.  Returns 1
+   with *x moved to the next collision; 0 when the path ends, after adding
+   tp * the MIS-weighted escape radiance to rgb when the ray escaped (nothing when it
+   was cut: fl->truncated). */
+static int continue_path(const cref_scene *s, double x[3], const double w[3], double f,
+                         const double tp[3], rng_t *rng, int *budget, double rgb[3],
+                         sample_flags *fl, uint64_t *viol)
+{
+    light_hit h = nearest_area_light(s, x, w, INFINITY);
+    double t0, t1, th;
+    int r = TRACK_ESCAPED;
+    if (cref_intersect_box(s, x, w, &t0, &t1)) {
+        if (t0 < 0.0) t0 = 0.0;
+        if (t1 > h.t) t1 = h.t;
+        if (t0 < t1) r = delta_track(s, x, w, t0, t1, rng, budget, &th, viol);
+    }
+    if (r == TRACK_COLLIDED) {
+        ray_at(x, w, th, x);
+        return 1;
+    }
+    if (r == TRACK_TRUNCATED) { fl->truncated = 1; return 0; }
+    double L[3];
+    escape_radiance(s, x, w, &h, f, L);
+    for (int i = 0; i < 3; i++) rgb[i] += tp[i] * L[i];
+    return 0;
+}
+
+/* A path from its first scatter event x (reached along unit d): at every event the
+   throughput takes the albedo and a light sample is added; the last allowed event
+   (max_bounces + 1) adds a phase sample with a ratio-tracking transmittance, earlier
+   ones continue along a phase-sampled direction by delta tracking (Russian roulette
+   from the second event on; a path whose throughput is 0 in every channel ends).
+   Bounded: every event after the first costs >= 1 step of *budget. */
+static void trace_path(const cref_scene *s, const double x0[3], const double d0[3],
+                       rng_t *rng, int *budget, double rgb[3], sample_flags *fl,
+                       uint64_t *viol)
+{
+    double x[3] = {x0[0], x0[1], x0[2]}, d[3] = {d0[0], d0[1], d0[2]};
+    double tp[3] = {1.0, 1.0, 1.0};
+    const int unlimited = s->max_bounces == PICVR_BOUNCES_UNLIMITED;
+    const uint64_t last = (uint64_t)s->max_bounces + 1;
+    for (uint64_t k = 1;; k++) {
+        double albedo[3], a[3];
+        phase_t ph;
+        fl->events++;
+        medium_at(s, x, albedo, &ph);
+        for (int i = 0; i < 3; i++) tp[i] *= albedo[i];
+        light_sample(s, x, d, &ph, rng, a, &fl->truncated, viol);
+        for (int i = 0; i < 3; i++) rgb[i] += tp[i] * a[i];
+        if (!unlimited && k >= last) {
+            phase_sample_last(s, x, d, &ph, rng, a, &fl->truncated, viol);
+            for (int i = 0; i < 3; i++) rgb[i] += tp[i] * a[i];
+            return;
+        }
+        if (!(tp[0] > 0.0 || tp[1] > 0.0 || tp[2] > 0.0)) return;  /* nothing can arrive */
+        if (k >= 2 && !s->roulette_off && !roulette(tp, rng)) return;
+        double w[3];
+        phase_sample_dir(&ph, d, rng, w);
+        double f = phase_eval(&ph, dot3(d, w));
+        if (!continue_path(s, x, w, f, tp, rng, budget, rgb, fl, viol)) return;
+        memcpy(d, w, sizeof d);
+    }
 }
 
 /* ==== one sample ===================================================================== */
@@ -769,11 +1197,6 @@ void cref_camera_ray(const cref_scene *s, uint32_t px, uint32_t py, double jx, d
     normalize3(dir);                        /* length >= 1: f is unit and orthogonal */
 }
 
-typedef struct sample_flags {
-    int truncated;
-    int scattered;
-} sample_flags;
-
 static void render_sample(const cref_scene *s, uint32_t px, uint32_t py, uint64_t iteration,
                           double rgb[3], double *alpha, sample_flags *fl, uint64_t *viol)
 {
@@ -784,6 +1207,7 @@ static void render_sample(const cref_scene *s, uint32_t px, uint32_t py, uint64_
     const double *o = s->cam_pos;
     rgb[0] = rgb[1] = rgb[2] = 0.0;
     *alpha = 0.0;
+    int budget = CREF_PATH_STEPS;
 
     /* an area light in front of the volume hides it: track only up to the light */
     light_hit h = nearest_area_light(s, o, d, INFINITY);
@@ -792,24 +1216,22 @@ static void render_sample(const cref_scene *s, uint32_t px, uint32_t py, uint64_
     if (cref_intersect_box(s, o, d, &t0, &t1)) {
         if (t0 < 0.0) t0 = 0.0;
         if (t1 > h.t) t1 = h.t;
-        if (t0 < t1) r = delta_track(s, o, d, t0, t1, &rng, &th, viol);
+        if (t0 < t1) r = delta_track(s, o, d, t0, t1, &rng, &budget, &th, viol);
     }
     if (r == TRACK_TRUNCATED) fl->truncated = 1;   /* then treated as escaping */
     if (r != TRACK_COLLIDED) {
-        const double *L = h.idx >= 0 ? (h.front ? s->lights[h.idx].radiance : NULL)
-                                     : s->background;
-        if (L) memcpy(rgb, L, 3 * sizeof *rgb);
+        if (h.idx >= 0) {
+            if (h.front) memcpy(rgb, s->lights[h.idx].radiance, 3 * sizeof *rgb);
+        } else {
+            cref_background_eval(s, d, rgb);
+        }
         return;
     }
-    /* collision: alpha 1, radiance = albedo * (light sample + phase sample) */
-    double x[3], albedo[3], a[3], b[3];
+    double x[3];
     ray_at(o, d, th, x);
-    cref_tf_eval(s->tf, s->tf_count, sample_value(s, x), albedo);
-    light_sample(s, x, &rng, a, &fl->truncated, viol);
-    phase_sample(s, x, &rng, b, &fl->truncated, viol);
-    for (int i = 0; i < 3; i++) rgb[i] = albedo[i] * (a[i] + b[i]);
     *alpha = 1.0;
     fl->scattered = 1;
+    trace_path(s, x, d, &rng, &budget, rgb, fl, viol);
 }
 
 /* ==== render loop ===================================================================== */
@@ -820,10 +1242,10 @@ int cref_render_ex(const cref_scene *s, uint32_t first_iteration, uint32_t itera
     if (!s || !rgba_mean_out) return PICVR_ERROR_NULL_POINTER;
     if (!s->voxels || !s->majorant.sigma_max) return PICVR_ERROR_NOT_READY;
     const uint32_t W = s->camera.width, H = s->camera.height;
-    uint64_t n_trunc = 0, n_scat = 0, n_viol = 0;
+    uint64_t n_trunc = 0, n_scat = 0, n_viol = 0, n_events = 0;
     long rows = (long)H;
 #ifdef _OPENMP
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : n_trunc, n_scat, n_viol)
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : n_trunc, n_scat, n_viol, n_events)
 #endif
     for (long py = 0; py < rows; py++) {
         for (uint32_t px = 0; px < W; px++) {
@@ -831,12 +1253,13 @@ int cref_render_ex(const cref_scene *s, uint32_t first_iteration, uint32_t itera
             double mean[4] = {0, 0, 0, 0}, mean_y = 0.0, m2 = 0.0;
             for (uint32_t k = 0; k < iterations; k++) {
                 double rgb[3], alpha;
-                sample_flags fl = {0, 0};
+                sample_flags fl = {0, 0, 0};
                 uint64_t viol = 0;
                 render_sample(s, px, (uint32_t)py, (uint64_t)first_iteration + k, rgb, &alpha,
                               &fl, &viol);
                 n_trunc += (uint64_t)fl.truncated;
                 n_scat += (uint64_t)fl.scattered;
+                n_events += fl.events;
                 n_viol += viol;
                 double inv_n = 1.0 / (double)(k + 1);     /* k + 1 >= 1 */
                 for (int c = 0; c < 3; c++) mean[c] += (rgb[c] - mean[c]) * inv_n;
@@ -855,6 +1278,9 @@ int cref_render_ex(const cref_scene *s, uint32_t first_iteration, uint32_t itera
         stats->scattered = n_scat;
         stats->truncated_paths = n_trunc;
         stats->majorant_violations = n_viol;
+        stats->scatter_events = n_events;
+        /* rule: 0 without samples (no division by 0) */
+        stats->mean_path_length = stats->samples > 0 ? (double)n_events / (double)stats->samples : 0.0;
     }
     return PICVR_OK;
 }
@@ -931,7 +1357,7 @@ static int load_volume(cref_scene *s, const picvr_volume_desc *v)
 static int load_tf(cref_scene *s, const picvr_tf_point *tf, uint32_t count, float density)
 {
     if (!tf || count == 0) {                /* API default: opacity = value, albedo 1 */
-        picvr_tf_point def[2] = {{0.0f, {1, 1, 1}, 0.0f}, {1.0f, {1, 1, 1}, 1.0f}};
+        picvr_tf_point def[2] = {{0.0f, {1, 1, 1}, 0.0f, 0.0f}, {1.0f, {1, 1, 1}, 1.0f, 0.0f}};
         memcpy(s->tf, def, sizeof def);
         s->tf_count = 2;
         s->density = 1.0;
@@ -941,10 +1367,11 @@ static int load_tf(cref_scene *s, const picvr_tf_point *tf, uint32_t count, floa
     if (!isfinite(density) || density < 0.0f) return PICVR_ERROR_INVALID_ARGUMENT;
     for (uint32_t i = 0; i < count; i++) {
         const picvr_tf_point *p = &tf[i];
-        if (!isfinite(p->value) || !finite3(p->albedo) || !isfinite(p->opacity))
+        if (!isfinite(p->value) || !finite3(p->albedo) || !isfinite(p->opacity) ||
+            !isfinite(p->g))
             return PICVR_ERROR_NON_FINITE;
         if (p->value < 0.0f || p->value > 1.0f || p->opacity < 0.0f ||
-            (i > 0 && p->value < tf[i - 1].value))
+            !(p->g > -1.0f && p->g < 1.0f) || (i > 0 && p->value < tf[i - 1].value))
             return PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
         for (int k = 0; k < 3; k++)
             if (p->albedo[k] < 0.0f || p->albedo[k] > 1.0f)
@@ -1018,6 +1445,49 @@ static int load_light(cref_light *L, const picvr_light *in)
     }
 }
 
+/* Copies the environment map of bg (non-NULL environment) and builds its sampling
+   CDF over texels, x fastest: cdf[i] = sum_{j <= i} lum_j Omega_j with the luminance of
+   colour * intensity * texel (s->background must hold colour * intensity).  The
+   texels must be finite and >= 0, not all 0; width and height 1..PICVR_MAX_ENV_SIZE. */
+static int load_env(cref_scene *s, const picvr_background *bg)
+{
+    cref_env *e = &s->env;
+    uint32_t W = bg->env_width, H = bg->env_height;
+    if (W == 0 || H == 0) return PICVR_ERROR_INVALID_DIMENSIONS;
+    if (W > PICVR_MAX_ENV_SIZE || H > PICVR_MAX_ENV_SIZE) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (!isfinite(bg->env_rotation)) return PICVR_ERROR_NON_FINITE;
+    size_t n = (size_t)W * H;               /* <= 2^28: no overflow below */
+    int any = 0;
+    for (size_t i = 0; i < 3 * n; i++) {
+        float v = bg->environment[i];
+        if (!isfinite(v)) return PICVR_ERROR_NON_FINITE;
+        if (v < 0.0f) return PICVR_ERROR_INVALID_LIGHT;
+        any |= v > 0.0f;
+    }
+    if (!any) return PICVR_ERROR_INVALID_LIGHT;
+    e->texels = malloc(3 * n * sizeof *e->texels);
+    e->cdf = malloc(n * sizeof *e->cdf);
+    if (!e->texels || !e->cdf) return PICVR_ERROR_OUT_OF_HOST_MEMORY;  /* cref_free frees */
+    memcpy(e->texels, bg->environment, 3 * n * sizeof *e->texels);
+    e->width = W;
+    e->height = H;
+    e->rot_cos = cos((double)bg->env_rotation);
+    e->rot_sin = sin((double)bg->env_rotation);
+    double acc = 0.0;
+    for (uint32_t r = 0; r < H; r++) {
+        double omega = env_texel_omega(e, r);
+        for (uint32_t c = 0; c < W; c++) {
+            size_t i = (size_t)r * W + c;
+            double wgt = env_lum(s, i) * omega;
+            if (wgt > 0.0) e->last_texel = i;
+            acc += wgt;
+            e->cdf[i] = acc;
+        }
+    }
+    e->total = acc;                         /* 0 when colour * intensity is black */
+    return PICVR_OK;
+}
+
 static int load_lights(cref_scene *s, const picvr_light *lights, uint32_t count,
                        const picvr_background *bg)
 {
@@ -1034,10 +1504,17 @@ static int load_lights(cref_scene *s, const picvr_light *lights, uint32_t count,
             bg->color[2] < 0.0f)
             return PICVR_ERROR_INVALID_LIGHT;
         for (int k = 0; k < 3; k++) s->background[k] = (double)bg->color[k] * bg->intensity;
+        if (bg->environment) {
+            int st = load_env(s, bg);
+            if (st != PICVR_OK) return st;
+        }
     }
-    /* selection probabilities: power / total (all 0 when everything is black) */
+    /* selection probabilities: power / total (all 0 when everything is black); the
+       background's power is pi R^2 times the integral of its luminance over the
+       sphere (4 pi lum for a constant one) */
     double R2 = dot3(s->box_max, s->box_max);   /* half-diagonal squared */
-    double total = 0.0, bg_power = cref_luminance(s->background) * 4.0 * PI * PI * R2;
+    double bg_int = s->env.texels ? s->env.total : cref_luminance(s->background) * 4.0 * PI;
+    double total = 0.0, bg_power = bg_int * PI * R2;
     for (uint32_t i = 0; i < count; i++) total += light_power(&s->lights[i], sqrt(R2));
     total += bg_power;
     if (!(total > 0.0) || !isfinite(total)) return total > 0.0 ? PICVR_ERROR_INVALID_LIGHT : PICVR_OK;
@@ -1100,10 +1577,27 @@ int cref_scene_init(cref_scene *s, const picvr_volume_desc *volume,
     return PICVR_OK;
 }
 
+int cref_scene_set_scattering(cref_scene *s, const picvr_scattering *sc)
+{
+    if (!s) return PICVR_ERROR_NULL_POINTER;
+    picvr_scattering def = {0};
+    if (!sc) sc = &def;
+    if (!isfinite(sc->back_g) || !isfinite(sc->back_weight)) return PICVR_ERROR_NON_FINITE;
+    if (!(sc->back_g > -1.0f && sc->back_g < 1.0f) ||
+        !(sc->back_weight >= 0.0f && sc->back_weight < 1.0f))
+        return PICVR_ERROR_INVALID_ARGUMENT;
+    s->max_bounces = sc->max_bounces;
+    s->back_g = sc->back_g;
+    s->back_weight = sc->back_weight;
+    return PICVR_OK;
+}
+
 void cref_free(cref_scene *s)
 {
     if (!s) return;
     free(s->voxels);
+    free(s->env.texels);
+    free(s->env.cdf);
     cref_majorant_free(&s->majorant);
     memset(s, 0, sizeof *s);
 }

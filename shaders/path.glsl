@@ -19,16 +19,18 @@
 // each event leaves sigma_s / sigma_t = albedo.  Extinction is one scalar in picvr (the
 // transfer function's opacity), so chromatic albedo is exact in this form: the free
 // flights are the same for every channel and no spectral MIS is needed.
-// Russian roulette: from the third scatter event on, the path survives with probability
-// q = min(1, max channel of beta) and beta is divided by q, which keeps every channel's
-// expectation.  (A survivor's beta then has its largest channel at least min(1, ...),
-// so dim paths end and bright ones go on.)
+// Russian roulette: before a path goes on from its second (or a later) scatter event, it
+// survives with probability q = min(1, max channel of beta) and what it gathers after
+// that event is divided by q, which keeps every channel's expectation; the event itself
+// is then the last and takes both strategies of its direct light.  Dim paths end early,
+// bright ones (albedo near 1) go on until they leave the medium.
 //
 // Bound.  llvmpipe caps an invocation's loop iterations at 65535 in all, so the path's
 // tracking loops draw from one pool (common.glsl, path_pool, PATH_STEPS) and each event
 // is charged scene.vertex_cost more for its other loops (lights, the environment's
-// search).  A path that runs the pool dry ends there: biased, and counted in
-// stats.truncated_paths, like a tracking loop at its bound.
+// search).  A path that runs the pool dry ends there, and a continuation cut at its
+// bound ends the path without what it would have seen: biased toward dark (never a leak
+// of light through medium it could not track), and counted in stats.truncated_paths.
 
 #define BOUNCES_UNLIMITED 0xffffffffu
 
@@ -43,14 +45,24 @@ void scattered_radiance(vec3 x, vec3 d, inout Rng rng, inout bool truncated, out
     indirect = vec3(0.0);
     events = 1u;
     for (uint n = 0u; n < PATH_STEPS; n++) {
-        vec3 L = vec3(0.0);
+        float b_max = max(beta.r, max(beta.g, beta.b));
+        if (b_max <= 0.0) break;                     // nothing more can reach the camera
+        // Rule: a path that ran the pool dry ends here with nothing more (its shadow rays
+        // could not be tracked): biased toward dark, counted.
+        if (path_pool < scene.vertex_cost) { truncated = true; break; }
+        path_pool -= scene.vertex_cost;
+        // Is this event the path's last?  At the bounce limit, or by Russian roulette from
+        // the second event on: the path goes on with probability q and what it gathers
+        // later is divided by q.  A last event still takes both MIS strategies of its
+        // direct light (the phase sample by ratio tracking), so ending is unbiased.
+        bool end = scene.max_bounces != BOUNCES_UNLIMITED && events > scene.max_bounces;
+        float q = 1.0;
+        if (!end && events >= 2u) {
+            q = min(1.0, b_max);
+            end = rnd(rng) >= q;
+        }
         Phase ph = phase_at(x, d);
-        bool dry = path_pool < scene.vertex_cost;
-        path_pool -= min(scene.vertex_cost, path_pool);
-        bool last = scene.max_bounces != BOUNCES_UNLIMITED && events > scene.max_bounces;
-        if (dry && !last) truncated = true;          // ended by the pool: biased, counted
-        bool end = last || dry;
-        L += sample_one_light(x, ph, rng, truncated);
+        vec3 L = sample_one_light(x, ph, rng, truncated);
         vec3 w = vec3(0.0);
         float t = -1.0;
         if (end) {
@@ -60,23 +72,22 @@ void scattered_radiance(vec3 x, vec3 d, inout Rng rng, inout bool truncated, out
             w = phase_sample(ph, u1, u2);
             float t_light, t0, t1;
             int hit = nearest_area_light(x, w, 1e30, t_light);
+            bool cut = false;
             if (box_interval(x, w, t0, t1)) {
                 t1 = min(t1, t_light);
-                if (t1 > t0) t = delta_track(x, w, t0, t1, rng, truncated);
+                if (t1 > t0) t = delta_track(x, w, t0, t1, rng, cut);
             }
-            if (t < 0.0) L += phase_emission(x, w, hit, t_light, phase_eval(ph, w));
+            // Rule: a continuation cut at its loop bound neither escapes nor scatters:
+            // the path ends without its emission (biased toward dark, counted).
+            truncated = truncated || cut;
+            if (t < 0.0 && !cut) L += phase_emission(x, w, hit, t_light, phase_eval(ph, w));
+            end = cut;
         }
         if (events == 1u) direct = beta * L; else indirect += beta * L;
         if (end || t < 0.0) break;
         x += w * t;
         d = w;
         events++;
-        beta *= albedo_at(x);
-        if (events >= 3u) {
-            // Rule: q = 0 (a black albedo) ends the path, as rnd() >= 0 always.
-            float q = min(1.0, max(beta.r, max(beta.g, beta.b)));
-            if (rnd(rng) >= q) break;
-            beta /= q;
-        }
+        beta *= albedo_at(x) / q;                    // q > 0: the path survived with it
     }
 }

@@ -61,7 +61,10 @@ void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
     float lum = luminance(radiance);
     precise float delta = lum - s.x;
     precise float mean = s.x + delta / float(n);
-    precise float m2 = s.y + delta * (lum - mean);
+    // Rule: M2 saturates at the largest float (a pixel brighter than ~1e19, where the
+    // squares overflow): its error estimate is then finite but too small, never Inf.
+    // delta (lum - mean) >= 0, so the sum is never NaN.
+    precise float m2 = min(s.y + delta * (lum - mean), 3.4028235e38);
     uint nbad = floatBitsToUint(s.w) + (bad ? 1u : 0u);
     accum_stat[idx] = vec4(mean, m2, uintBitsToFloat(n), uintBitsToFloat(nbad));
 }

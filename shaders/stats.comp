@@ -36,6 +36,9 @@ void main() {
             sums.w = 1.0;
         }
         counts = uvec4(n, n, floatBitsToUint(s.w), 1u);
+        // Rule: each pixel adds at most FLT_MAX / 256 to each sum, so that a workgroup's
+        // sum of 256 stays finite (a pixel beyond ~1e36 saturates the image statistics).
+        sums = min(sums, vec4(1.329e36));
     }
     s_sums[l] = sums;
     s_counts[l] = counts;

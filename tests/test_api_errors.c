@@ -12,6 +12,16 @@
  *   - more than PICVR_MAX_TF_POINTS points -> PICVR_ERROR_INVALID_TRANSFER_FUNCTION;
  *   - negative spacing, negative density -> PICVR_ERROR_INVALID_ARGUMENT;
  *   - background with a negative intensity or colour -> PICVR_ERROR_INVALID_LIGHT.
+ * The fields of multiple scattering and environment maps (test_bad_inputs_scattering_and_
+ * environment), by the same rules:
+ *   - picvr_tf_point.g outside (-1, 1) -> PICVR_ERROR_INVALID_TRANSFER_FUNCTION (as the
+ *     other out-of-range TF fields); picvr_scattering.back_g outside (-1, 1),
+ *     back_weight outside [0, 1) -> PICVR_ERROR_INVALID_ARGUMENT; NaN or infinity in any
+ *     of them, in a texel or in env_rotation -> PICVR_ERROR_NON_FINITE;
+ *   - an environment map side of 0 -> PICVR_ERROR_INVALID_DIMENSIONS, above
+ *     PICVR_MAX_ENV_SIZE -> PICVR_ERROR_SIZE_OVERFLOW (checked before any texel is read);
+ *   - a negative texel or an all-black map ("not all 0") -> PICVR_ERROR_INVALID_LIGHT (as a
+ *     negative background colour).
  */
 #include "test_util.h"
 
@@ -122,6 +132,13 @@ typedef struct table_state {
     float baseline[W * H * 4];
     float img[W * H * 4];
     int failures, rows;
+    /* the baseline's transfer function, background and scattering model: BASE_TF, BASE_BG
+       and (use_scattering 0) none set, unless a test changes them (the scattering and
+       environment rows, which must also keep a non-default state) */
+    picvr_tf_point tf[2];
+    picvr_background bg;
+    picvr_scattering scattering;
+    int use_scattering;
 } table_state;
 
 /* The baseline scene: ball volume, coloured ramp TF, sun + background, 16x16 camera. */
@@ -154,9 +171,10 @@ static picvr_camera base_camera(void) {
    so that one failure does not cascade into the following rows). */
 static void set_baseline(table_state *t) {
     tu_upload(t->ctx, t->vol);
-    TU_OK(picvr_set_transfer_function(t->ctx, BASE_TF, 2, 0.5f));
+    TU_OK(picvr_set_transfer_function(t->ctx, t->tf, 2, 0.5f));
     picvr_light sun = base_sun();
-    TU_OK(picvr_set_lights(t->ctx, &sun, 1, &BASE_BG));
+    TU_OK(picvr_set_lights(t->ctx, &sun, 1, &t->bg));
+    if (t->use_scattering) TU_OK(picvr_set_scattering(t->ctx, &t->scattering));
     picvr_camera cam = base_camera();
     TU_OK(picvr_set_camera(t->ctx, &cam));
 }
@@ -203,6 +221,8 @@ static picvr_volume_desc good_desc(const uint8_t *data) {
 static table_state *table_begin(tu_vol *vol) {
     static table_state T;
     memset(&T, 0, sizeof T);
+    memcpy(T.tf, BASE_TF, sizeof T.tf);
+    T.bg = BASE_BG;
     T.ctx = tu_create(9);
     *vol = tu_vol_ball(8);
     T.vol = vol;
@@ -600,6 +620,204 @@ void test_bad_inputs_rest_of_api_and_device_limits(void **state) {
        lavapipe (128 MiB) and on most GPUs (<= 4 GiB - 1) */
     ROW(t, "set_camera(16384 x 16384: planes exceed the device)", PICVR_ERROR_SIZE_OVERFLOW,
         picvr_set_camera(ctx, &c));
+
+    print_message("    %d rows, %d failure(s)\n", t->rows, t->failures);
+    tu_vol_free(&vol);
+    if (t->failures) fail_msg("%d of %d rows failed (listed above)", t->failures, t->rows);
+    tu_finish(ctx);
+}
+
+/* ---- multiple scattering, the phase function, environment maps -------------------------- */
+
+#define ENV_BIG (PICVR_MAX_ENV_SIZE + 1)
+static float env_ones[ENV_BIG * 3];   /* a valid map of up to ENV_BIG texels (all 1) */
+
+/* The rows of the new fields against the table's current baseline; `pass` names it.
+   Every row starts from the baseline's own TF, background and scattering model and
+   changes one thing. */
+static void scattering_environment_rows(table_state *t, const char *pass) {
+    picvr_context *ctx = t->ctx;
+    picvr_light sun = base_sun();
+    char name[192];
+#define PROW(want, call, ...)                                                        \
+    do {                                                                             \
+        int n_ = snprintf(name, sizeof name, "[%s] ", pass);                         \
+        snprintf(name + n_, sizeof name - (size_t)n_, __VA_ARGS__);                  \
+        ROW(t, name, (want), (call));                                                \
+    } while (0)
+    picvr_scattering sc0;
+    memset(&sc0, 0, sizeof sc0);
+    if (t->use_scattering) sc0 = t->scattering;
+    picvr_scattering sc;
+
+    /* NULL context */
+    PROW(PICVR_ERROR_NULL_POINTER, picvr_set_scattering(NULL, &sc0), "set_scattering(NULL ctx)");
+    PROW(PICVR_ERROR_NULL_POINTER, picvr_set_scattering(NULL, NULL), "set_scattering(NULL ctx, NULL)");
+
+    /* picvr_tf_point.g, on either point */
+    const struct { float g; picvr_status want; } grows[] = {
+        {1.0f, PICVR_ERROR_INVALID_TRANSFER_FUNCTION},  {-1.0f, PICVR_ERROR_INVALID_TRANSFER_FUNCTION},
+        {1.5f, PICVR_ERROR_INVALID_TRANSFER_FUNCTION},  {-7.0f, PICVR_ERROR_INVALID_TRANSFER_FUNCTION},
+        {1.0000001f, PICVR_ERROR_INVALID_TRANSFER_FUNCTION},
+        {NAN, PICVR_ERROR_NON_FINITE}, {INFINITY, PICVR_ERROR_NON_FINITE}, {-INFINITY, PICVR_ERROR_NON_FINITE},
+    };
+    for (size_t i = 0; i < sizeof grows / sizeof grows[0]; i++)
+        for (int pt = 0; pt < 2; pt++) {
+            picvr_tf_point tf[2];
+            memcpy(tf, t->tf, sizeof tf);
+            tf[pt].g = grows[i].g;
+            PROW(grows[i].want, picvr_set_transfer_function(ctx, tf, 2, 0.5f),
+                 "set_transfer_function(point %d g %g)", pt, (double)grows[i].g);
+        }
+
+    /* picvr_scattering: back_g in (-1, 1), back_weight in [0, 1) */
+    const struct { float back_g, back_weight; picvr_status want; } srows[] = {
+        {1.0f, 0.2f, PICVR_ERROR_INVALID_ARGUMENT},   {-1.0f, 0.2f, PICVR_ERROR_INVALID_ARGUMENT},
+        {2.5f, 0.2f, PICVR_ERROR_INVALID_ARGUMENT},   {-1.0000001f, 0.2f, PICVR_ERROR_INVALID_ARGUMENT},
+        {NAN, 0.2f, PICVR_ERROR_NON_FINITE},          {INFINITY, 0.2f, PICVR_ERROR_NON_FINITE},
+        {-INFINITY, 0.2f, PICVR_ERROR_NON_FINITE},
+        {NAN, 0.0f, PICVR_ERROR_NON_FINITE},          /* a NaN anywhere, even in an unused lobe */
+        {-0.3f, -0.1f, PICVR_ERROR_INVALID_ARGUMENT}, {-0.3f, -1e-30f, PICVR_ERROR_INVALID_ARGUMENT},
+        {-0.3f, 1.0f, PICVR_ERROR_INVALID_ARGUMENT},  {-0.3f, 1.5f, PICVR_ERROR_INVALID_ARGUMENT},
+        {-0.3f, NAN, PICVR_ERROR_NON_FINITE},         {-0.3f, INFINITY, PICVR_ERROR_NON_FINITE},
+        {-0.3f, -INFINITY, PICVR_ERROR_NON_FINITE},
+    };
+    for (size_t i = 0; i < sizeof srows / sizeof srows[0]; i++) {
+        sc = sc0;
+        sc.back_g = srows[i].back_g;
+        sc.back_weight = srows[i].back_weight;
+        PROW(srows[i].want, picvr_set_scattering(ctx, &sc), "set_scattering(back_g %g, back_weight %g)",
+             (double)srows[i].back_g, (double)srows[i].back_weight);
+    }
+    sc = sc0;   /* a bad weight with unlimited bounces: nothing of it applies */
+    sc.max_bounces = PICVR_BOUNCES_UNLIMITED;
+    sc.back_weight = 1.0f;
+    PROW(PICVR_ERROR_INVALID_ARGUMENT, picvr_set_scattering(ctx, &sc), "set_scattering(unlimited, back_weight 1)");
+
+    /* environment maps: 8x4 texels unless stated */
+    float map[8 * 4 * 3];
+    for (int i = 0; i < 8 * 4 * 3; i++) map[i] = 0.5f + 0.01f * (float)i;
+    picvr_background b;
+#define ENV(w_, h_, data_) (b = t->bg, b.environment = (data_), b.env_width = (w_), b.env_height = (h_), &b)
+    PROW(PICVR_ERROR_INVALID_DIMENSIONS, picvr_set_lights(ctx, &sun, 1, ENV(0, 4, map)), "set_lights(env width 0)");
+    PROW(PICVR_ERROR_INVALID_DIMENSIONS, picvr_set_lights(ctx, &sun, 1, ENV(8, 0, map)), "set_lights(env height 0)");
+    PROW(PICVR_ERROR_INVALID_DIMENSIONS, picvr_set_lights(ctx, &sun, 1, ENV(0, 0, map)), "set_lights(env 0 x 0)");
+    /* above the limit with a buffer that holds the texels (a library that accepted the
+       size reads valid memory and only the code is wrong) */
+    PROW(PICVR_ERROR_SIZE_OVERFLOW, picvr_set_lights(ctx, &sun, 1, ENV(ENV_BIG, 1, env_ones)),
+         "set_lights(env width MAX + 1)");
+    PROW(PICVR_ERROR_SIZE_OVERFLOW, picvr_set_lights(ctx, &sun, 1, ENV(1, ENV_BIG, env_ones)),
+         "set_lights(env height MAX + 1)");
+    /* a small buffer: the size must be rejected before any texel is read (UINT32_MAX^2 *
+       12 bytes also overflows 64 bits) */
+    PROW(PICVR_ERROR_SIZE_OVERFLOW, picvr_set_lights(ctx, &sun, 1, ENV(UINT32_MAX, UINT32_MAX, map)),
+         "set_lights(env UINT32_MAX x UINT32_MAX)");
+    PROW(PICVR_ERROR_SIZE_OVERFLOW, picvr_set_lights(ctx, &sun, 1, ENV(65536, 65536, map)),
+         "set_lights(env 65536 x 65536)");
+    const struct { float v; picvr_status want; const char *what; } trows[] = {
+        {NAN, PICVR_ERROR_NON_FINITE, "NaN"}, {INFINITY, PICVR_ERROR_NON_FINITE, "+Inf"},
+        {-INFINITY, PICVR_ERROR_NON_FINITE, "-Inf"}, {-1.0f, PICVR_ERROR_INVALID_LIGHT, "-1"},
+        {-1e-30f, PICVR_ERROR_INVALID_LIGHT, "-1e-30"},
+    };
+    for (size_t i = 0; i < sizeof trows / sizeof trows[0]; i++)
+        for (int where = 0; where < 2; where++) {   /* the first texel's R, a middle texel's G */
+            size_t k = where ? 3 * 13 + 1 : 0;
+            float saved = map[k];
+            map[k] = trows[i].v;
+            PROW(trows[i].want, picvr_set_lights(ctx, &sun, 1, ENV(8, 4, map)), "set_lights(env texel %zu = %s)",
+                 k / 3, trows[i].what);
+            map[k] = saved;
+        }
+    float black[8 * 4 * 3];
+    memset(black, 0, sizeof black);
+    PROW(PICVR_ERROR_INVALID_LIGHT, picvr_set_lights(ctx, &sun, 1, ENV(8, 4, black)), "set_lights(env all black)");
+    PROW(PICVR_ERROR_INVALID_LIGHT, picvr_set_lights(ctx, NULL, 0, ENV(8, 4, black)),
+         "set_lights(no lights, env all black)");
+    const float rots[3] = {NAN, INFINITY, -INFINITY};
+    for (int i = 0; i < 3; i++) {
+        b = t->bg;
+        b.environment = map; b.env_width = 8; b.env_height = 4;
+        b.env_rotation = rots[i];
+        PROW(PICVR_ERROR_NON_FINITE, picvr_set_lights(ctx, &sun, 1, &b), "set_lights(env_rotation %g)", (double)rots[i]);
+    }
+    b = t->bg;   /* a constant background: the rotation is unused, but a NaN anywhere */
+    b.environment = NULL; b.env_width = 0; b.env_height = 0;
+    b.env_rotation = NAN;
+    PROW(PICVR_ERROR_NON_FINITE, picvr_set_lights(ctx, &sun, 1, &b), "set_lights(no env, env_rotation NaN)");
+#undef ENV
+#undef PROW
+}
+
+/* Hostile values of every new field (picvr_tf_point.g, picvr_scattering, the environment
+   map of picvr_background), the table's rules: the specific code, then the context renders
+   the bit-identical baseline image.  Twice: over the default baseline (one lobe, g 0,
+   single scattering, constant background), and over a baseline that uses the new fields
+   (TF g 0.5 and -0.2, scattering {2, -0.3, 0.2}, a 16x8 map rotated by 0.4), so that a
+   rejected call must also keep that state rather than fall back to the defaults.  Valid
+   values at the edges are accepted. */
+void test_bad_inputs_scattering_and_environment(void **state) {
+    (void)state;
+    for (size_t i = 0; i < ENV_BIG * 3; i++) env_ones[i] = 1.0f;
+    tu_vol vol;
+    table_state *t = table_begin(&vol);
+    picvr_context *ctx = t->ctx;
+    TU_OK(picvr_step_iterations(ctx, 2));
+    TU_OK(picvr_read_rgba32f(ctx, t->baseline, sizeof t->baseline));
+    scattering_environment_rows(t, "default");
+
+    /* valid: NULL and explicit zeros are the default model, the image is the baseline's */
+    picvr_scattering sc;
+    memset(&sc, 0, sizeof sc);
+    ROW(t, "set_scattering(ctx, NULL) on the default state", PICVR_OK, picvr_set_scattering(ctx, NULL));
+    ROW(t, "set_scattering(zeros) on the default state", PICVR_OK, picvr_set_scattering(ctx, &sc));
+    /* valid edges (accepted: the state changes, so the baseline is set again after) */
+    sc.max_bounces = PICVR_BOUNCES_UNLIMITED - 1; sc.back_g = -0.9999f; sc.back_weight = 0.9999f;
+    TU_OK(picvr_set_scattering(ctx, &sc));
+    sc.max_bounces = PICVR_BOUNCES_UNLIMITED; sc.back_g = 0.9999f; sc.back_weight = 0.0f;
+    TU_OK(picvr_set_scattering(ctx, &sc));
+    TU_OK(picvr_set_scattering(ctx, NULL));
+    picvr_tf_point tfe[2];
+    memcpy(tfe, t->tf, sizeof tfe);
+    tfe[0].g = -0.9999f; tfe[1].g = 0.9999f;
+    TU_OK(picvr_set_transfer_function(ctx, tfe, 2, 0.5f));
+    picvr_light sun = base_sun();
+    picvr_background b = t->bg;
+    b.environment = env_ones; b.env_width = 1; b.env_height = 1;
+    TU_OK(picvr_set_lights(ctx, &sun, 1, &b));
+    b.env_width = PICVR_MAX_ENV_SIZE; b.env_height = 1; b.env_rotation = -1e3f;
+    TU_OK(picvr_set_lights(ctx, &sun, 1, &b));
+    b.env_width = 1; b.env_height = PICVR_MAX_ENV_SIZE; b.env_rotation = 0;
+    TU_OK(picvr_set_lights(ctx, &sun, 1, &b));
+    set_baseline(t);
+    check_row(t, "the default state set again", PICVR_OK, PICVR_OK);
+
+    /* a baseline that uses the new fields */
+    static float map[16 * 8 * 3];
+    for (int r = 0; r < 8; r++)
+        for (int c = 0; c < 16; c++)
+            for (int k = 0; k < 3; k++)
+                map[3 * (r * 16 + c) + k] = 0.2f + 0.1f * (float)k + 0.5f * (float)(r < 4) * (0.5f + 0.5f * (float)sin(c * 0.4));
+    t->tf[0].g = 0.5f;
+    t->tf[1].g = -0.2f;
+    t->bg.environment = map;
+    t->bg.env_width = 16;
+    t->bg.env_height = 8;
+    t->bg.env_rotation = 0.4f;
+    t->scattering.max_bounces = 2;
+    t->scattering.back_g = -0.3f;
+    t->scattering.back_weight = 0.2f;
+    t->use_scattering = 1;
+    float first[W * H * 4];
+    memcpy(first, t->baseline, sizeof first);
+    set_baseline(t);
+    TU_OK(picvr_reset(ctx));
+    TU_OK(picvr_step_iterations(ctx, 2));
+    TU_OK(picvr_read_rgba32f(ctx, t->baseline, sizeof t->baseline));
+    tu_assert_finite(t->baseline, W * H * 4, "baseline with the new fields");
+    if (memcmp(first, t->baseline, sizeof first) == 0)
+        fail_msg("the baseline with g, two lobes, 2 bounces and a map renders the default image: the rows "
+                 "below could not tell a reset to the defaults");
+    scattering_environment_rows(t, "g, two lobes, map");
 
     print_message("    %d rows, %d failure(s)\n", t->rows, t->failures);
     tu_vol_free(&vol);

@@ -10,42 +10,6 @@
 
 #define TU_ENTRY(name) cmocka_unit_test_setup_teardown(name, tu_setup, tu_teardown),
 
-/* test_phase.c (listed here, after TU_ALL_TESTS of test_util.h) */
-#define TU_PHASE_TESTS(X)                    \
-    X(test_phase_hg_integrates_to_one)       \
-    X(test_phase_hg_sample_inverts_cdf)      \
-    X(test_phase_hg_sample_mean_is_g)        \
-    X(test_phase_hg_histogram_matches_pdf)   \
-    X(test_phase_two_lobe_mix)               \
-    X(test_phase_extreme_inputs)
-#define TU_DECLARE_PHASE(name) void name(void **state);
-TU_PHASE_TESTS(TU_DECLARE_PHASE)
-#undef TU_DECLARE_PHASE
-
-/* Multiple scattering, the phase function in the renderer and environment maps
-   (picvr_scattering, picvr_tf_point.g, picvr_background.environment): test_path.c, and
-   their rows in test_api_errors.c and test_robust_sweep.c. */
-#define TU_PATH_TESTS(X)                                            \
-    /* test_path.c */                                               \
-    X(test_path_white_furnace_homogeneous)                          \
-    X(test_path_white_furnace_heterogeneous)                        \
-    X(test_path_white_furnace_forward_g09)                          \
-    X(test_path_white_furnace_two_lobes)                            \
-    X(test_path_white_furnace_constant_env_map)                     \
-    X(test_path_bounces_albedo_08_match_reference)                  \
-    X(test_path_env_one_hot_equals_directional)                     \
-    X(test_path_env_constant_map_equals_constant_background)        \
-    X(test_path_env_smooth_map_single_scatter_closed_form)          \
-    X(test_path_mean_path_length)                                   \
-    X(test_path_default_scattering_bit_identical)                   \
-    /* test_api_errors.c */                                         \
-    X(test_bad_inputs_scattering_and_environment)                   \
-    /* test_robust_sweep.c */                                       \
-    X(test_sweep_path_extremes)
-#define TU_DECLARE_PATH(name) void name(void **state);
-TU_PATH_TESTS(TU_DECLARE_PATH)
-#undef TU_DECLARE_PATH
-
 /* Names the device the tests run on (the default choice, or PICVR_DEVICE), so that a
    log from another machine says what it tested. */
 static void print_device(void) {
@@ -78,7 +42,7 @@ static VkInstance hold_driver_loaded(void) {
 }
 
 int main(void) {
-    const struct CMUnitTest tests[] = {TU_ALL_TESTS(TU_ENTRY) TU_PHASE_TESTS(TU_ENTRY) TU_PATH_TESTS(TU_ENTRY)};
+    const struct CMUnitTest tests[] = {TU_ALL_TESTS(TU_ENTRY)};
     VkInstance held = hold_driver_loaded();
     print_device();
     const char *filter = getenv("PICVR_TEST_FILTER");

@@ -899,3 +899,365 @@ void test_sweep_point_light_extremes(void **state) {
     }
     if (!ok) fail_msg("a point light at an extreme differs from the closed form");
 }
+
+/* ---- multiple scattering, the phase function, environment maps ---------------------------- */
+
+/* A constant expected image (w*h*4 doubles: rgb = L[c], alpha unused). */
+static double *const_image(uint32_t w, uint32_t h, const double L[3]) {
+    double *e = malloc((size_t)w * h * 4 * sizeof *e);
+    assert_non_null(e);
+    for (size_t p = 0; p < (size_t)w * h; p++) {
+        for (int c = 0; c < 3; c++) e[4 * p + c] = L[c];
+        e[4 * p + 3] = 0;
+    }
+    return e;
+}
+
+/* HG phase function per steradian, cos theta between the directions of travel. */
+static double sweep_hg(double g, double c) {
+    double d = 1 + g * g - 2 * g * c;
+    return (1 - g * g) / (4 * M_PI * d * sqrt(d));
+}
+
+/* Single scattering of a homogeneous box under a delta sun with an HG phase function:
+   tu_sun_ray's isotropic closed form times 4 pi HG(g, l . d) (the phase value is the same
+   at every point of a ray: cos theta = l . d, the light travelling along -l and the
+   scattered light along -d). */
+typedef struct hg_sun {
+    tu_sun_scene s;
+    double g;
+} hg_sun;
+
+static void hg_sun_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    const hg_sun *h = user;
+    tu_sun_ray(o, d, (void *)&h->s, out);
+    double f = 4 * M_PI * sweep_hg(h->g, h->s.l[0] * d[0] + h->s.l[1] * d[1] + h->s.l[2] * d[2]);
+    for (int c = 0; c < 3; c++) out[c] *= f;
+}
+
+/* Mean of channel ch over the image and its standard error from the pixel spread (pixels
+   are independent: picvr.h's random numbers are a hash of the pixel among others). */
+static void pixel_mean_se(const float *img, uint32_t w, uint32_t h, int ch, double *mean, double *se) {
+    double n = (double)w * h, s = 0, s2 = 0;
+    for (size_t p = 0; p < (size_t)w * h; p++) s += img[4 * p + ch];
+    *mean = s / n;
+    for (size_t p = 0; p < (size_t)w * h; p++) s2 += (img[4 * p + ch] - *mean) * (img[4 * p + ch] - *mean);
+    *se = sqrt(s2 / (n - 1) / n);
+}
+
+/* Stiff inputs of the path tracer.  Each row: the sweep's checks (finite, radiance >= 0,
+   alpha in [0, 1], stats finite, iterations, time <= CASE_MAX_S) and, where one exists,
+   a closed form:
+   (1) g = +-0.9999 (picvr_tf_point.g): single scattering of a 16^3 cube (sigma 0.1,
+       albedo 0.9) under a delta sun 30 degrees off the forward (g > 0: the sun behind the
+       cube) or backward (g < 0: the sun behind the camera) peak, black background, against
+       tu_sun_ray * 4 pi HG(g, l . d); sys_rel 2e-3 (float evaluation of HG at |g| near 1:
+       1 - g^2 = 2e-4 loses ~1e-3 relative to rounding; l . d is 0.85..0.92 here, far from
+       the peak).  Then the white furnace (albedo 1, background 1, unlimited bounces) with
+       the same g: every pixel 1 (z = 5 on the 8x8 block spread, sys_rel 1e-4); with
+       g = -0.9999 a path reverses at every event and bounces along a line many times.
+   (2) Unlimited bounces, albedo 1, a dense medium (8^3 cube, sigma_t 1e4 per voxel):
+       (a) the camera inside, at the centre, 4e4 mean free paths from every face: a path
+       cannot leave within PICVR_PATH_STEPS (its displacement after n events is ~sqrt(n)
+       mean free paths), so every sample ends at the bound: truncated_paths = samples
+       exactly, image finite;
+       (b) the camera outside (optical thickness 8e4 across): paths that enter diffuse;
+       truncated_paths <= samples.
+       In both, the radiance of a white furnace is L everywhere, so what a path has still
+       to collect when it is cut is L times its throughput (1) at most, and what it
+       collected is at most L in expectation: L (1 - truncated / samples) - 5 SE <= image
+       mean <= L + 5 SE (SE from the pixel spread), whatever a cut path adds at its end
+       (picvr.h leaves that open: "it ends (biased)"; path.glsl ends it with one more
+       light and phase estimate, and the camera-inside image comes out at L).
+   (2c) The light must still be physical where the bound cuts a path: a 16^3 cube whose
+       outer 2 voxels are absorbing (albedo 0) and whose 12^3 core scatters (albedo 1),
+       sigma_t 1e4 per voxel throughout, a sun and a background of 1, the camera inside
+       the core.  No light crosses the shell (transmittance e^-2e4; whatever scatters in
+       it is absorbed), so the core's radiance is 0 (to double precision) however long a
+       path is.  Every path is cut (as in (a)), and what a cut path adds at its end may be
+       biased low but must not be light that cannot arrive: every pixel <= 1e-6.
+   (3) An environment map (256x128) with one texel of 1e30 and the rest 1e-30: 60 orders
+       of magnitude in the importance sampling's table.  (a) intensity 1, 4 bounces:
+       finite (pixels first, then the stats: the in-scattered radiance is ~1e25, whose
+       square in a per-pixel variance overflows a float); (b) intensity 1e-27 (texel radiance 1e3, the rest
+       1e-57, below float's range), single scattering of a thin cube (sigma 0.02) against
+       the delta-sun closed form for the texel's centre direction with E = radiance * its
+       solid angle: sys_rel 2e-3 (the texel's extent, 0.0245 rad: test_path.c measures it
+       below 1e-3 for this scene).
+   (4) 16384x1 and 1x16384 maps (PICVR_MAX_ENV_SIZE): constant ones in the white furnace
+       (every pixel L, z = 5, sys_rel 1e-4), and a 16384x1 map of random texels
+       (finite only). */
+void test_sweep_path_extremes(void **state) {
+    (void)state;
+    int ok = 1;
+    const uint32_t W = 32, H = 32;
+    /* (1) g near +-1 */
+    for (int sgn = 0; sgn < 2; sgn++) {
+        const float g = sgn ? -0.9999f : 0.9999f;
+        picvr_context *ctx = tu_create(201 + (uint32_t)sgn);
+        tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
+        tu_upload(ctx, &vol);
+        hg_sun hs;
+        memset(&hs, 0, sizeof hs);
+        tu_vol_box(&vol, hs.s.bmin, hs.s.bmax);
+        tu_vol_free(&vol);
+        const float D = 0.1f, a = 0.9f, E = 50.0f;
+        picvr_tf_point tf[2];
+        memset(tf, 0, sizeof tf);
+        for (int i = 0; i < 2; i++) {
+            tf[i].value = (float)i;
+            tf[i].albedo[0] = tf[i].albedo[1] = tf[i].albedo[2] = a;
+            tf[i].opacity = 1;
+            tf[i].g = g;
+        }
+        TU_OK(picvr_set_transfer_function(ctx, tf, 2, D));
+        /* the sun 30 degrees off the view axis (0, 0, -1): toward -z for g > 0 (behind the
+           cube), toward +z for g < 0 (behind the camera) */
+        double l[3] = {sin(M_PI / 6) * 0.8, sin(M_PI / 6) * 0.6, (sgn ? 1 : -1) * cos(M_PI / 6)};
+        picvr_light sun;
+        memset(&sun, 0, sizeof sun);
+        sun.type = PICVR_LIGHT_DIRECTIONAL;
+        for (int i = 0; i < 3; i++) { sun.direction[i] = (float)l[i]; sun.color[i] = 1; }
+        sun.intensity = E;
+        TU_OK(picvr_set_lights(ctx, &sun, 1, NULL));
+        hs.s.sigma = D;
+        double ll = sqrt((double)sun.direction[0] * sun.direction[0] + (double)sun.direction[1] * sun.direction[1] +
+                         (double)sun.direction[2] * sun.direction[2]);
+        for (int i = 0; i < 3; i++) { hs.s.l[i] = sun.direction[i] / ll; hs.s.albedo[i] = a; hs.s.E[i] = E; }
+        hs.g = g;
+        tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
+        char what[96];
+        snprintf(what, sizeof what, "g %g, single scattering, sun 30 deg off the peak", (double)g);
+        float *img = sweep_render(ctx, W, H, 64, what);
+        double *expv = tu_expected_image(&cam, 4, hg_sun_ray, &hs);
+        char label[128];
+        snprintf(label, sizeof label, "%s: G", what);
+        ok &= tu_check_mean(label, img, expv, W, 1, 0, 0, W, H, 64, 0, 5.0, 2e-3);
+        free(expv);
+        free(img);
+        /* the white furnace with the same g */
+        tf[0].albedo[0] = tf[0].albedo[1] = tf[0].albedo[2] = 1;
+        tf[1].albedo[0] = tf[1].albedo[1] = tf[1].albedo[2] = 1;
+        TU_OK(picvr_set_transfer_function(ctx, tf, 2, 0.125f));
+        tu_background_only(ctx, 1, 1, 1, 1);
+        picvr_scattering sc;
+        memset(&sc, 0, sizeof sc);
+        sc.max_bounces = PICVR_BOUNCES_UNLIMITED;
+        TU_OK(picvr_set_scattering(ctx, &sc));
+        snprintf(what, sizeof what, "g %g, white furnace, unlimited bounces", (double)g);
+        img = sweep_render(ctx, W, H, 64, what);
+        const double one[3] = {1, 1, 1};
+        expv = const_image(W, H, one);
+        snprintf(label, sizeof label, "%s: G", what);
+        ok &= tu_check_mean(label, img, expv, W, 1, 0, 0, W, H, 64, 0, 5.0, 1e-4);
+        picvr_stats st = tu_stats_finite(ctx);
+        print_message("    %s: mean path length %.3f\n", what, st.mean_path_length);
+        if (st.truncated_paths) { print_message("    %s: %llu truncated paths\n", what, (unsigned long long)st.truncated_paths); ok = 0; }
+        free(expv);
+        free(img);
+        tu_finish(ctx);
+    }
+
+    /* (2) dense, albedo 1, unlimited */
+    {
+        picvr_context *ctx = tu_create(203);
+        tu_vol vol = tu_vol_new(8, 8, 8, 1.0f, 255);
+        tu_upload(ctx, &vol);
+        tu_vol_free(&vol);
+        tu_tf_const(ctx, 1, 1, 1, 1.0f, 1e4f);
+        tu_background_only(ctx, 1, 1, 1, 1);
+        picvr_scattering sc;
+        memset(&sc, 0, sizeof sc);
+        sc.max_bounces = PICVR_BOUNCES_UNLIMITED;
+        TU_OK(picvr_set_scattering(ctx, &sc));
+        for (int inside = 1; inside >= 0; inside--) {
+            const uint32_t w = inside ? 8 : 16, h = w, n = inside ? 2 : 4;
+            if (inside) tu_set_camera(ctx, 0.1, 0.2, 0.05, 5, 3, -20, 60, w, h);
+            else tu_set_camera(ctx, 3, 5, 20, 0, 0, 0, 30, w, h);
+            const char *what = inside ? "dense 1e4/voxel, albedo 1, unlimited, camera inside"
+                                      : "dense 1e4/voxel, albedo 1, unlimited, camera outside";
+            float *img = sweep_render(ctx, w, h, n, what);
+            picvr_stats st = tu_stats_finite(ctx);
+            double samples = (double)w * h * n, f = (double)st.truncated_paths / samples;
+            float lo = INFINITY, hi = -INFINITY;
+            for (size_t p = 0; p < (size_t)w * h; p++) { lo = fminf(lo, img[4 * p]); hi = fmaxf(hi, img[4 * p]); }
+            print_message("    %s: truncated %llu of %.0f samples, pixels %.6g .. %.6g, mean path length %.4g\n", what,
+                          (unsigned long long)st.truncated_paths, samples, (double)lo, (double)hi, st.mean_path_length);
+            if (inside ? st.truncated_paths != (uint64_t)samples : st.truncated_paths > (uint64_t)samples) {
+                print_message("    FAIL: %s\n", inside ? "every sample must end at the step bound and be counted"
+                                                      : "more truncated paths than samples");
+                ok = 0;
+            }
+            if (!(st.mean_path_length > 0)) ok = 0;
+            for (int c = 0; c < 3; c++) {
+                double m, se;
+                pixel_mean_se(img, w, h, c, &m, &se);
+                double sef = sqrt(f * (1 - f) / samples); /* the measured truncated fraction's own error */
+                int pass = m <= 1 + 5 * se + 1e-5 && m >= (1 - f) - 5 * sqrt(se * se + sef * sef) - 1e-5;
+                print_message("    %s ch%d: mean %.5f (SE %.2g), truncated fraction %.4g: bound [%.5f, 1] %s\n",
+                              inside ? "camera inside" : "camera outside", c, m, se, f, 1 - f, pass ? "ok" : "FAIL");
+                ok &= pass;
+            }
+            free(img);
+        }
+        tu_finish(ctx);
+    }
+    /* (2c) a shielded core: nothing reaches it, so a cut path must not bring light */
+    {
+        picvr_context *ctx = tu_create(206);
+        tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 128);
+        for (uint32_t z = 2; z < 14; z++)
+            for (uint32_t y = 2; y < 14; y++)
+                for (uint32_t x = 2; x < 14; x++) *tu_vox(&vol, x, y, z) = 255;
+        tu_upload(ctx, &vol);
+        tu_vol_free(&vol);
+        picvr_tf_point tf[2];
+        memset(tf, 0, sizeof tf);
+        tf[0].value = 128.0f / 255.0f; tf[0].opacity = 1;    /* the shell: albedo 0 */
+        tf[1].value = 1.0f; tf[1].opacity = 1;               /* the core: albedo 1 */
+        tf[1].albedo[0] = tf[1].albedo[1] = tf[1].albedo[2] = 1;
+        TU_OK(picvr_set_transfer_function(ctx, tf, 2, 1e4f));
+        tu_sun(ctx, 0.3, 1, 0.2, 1, 1, 1, 10, 1.0f);           /* a sun and a background of 1 */
+        picvr_scattering sc;
+        memset(&sc, 0, sizeof sc);
+        sc.max_bounces = PICVR_BOUNCES_UNLIMITED;
+        TU_OK(picvr_set_scattering(ctx, &sc));
+        const uint32_t w = 8, h = 8, n = 2;
+        tu_set_camera(ctx, 0.1, 0.2, 0.05, 5, 3, -20, 60, w, h);
+        const char *what = "dense albedo-1 core in an absorbing shell, camera inside";
+        float *img = sweep_render(ctx, w, h, n, what);
+        picvr_stats st = tu_stats_finite(ctx);
+        float hi = 0;
+        for (size_t p = 0; p < (size_t)w * h; p++)
+            for (int c = 0; c < 3; c++) hi = fmaxf(hi, img[4 * p + c]);
+        int pass = hi <= 1e-6f;
+        print_message("    %s: truncated %llu of %u samples, brightest pixel %.6g (must be 0: no light reaches the "
+                      "core) %s\n", what, (unsigned long long)st.truncated_paths, w * h * n, (double)hi,
+                      pass ? "ok" : "FAIL");
+        ok &= pass;
+        if (st.truncated_paths != (uint64_t)w * h * n) ok = 0;
+        free(img);
+        tu_finish(ctx);
+    }
+
+    /* (3) a map of 1e30 and 1e-30 */
+    {
+        const uint32_t EW = 256, EH = 128, COL = 200, ROW = 39;
+        float *env = malloc((size_t)EW * EH * 3 * sizeof *env);
+        assert_non_null(env);
+        for (size_t i = 0; i < (size_t)EW * EH * 3; i++) env[i] = 1e-30f;
+        for (int c = 0; c < 3; c++) env[3 * ((size_t)ROW * EW + COL) + c] = 1e30f;
+        picvr_context *ctx = tu_create(204);
+        tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
+        tu_upload(ctx, &vol);
+        tu_sun_scene s;
+        memset(&s, 0, sizeof s);
+        tu_vol_box(&vol, s.bmin, s.bmax);
+        tu_vol_free(&vol);
+        tu_tf_const(ctx, 0.9f, 0.9f, 0.9f, 1.0f, 0.1f);
+        picvr_background bg;
+        memset(&bg, 0, sizeof bg);
+        bg.color[0] = bg.color[1] = bg.color[2] = 1;
+        bg.intensity = 1;
+        bg.environment = env;
+        bg.env_width = EW;
+        bg.env_height = EH;
+        TU_OK(picvr_set_lights(ctx, NULL, 0, &bg));
+        picvr_scattering sc;
+        memset(&sc, 0, sizeof sc);
+        sc.max_bounces = 4;
+        TU_OK(picvr_set_scattering(ctx, &sc));
+        tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
+        /* (a) pixels first, then the stats */
+        double t0 = now_s();
+        TU_OK(picvr_step_iterations(ctx, 16));
+        float *img = tu_read(ctx, W, H);
+        tu_assert_image_valid(img, W, H, "map 1e30 / 1e-30, 4 bounces");
+        picvr_stats st;
+        TU_OK(picvr_get_stats(ctx, &st));
+        print_message("    map 1e30 / 1e-30, 4 bounces: %.2f s, mean L %.4g, est_error %.4g, est_rel_error %.4g, "
+                      "mean path length %.4g, trunc %llu\n", now_s() - t0, st.mean_luminance, st.est_error,
+                      st.est_rel_error, st.mean_path_length, (unsigned long long)st.truncated_paths);
+        free(img);
+        /* the stats too (as sweep_render asserts), recorded rather than fatal so that the
+           rows below still run */
+        if (!isfinite(st.mean_luminance) || !isfinite(st.est_error) || !isfinite(st.est_rel_error) ||
+            !isfinite(st.mean_path_length)) {
+            print_message("    FAIL map 1e30 / 1e-30: a stat is not finite (the pixels are)\n");
+            ok = 0;
+        }
+        /* (b) intensity 1e-27, single scattering of a thin cube, closed form */
+        bg.intensity = 1e-27f;
+        TU_OK(picvr_set_lights(ctx, NULL, 0, &bg));
+        TU_OK(picvr_set_scattering(ctx, NULL));
+        const float D = 0.02f;
+        tu_tf_const(ctx, 0.9f, 0.9f, 0.9f, 1.0f, D);
+        tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
+        double th = M_PI * (ROW + 0.5) / EH, ph = 2 * M_PI * ((COL + 0.5) / EW - 0.5);
+        double omega = (2 * M_PI / EW) * (cos(M_PI * ROW / EH) - cos(M_PI * (ROW + 1) / EH));
+        double Erad = (double)(1e30f * 1e-27f) * omega; /* radiance * solid angle */
+        s.sigma = D;
+        s.l[0] = sin(th) * sin(ph); s.l[1] = cos(th); s.l[2] = -sin(th) * cos(ph);
+        for (int c = 0; c < 3; c++) { s.albedo[c] = 0.9; s.E[c] = Erad; }
+        img = sweep_render(ctx, W, H, 128, "map 1e30 / 1e-30 at intensity 1e-27, single scattering");
+        double *expv = tu_expected_image(&cam, 2, tu_sun_ray, &s);
+        ok &= tu_check_mean("map 1e30 / 1e-30 x 1e-27: G vs delta sun", img, expv, W, 1, 0, 0, W, H, 128, 0, 5.0, 2e-3);
+        free(expv);
+        free(img);
+        free(env);
+        tu_finish(ctx);
+    }
+
+    /* (4) 16384 x 1 and 1 x 16384 */
+    {
+        const uint32_t M = PICVR_MAX_ENV_SIZE;
+        float *env = malloc((size_t)M * 3 * sizeof *env);
+        assert_non_null(env);
+        picvr_context *ctx = tu_create(205);
+        tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
+        tu_upload(ctx, &vol);
+        tu_vol_free(&vol);
+        tu_tf_const(ctx, 1, 1, 1, 1.0f, 0.125f);
+        picvr_scattering sc;
+        memset(&sc, 0, sizeof sc);
+        sc.max_bounces = PICVR_BOUNCES_UNLIMITED;
+        TU_OK(picvr_set_scattering(ctx, &sc));
+        tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
+        const float tex[3] = {0.8f, 0.9f, 1.0f};
+        for (uint32_t i = 0; i < M; i++)
+            for (int c = 0; c < 3; c++) env[3 * i + c] = tex[c];
+        for (int shape = 0; shape < 3; shape++) {
+            picvr_background bg;
+            memset(&bg, 0, sizeof bg);
+            bg.color[0] = bg.color[1] = bg.color[2] = 1;
+            bg.intensity = 1;
+            bg.environment = env;
+            bg.env_width = shape == 1 ? 1 : M;
+            bg.env_height = shape == 1 ? M : 1;
+            bg.env_rotation = 0.25f;
+            if (shape == 2) { /* random texels: finite only */
+                uint64_t rs = 5;
+                for (uint32_t i = 0; i < M; i++)
+                    for (int c = 0; c < 3; c++) env[3 * i + c] = (float)(tu_rand01(&rs) * tu_rand01(&rs) * 3);
+            }
+            TU_OK(picvr_set_lights(ctx, NULL, 0, &bg));
+            const char *names[3] = {"white furnace, constant 16384x1 map", "white furnace, constant 1x16384 map",
+                                    "random 16384x1 map (finite only)"};
+            float *img = sweep_render(ctx, W, H, 32, names[shape]);
+            if (shape < 2) {
+                const double L[3] = {tex[0], tex[1], tex[2]};
+                double *expv = const_image(W, H, L);
+                for (int c = 0; c < 3; c++) {
+                    char label[128];
+                    snprintf(label, sizeof label, "%s ch%d", names[shape], c);
+                    ok &= tu_check_mean(label, img, expv, W, c, 0, 0, W, H, 32, 0, 5.0, 1e-4);
+                }
+                free(expv);
+            }
+            free(img);
+        }
+        free(env);
+        tu_finish(ctx);
+    }
+    if (!ok) fail_msg("a stiff path-tracing case failed (listed above)");
+}

@@ -136,10 +136,42 @@
     /* test_cpu_reference.c */                                      \
     X(test_gpu_matches_cpu_reference_area_light_background)         \
     X(test_gpu_matches_cpu_reference_point_light_equiangular)       \
+    X(test_cpu_reference_hg_phase_function)                         \
+    X(test_cpu_reference_environment_map)                           \
+    X(test_cpu_reference_white_furnace)                             \
+    X(test_cpu_reference_environment_constant_is_background)        \
+    X(test_cpu_reference_single_scatter_unchanged)                  \
+    X(test_cpu_reference_environment_single_scatter_closed_form)    \
+    X(test_cpu_reference_roulette_unbiased)                         \
+    X(test_cpu_reference_albedo_per_bounce)                         \
+    X(test_gpu_matches_cpu_reference_bounces_forward_hg)            \
+    X(test_gpu_matches_cpu_reference_bounces_chromatic)             \
+    X(test_gpu_matches_cpu_reference_environment_map)               \
+    /* test_phase.c */                                              \
+    X(test_phase_hg_integrates_to_one)                              \
+    X(test_phase_hg_sample_inverts_cdf)                             \
+    X(test_phase_hg_sample_mean_is_g)                               \
+    X(test_phase_hg_histogram_matches_pdf)                          \
+    X(test_phase_two_lobe_mix)                                      \
+    X(test_phase_extreme_inputs)                                    \
+    /* test_path.c: multiple scattering, the phase function, environment maps */ \
+    X(test_path_white_furnace_homogeneous)                          \
+    X(test_path_white_furnace_heterogeneous)                        \
+    X(test_path_white_furnace_forward_g09)                          \
+    X(test_path_white_furnace_two_lobes)                            \
+    X(test_path_white_furnace_constant_env_map)                     \
+    X(test_path_bounces_albedo_08_match_reference)                  \
+    X(test_path_env_one_hot_equals_directional)                     \
+    X(test_path_env_constant_map_equals_constant_background)        \
+    X(test_path_env_smooth_map_single_scatter_closed_form)          \
+    X(test_path_mean_path_length)                                   \
+    X(test_path_default_scattering_bit_identical)                   \
+    X(test_bad_inputs_scattering_and_environment)                   \
     /* test_real_data.c */                                          \
     X(test_real_data_fuel_smoke)                                    \
     /* test_robust_sweep.c (issue 6) */                             \
     X(test_sweep_point_light_extremes)                              \
+    X(test_sweep_path_extremes)                                     \
     X(test_sweep_optical_thickness_beer_lambert)                    \
     X(test_sweep_optical_thickness_sun)                             \
     X(test_sweep_optical_thickness_sun_cache)                       \
