@@ -72,8 +72,9 @@ lib: $(B)/libpicvr.a
 
 # The command-line helpers the example and bench programs share (examples/cli.h).
 CLI_SRC    := examples/cli.c examples/cli.h
-RENDER_SRC := examples/render.c examples/render_output.c examples/cli.c examples/volume_io.c examples/presets.c
-$(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) examples/volume_io.h examples/presets.h $(B)/libpicvr.a
+RENDER_SRC := examples/render.c examples/render_output.c examples/cli.c examples/volume_io.c examples/presets.c \
+              examples/env_io.c
+$(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) examples/volume_io.h examples/presets.h examples/env_io.h $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -o $@ $(RENDER_SRC) $(B)/libpicvr.a $(LDLIBS) -lstb -lz
 
 $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps
@@ -245,7 +246,8 @@ $(BA)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr
 $(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
               tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -o $@ $(TEST_SRC) tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl
-$(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) examples/volume_io.h examples/presets.h tests/asan_keep_drivers.c $(BA)/libpicvr.a
+$(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) examples/volume_io.h examples/presets.h examples/env_io.h \
+              tests/asan_keep_drivers.c $(BA)/libpicvr.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ $(RENDER_SRC) tests/asan_keep_drivers.c $(BA)/libpicvr.a $(LDLIBS) -lstb -lz -ldl
 
 # The whole suite under ASan + UBSan (host code: the library, the tests, the reference),
@@ -266,16 +268,25 @@ valgrind: deps-robust $(B)/picvr-render
 	  $(B)/picvr-render --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz --tf ct-bonsai \
 	  --lights studio --size 32x32 --time 500 --out $(B)/valgrind.png
 
-# libFuzzer on the loaders of examples/volume_io.c, FUZZ_TIME seconds from the committed
-# seed corpus (new inputs go to $(BF)/corpus, crashes to $(BF)/).
+# libFuzzer on the file readers, FUZZ_TIME seconds each from the committed seed corpora
+# (new inputs go to $(BF)/corpus and $(BF)/corpus_env, crashes to $(BF)/): the loaders
+# of examples/volume_io.c, and the Radiance .hdr loader of examples/env_io.c with
+# stb_image's decoder compiled into the harness, instrumented (-timeout: a hang fails).
 $(BF)/fuzz_volume_io: tests/fuzz/fuzz_volume_io.c examples/volume_io.c examples/volume_io.h | $(B)/.deps-robust
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
 	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_volume_io.c examples/volume_io.c -lz
-fuzz: deps-robust $(BF)/fuzz_volume_io
-	@mkdir -p $(BF)/corpus
+$(BF)/fuzz_env_io: tests/fuzz/fuzz_env_io.c examples/env_io.c examples/env_io.h | $(B)/.deps-robust
+	@mkdir -p $(BF)
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_env_io.c examples/env_io.c -lm
+fuzz: deps-robust $(BF)/fuzz_volume_io $(BF)/fuzz_env_io
+	@mkdir -p $(BF)/corpus $(BF)/corpus_env
 	cd $(BF) && ./fuzz_volume_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
 	  -max_len=8192 -print_final_stats=1 corpus $(abspath tests/fuzz/corpus)
+	cd $(BF) && ./fuzz_env_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
+	  -max_len=8192 -print_final_stats=1 -dict=$(abspath tests/fuzz/env_io.dict) \
+	  corpus_env $(abspath tests/fuzz/corpus_env)
 
 # SOAK_SECONDS of picvr_step with random camera, TF and light changes and image reads;
 # fails unless host RSS and live device memory are flat (tolerances in tests/soak.c).

@@ -3,17 +3,16 @@
  *   picvr-render --volume bonsai_256x256x256_uint8.raw.gz --tf ct-bonsai \
  *                --lights studio --time 20000 --out bonsai.png
  *
- * Loads a raw volume (volume_io), sets up a transfer function, lights and an orbit
- * camera from presets (presets), renders progressively for a time or an exact number
- * of iterations while showing the estimated error, and writes PNG / PFM images, a
- * per-round CSV log and a JSON summary (the statistics and the configuration the
- * library resolved).  `picvr-render --help` lists every option.
+ * Loads a raw volume (volume_io) and an --env map (env_io), sets up a transfer
+ * function, lights and an orbit camera from presets (presets), renders progressively
+ * for a time or an exact number of iterations while showing the estimated error, and
+ * writes PNG / PFM images, a per-round CSV log and a JSON summary (the statistics and
+ * the configuration the library resolved).  `picvr-render --help` lists every option.
  *
  * Exit status: 0 success, 1 runtime error, 2 usage error, 130 interrupted (Ctrl-C
  * stops rendering early; the outputs are still written).
  */
 #include <errno.h>
-#include <limits.h>
 #include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -22,9 +21,8 @@
 #include <time.h>
 #include <unistd.h>
 
-#include <stb/stb_image.h>
-
 #include "cli.h"
+#include "env_io.h"
 #include "picvr.h"
 #include "presets.h"
 #include "render.h"
@@ -429,120 +427,22 @@ static int resolve_layout(const render_options *o, pvio_layout *layout)
 
 /* ---- environment map ----------------------------------------------------------------- */
 
-/* --env: linear RGB texels, rows top to bottom (malloc'd by stb_image). */
+/* --env: linear RGB texels, rows top to bottom (malloc'd by env_io: pvenv_free). */
 typedef struct env_map {
     float *rgb;
     uint32_t width, height;
 } env_map;
 
-/* The whole file (malloc'd) and its size; NULL after reporting a failure. */
-static unsigned char *read_file(const char *path, size_t *size)
-{
-    errno = 0;
-    FILE *f = fopen(path, "rb");
-    size_t cap = 1 << 16, n = 0;
-    unsigned char *buf = f ? malloc(cap) : NULL, *grown;
-    while (buf) {
-        n += fread(buf + n, 1, cap - n, f);
-        if (n < cap || ferror(f)) break;
-        grown = cap < ((size_t)1 << 31) ? realloc(buf, cap *= 2) : NULL;
-        if (!grown) free(buf);
-        buf = grown;
-    }
-    if (f && buf && ferror(f)) {
-        free(buf);
-        buf = NULL;
-    }
-    if (!buf) pvc_fail("cannot read %s: %s", path, errno ? strerror(errno) : "too large");
-    if (f) fclose(f);
-    *size = n;
-    return buf;
-}
-
-/* Whether the pixel data at p (n bytes) holds all width x height pixels as stb_image
-   reads them: new-style RLE scanlines (2, 2, width; per component, runs of count - 128
-   copies of one byte or counts 1..128 of literal bytes), else flat RGBE from there on.
-   stb_image trusts its input here: past the end it reads zeros, and a zero count never
-   advances its RLE loop (a truncated or corrupt file would hang it). */
-static int hdr_pixels_complete(const unsigned char *p, size_t n, uint32_t width, uint32_t height)
-{
-    size_t i = 0;
-    if (width < 8 || width >= 32768) return n >= (size_t)width * height * 4;
-    for (uint32_t y = 0; y < height; y++) {
-        if (n - i < 4) return 0;
-        if (p[i] != 2 || p[i + 1] != 2 || (p[i + 2] & 0x80)) /* flat from here to the end */
-            return n - i >= (size_t)width * height * 4;
-        if (((uint32_t)p[i + 2] << 8 | p[i + 3]) != width) return 0;
-        i += 4;
-        for (int k = 0; k < 4; k++)
-            for (uint32_t x = 0; x < width;) {
-                if (i >= n) return 0;
-                uint32_t count = p[i++], run = count > 128;
-                if (run) count -= 128;
-                if (count == 0 || count > width - x || n - i < (run ? 1 : count)) return 0;
-                i += run ? 1 : count;
-                x += count;
-            }
-    }
-    return 1;
-}
-
-/* Loads --env: a Radiance .hdr (RGBE, "-Y H +X W": rows top to bottom) of at most
-   PICVR_MAX_ENV_SIZE texels a side, not all black.  0 after reporting why not. */
+/* Loads --env (examples/env_io.h: a Radiance .hdr, "-Y H +X W", of at most
+   PICVR_MAX_ENV_SIZE texels a side, not all black).  0 after reporting why not. */
 static int load_env(const char *path, env_map *env)
 {
-    static const unsigned char EXR_MAGIC[4] = {0x76, 0x2f, 0x31, 0x01};
-    size_t size, start = 0, line = 0;
-    unsigned char *data = read_file(path, &size);
-    if (!data) return 0;
-    const char *why = NULL;
-    char size_line[64] = "";
-    unsigned w = 0, h = 0;
-    /* The pixels start after the blank line that ends the header and the size line. */
-    for (size_t i = 1; i < size && !start; i++)
-        if (data[i - 1] == '\n' && data[i] == '\n') line = start = i + 1;
-    while (start && start < size && data[start] != '\n') start++;
-    if (start && start < size && start - line < sizeof size_line) {
-        memcpy(size_line, data + line, start - line);
-        size_line[start++ - line] = '\0';
-    }
-    if (size == 0) why = "the file is empty";
-    else if (size >= 4 && !memcmp(data, EXR_MAGIC, 4))
-        why = "OpenEXR is not supported: convert it to a Radiance .hdr";
-    else if (!(size >= 11 && !memcmp(data, "#?RADIANCE\n", 11)) &&
-             !(size >= 7 && !memcmp(data, "#?RGBE\n", 7)))
-        why = "not a Radiance .hdr (RGBE) file";
-    else if (sscanf(size_line, "-Y %u +X %u", &h, &w) != 2)
-        why = "no size line \"-Y H +X W\" after the header (truncated, or rows not top to bottom)";
-    else if (w < 1 || h < 1 || w > PICVR_MAX_ENV_SIZE || h > PICVR_MAX_ENV_SIZE)
-        why = "its size is out of 1..16384 texels a side";
-    else if (size > INT_MAX || !hdr_pixels_complete(data + start, size - start, w, h))
-        why = "the pixel data is truncated or corrupt";
-    if (why) {
-        pvc_fail("--env %s: %s", path, why);
-        free(data);
-        return 0;
-    }
-    int x = 0, y = 0, comp;
-    float *rgb = stbi_loadf_from_memory(data, (int)size, &x, &y, &comp, 3);
-    free(data);
-    if (!rgb) {
-        pvc_fail("--env %s: stb_image cannot decode it: %s", path, stbi_failure_reason());
-        return 0;
-    }
-    size_t n = (size_t)x * (size_t)y * 3, i = 0;
-    while (i < n && rgb[i] == 0.0f) i++;
-    why = (unsigned)x != w || (unsigned)y != h ? "its size line is ambiguous"
-          : i == n                             ? "every texel is black" : NULL;
-    if (why) {
-        pvc_fail("--env %s: %s", path, why);
-        stbi_image_free(rgb);
-        return 0;
-    }
-    env->rgb = rgb;
-    env->width = w;
-    env->height = h;
-    return 1;
+    char err[8192];
+    pvenv_status status = pvenv_load_hdr(path, &env->rgb, &env->width, &env->height,
+                                         err, sizeof err);
+    if (status == PVENV_ERROR_READ) pvc_fail("%s", err);  /* "cannot read PATH: ..." */
+    else if (status != PVENV_OK) pvc_fail("--env %s", err);  /* "--env PATH: ..." */
+    return status == PVENV_OK;
 }
 
 /* ---- progress and logging ------------------------------------------------------------- */
@@ -887,7 +787,7 @@ static int render(const render_options *o, const pvio_layout *layout)
     ok = ok && upload_volume(r.ctx, o, &vol);
     pvio_free(&vol);
     ok = ok && set_up_scene(r.ctx, o, &env);
-    stbi_image_free(env.rgb);  /* picvr keeps its own copy */
+    pvenv_free(env.rgb);  /* picvr keeps its own copy */
     if (ok) {
         install_interrupt_handler();
         if (o->warm_ms > 0.0) ok = warm_up(&r, o, &cfg.scheduler);
