@@ -17,7 +17,7 @@ LIB_OBJ     := $(B)/picvr_vk.o
 # The implementation: picvr_vk.c includes the parts in host/.
 LIB_SRC     := picvr_vk.c picvr.h picvr_shaders.h $(wildcard host/*.h host/*.c)
 
-.PHONY: all deps lib test check-build demo demo-volume bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling shaders check-shaders check-layout check-examples clean help
+.PHONY: all deps lib test check-build demo demo-volume bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-paths shaders check-shaders check-layout check-examples clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
 
 help:
@@ -28,6 +28,7 @@ help:
 	@echo "make bench-long-run   10 min plain vs cached: hit rate and error ratio over time"
 	@echo "make bench-hit-rate   hit rate against entry count; time to 0.8 on this device"
 	@echo "make bench-sampling   plain Monte Carlo before/after its distance sampling (~25 min)"
+	@echo "make bench-paths      the path tracer: error vs time with 0, 1, 4, unlimited bounces (~25 min)"
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
 	@echo "make check-layout host mirrors of the shaders' buffer layouts and constants match"
 	@echo "make check-examples  the examples of picvr.h and README.md compile (-Werror) and run"
@@ -145,6 +146,12 @@ bench-sampling: deps $(B)/picvr-bench-sampling
 	    --ref-time 320000 --out bench/results/sampling/thin
 	$(B)/picvr-bench-sampling --data $(DATA) --scenes bonsai,bonsai-paper4,engine,engine-paper1,cloud \
 	    --size 128x128 --time 30000 --ref-time 120000 --out bench/results/sampling/data
+
+# The path tracer: error against run time with 0, 1, 4 and unlimited bounces, each
+# against its own reference (docs/paths.md; ~25 min).
+bench-paths: deps $(B)/picvr-bench-sampling
+	$(B)/picvr-bench-sampling --data $(DATA) --scenes cloud-sky,bonsai --size 128x128 --time 30000 \
+	    --ref-time 120000 --bounces 0,1,4,unlimited --out bench/results/paths
 
 clean:
 	rm -rf $(B)
