@@ -61,7 +61,7 @@ static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *c
     picvr_buffer env;
     if ((s = picvr_env_build(ctx, NULL, &no_env, &env))) return s;
     picvr_env_install(ctx, NULL, &no_env, &env);
-    ctx->scene.gpu.vertex_cost = 64u;      /* as picvr_set_lights sets it without lights */
+    ctx->scene.gpu.vertex_cost = 64u;      /* as picvr_update_equiangular sets it without lights */
     return picvr_default_transfer_function(ctx);
 }
 

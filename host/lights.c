@@ -157,10 +157,6 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
         ctx->scene.gpu.mono_channel = 3.0f;
     }
     ctx->scene.gpu.light_count = count;
-    /* the pool charge of a path vertex (shaders/path.glsl) for its loops other than
-       tracking: over the lights (choice, area-light hits, sun cones) and the map's two
-       binary searches */
-    ctx->scene.gpu.vertex_cost = 4u * count + 64u;
     ctx->scene.use_phase_mis = mis;
     picvr_update_equiangular(ctx);
     s = picvr_cache_clear(ctx);

@@ -84,6 +84,11 @@ static void picvr_update_equiangular(picvr_context *ctx) {
     }
     if (last >= 0) g[last].eq_cdf = 1.0f;
     ctx->scene.use_equiangular = last >= 0;
+    /* The pool charge of a path's event (shaders/path.glsl) for its loops other than
+       tracking: over the lights (choice, area-light hits, sun cones), the map's two
+       binary searches and, with equiangular sampling, the segment's three passes over
+       the lights and its walk through at most 3 x 64 coarse cells. */
+    ctx->scene.gpu.vertex_cost = 4u * n + 64u + (last >= 0 ? 3u * n + 3u * PICVR_MAX_GRID : 0u);
 }
 
 /* Whether the phase function is anisotropic somewhere (USE_HG): some transfer-function

@@ -64,10 +64,9 @@ vec2 eq_mixture_pdfs(vec3 ro, vec3 rd, float t0, float t1, float ta, float tb) {
     return p;
 }
 
-// t_B: one served light chosen by eq_cdf, then an equiangular distance toward it in
-// [t0, t1]; -1 when the segment is degenerate for it (its span is 0).
-float eq_sample(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng) {
-    float u_light = rnd(rng), u = qmc(rng, 2u);
+// t_B: one served light chosen by eq_cdf (u_light), then an equiangular distance toward
+// it in [t0, t1] (u); -1 when the segment is degenerate for it (its span is 0).
+float eq_sample(vec3 ro, vec3 rd, float t0, float t1, float u_light, float u) {
     uint pick = uint(MAX_LIGHTS);
     for (uint i = 0u; i < scene.light_count; i++) {
         if (scene.lights[i].eq_pmf <= 0.0) continue;

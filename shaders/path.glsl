@@ -12,7 +12,10 @@
 // unbiased 0/1 estimate of that direction's transmittance) and the path ends; if it
 // collides, x_{k+1} is the next scatter event.  At the last event the path may have, the
 // phase sample's transmittance is estimated by ratio tracking instead (sample_phase:
-// less variance, as single scattering always did).
+// less variance, as single scattering always did).  Where equiangular sampling serves
+// (USE_EQUIANGULAR: a point, sphere or rect light near the volume), every segment also
+// draws a point toward it, as camera rays do, and the direct light along the segment is
+// shared between the two strategies by MIS (segment_equiangular).
 //
 // Weights.  The throughput beta_k = albedo(x_1) ... albedo(x_k) (RGB): delta tracking
 // samples x_{k+1} with density sigma_t T, the phase sample is exact (f / pdf = 1), so
@@ -34,6 +37,39 @@
 
 #define BOUNCES_UNLIMITED 0xffffffffu
 
+// In-scattered radiance at x by plain Monte Carlo: one light and one phase sample (MIS).
+vec3 direct_light(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
+    vec3 L = sample_one_light(x, ph, rng, truncated);
+    if (USE_PHASE_MIS) L += sample_phase(x, ph, rng, truncated);
+    return L;
+}
+
+// Equiangular sampling along a path's segment (USE_EQUIANGULAR), as along camera rays
+// (distance.glsl): the segment from x along w over [t0, t1], where delta tracking drew
+// t_a (-1: it passed).  The direct light of the points along the segment is estimated by
+// both strategies, weighted by the power heuristic: returns A's weight (for the direct
+// light of the event at t_a) and sets L_b to B's estimate, albedo included.  The light
+// of later events keeps A alone (weight 1), as on camera rays.
+float segment_equiangular(vec3 x, vec3 w, float t0, float t1, float t_a, inout Rng rng, inout bool truncated,
+                          out vec3 L_b) {
+    L_b = vec3(0.0);
+    float u_light = rnd(rng), u = rnd(rng);
+    float t_b = eq_sample(x, w, t0, t1, u_light, u);
+    float s_b = t_b >= 0.0 ? sigma_t(x + w * t_b) : 0.0;
+    float T_b = s_b > 0.0 ? transmittance(x, w, t_b, rng, truncated) : 0.0;
+    bool b_counts = s_b > 0.0 && T_b > 0.0;
+    float tb = b_counts ? t_b : -1.0;
+    vec2 tau = minorant_depths(x, w, t0, t_a, tb);
+    vec2 p_b = eq_mixture_pdfs(x, w, t0, t1, t_a, tb);
+    float w_a = t_a >= 0.0 ? cm_mis_power(free_flight_proxy(sigma_t(x + w * t_a), tau.x), p_b.x) : 1.0;
+    if (b_counts) {
+        float f_b = cm_eq_weight(T_b, s_b, free_flight_proxy(s_b, tau.y), p_b.y);
+        vec3 xb = x + w * t_b;
+        if (f_b > 0.0) L_b = f_b * albedo_at(xb) * direct_light(xb, phase_at(xb, w), rng, truncated);
+    }
+    return w_a;
+}
+
 // The light scattered at x (the first scatter event; the camera ray travels along d) toward
 // the camera, albedo included: `direct` the light of x's own next-event estimate (the
 // part the caller may weight against another strategy), `indirect` the light of the
@@ -44,6 +80,7 @@ void scattered_radiance(vec3 x, vec3 d, inout Rng rng, inout bool truncated, out
     direct = vec3(0.0);
     indirect = vec3(0.0);
     events = 1u;
+    float w_dir = 1.0;   // the weight of this event's direct light (the caller weights the first's)
     for (uint n = 0u; n < PATH_STEPS; n++) {
         float b_max = max(beta.r, max(beta.g, beta.b));
         if (b_max <= 0.0) break;                     // nothing more can reach the camera
@@ -65,12 +102,13 @@ void scattered_radiance(vec3 x, vec3 d, inout Rng rng, inout bool truncated, out
         vec3 L = sample_one_light(x, ph, rng, truncated);
         vec3 w = vec3(0.0);
         float t = -1.0;
+        float w_next = 1.0;  // the next event's direct-light weight (its segment's MIS)
         if (end) {
             if (USE_PHASE_MIS) L += sample_phase(x, ph, rng, truncated);
         } else {
             float u1 = rnd(rng), u2 = rnd(rng);
             w = phase_sample(ph, u1, u2);
-            float t_light, t0, t1;
+            float t_light, t0 = 0.0, t1 = 0.0;
             int hit = nearest_area_light(x, w, 1e30, t_light);
             bool cut = false;
             if (box_interval(x, w, t0, t1)) {
@@ -82,8 +120,14 @@ void scattered_radiance(vec3 x, vec3 d, inout Rng rng, inout bool truncated, out
             truncated = truncated || cut;
             if (t < 0.0 && !cut) L += phase_emission(x, w, hit, t_light, phase_eval(ph, w));
             end = cut;
+            if (USE_EQUIANGULAR && !cut && t1 > t0) {
+                vec3 L_b;
+                w_next = segment_equiangular(x, w, t0, t1, t, rng, truncated, L_b);
+                indirect += beta / q * L_b;
+            }
         }
-        if (events == 1u) direct = beta * L; else indirect += beta * L;
+        if (events == 1u) direct = beta * L; else indirect += beta * w_dir * L;
+        w_dir = w_next;
         if (end || t < 0.0) break;
         x += w * t;
         d = w;

@@ -83,13 +83,6 @@ Rng pixel_rng(uint idx) { return rng_init(idx, floatBitsToUint(accum_stat[idx].z
 
 struct ScatterEvent { uint idx; uvec2 px; vec3 rd; float t; vec3 x; Rng rng; bool truncated; };
 
-// In-scattered radiance at x by plain Monte Carlo: one light and one phase sample (MIS).
-vec3 direct_light(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
-    vec3 L = sample_one_light(x, ph, rng, truncated);
-    if (USE_PHASE_MIS) L += sample_phase(x, ph, rng, truncated);
-    return L;
-}
-
 // The light scattered toward the camera at the event e (albedo included) and the event's
 // scatter events: the direct light alone, or with USE_BOUNCES the whole path
 // (path.glsl), `direct` its first event's own part.
@@ -168,7 +161,8 @@ struct CameraSample { float w_a; float t_b; float f_b; float T_end; };
 CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, inout Rng rng, inout bool truncated) {
     vec3 ro = scene.cam_pos;
     CameraSample c;
-    c.t_b = eq_sample(ro, e.rd, seg.t0, seg.t1, rng);
+    float u_light = rnd(rng);
+    c.t_b = eq_sample(ro, e.rd, seg.t0, seg.t1, u_light, qmc(rng, 2u));
     c.f_b = 0.0;
     // B's transmittance is needed where it lands in medium, or for the end term
     float s_b = c.t_b >= 0.0 ? sigma_t(ro + e.rd * c.t_b) : 0.0;

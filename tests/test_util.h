@@ -147,6 +147,7 @@
     X(test_gpu_matches_cpu_reference_bounces_forward_hg)            \
     X(test_gpu_matches_cpu_reference_bounces_chromatic)             \
     X(test_gpu_matches_cpu_reference_environment_map)               \
+    X(test_gpu_matches_cpu_reference_bounces_point_light_equiangular) \
     /* test_phase.c */                                              \
     X(test_phase_hg_integrates_to_one)                              \
     X(test_phase_hg_sample_inverts_cdf)                             \
