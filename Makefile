@@ -232,7 +232,7 @@ ASAN_ENV    := ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:strict_string_checks
                LSAN_OPTIONS=suppressions=$(abspath tests/lsan.supp):print_suppressions=0 \
                UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 FUZZ_TIME   ?= 60
-SOAK_SECONDS ?= 120
+SOAK_SECONDS ?= 60
 VG_SUPP     := tests/valgrind.supp
 
 .PHONY: test-asan valgrind fuzz soak robust deps-robust
@@ -301,3 +301,4 @@ $(B)/picvr-soak: tests/soak.c $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -o $@ tests/soak.c $(B)/libpicvr.a $(LDLIBS) -ldl
 soak: deps-robust $(B)/picvr-soak
 	PICVR_VALIDATION=0 $(B)/picvr-soak $(SOAK_SECONDS)
+	PICVR_VALIDATION=0 $(B)/picvr-soak $(SOAK_SECONDS) none paths
