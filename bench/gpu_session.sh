@@ -17,6 +17,9 @@
 #                  bench/bias_split.py (the estimator is the same on every device)
 #   4. tests.txt   bench/gpu_tests.sh: the test suite with the validation layer, cut
 #                  after TESTS_S seconds
+#   5. paths.tgz   with PATHS=1: the path tracer's error against run time with 0, 1, 4 and
+#                  unlimited bounces, cloud under sun and sky and bonsai, 256x256 (make
+#                  bench-paths, shortened: about 3 min; docs/paths.md)
 #
 # usage (device machine, repo root, build/ and .gpu/ carried): sh bench/gpu_session.sh OUT [SECS]
 # env:   B (default build), DATA (default .gpu: the volumes and libvulkan1's .deb),
@@ -112,4 +115,12 @@ stage "4 the test suite, validation layer on, at most $TESTS_S s"
 TESTS_S=$TESTS_S sh "$(dirname "$0")/gpu_tests.sh" "$W/tests"
 echo "gpu_tests: exit $? (124: cut at $TESTS_S s)"
 cp "$W/tests/gpu_tests.txt" "$OUT/" 2>/dev/null
+if [ "${PATHS:-0}" = 1 ]; then
+    stage "5 the path tracer: bounces 0, 1, 4, unlimited"
+    mkdir -p "$W/paths"
+    timeout 300 "$B/picvr-bench-sampling" --data "$DATA" --scenes cloud-sky,bonsai --size 256x256 \
+        --time 4000 --slice 250 --ref-time 16000 --ref-chunks 4 --bounces 0,1,4,unlimited \
+        --out "$W/paths" | tail -14
+    pack paths
+fi
 stage "done"
