@@ -156,9 +156,9 @@ static void upload(picvr_context *ctx, const uint8_t *data, uint32_t nx, uint32_
 /* The path tracer's features (bounces, an anisotropic phase function, an environment map)
    are on for a whole run (the `paths` argument) or off: each is a pipeline variant, and a
    soak that toggled them would keep meeting new combinations with the other variant
-   switches, each compiled by the driver at its first use.  lavapipe keeps that memory
-   after the pipeline is destroyed (measured: +70 MiB of RSS in 2 min, device memory and
-   picvr's heap exactly flat), which would hide a leak of picvr's in the RSS. */
+   switches, each compiled by the driver at its first use, and lavapipe keeps that
+   memory after the pipeline is destroyed: it would hide a leak of picvr's in the RSS
+   (docs/robustness.md, "Soak"). */
 static int paths_on;
 
 static void random_tf(picvr_context *ctx) {
