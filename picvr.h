@@ -347,10 +347,18 @@ picvr_status picvr_get_config(const picvr_context *ctx, picvr_config *out);
 
 /* ---- volume ------------------------------------------------------------------ */
 
+/* Voxel types.  Signed 8- and 16-bit voxels are stored exactly (offset into the
+   unsigned formats); int32, float16 and float64 are converted to float32 on upload
+   (int32 exactly up to 2^24 in magnitude; float64 must fit a float). */
 typedef enum picvr_voxel_type {
     PICVR_VOXEL_UINT8 = 1,
     PICVR_VOXEL_UINT16 = 2,
-    PICVR_VOXEL_FLOAT32 = 3
+    PICVR_VOXEL_FLOAT32 = 3,
+    PICVR_VOXEL_INT8 = 4,
+    PICVR_VOXEL_INT16 = 5,     /* CT in Hounsfield units */
+    PICVR_VOXEL_INT32 = 6,
+    PICVR_VOXEL_FLOAT16 = 7,   /* IEEE 754 binary16, as uint16_t bits */
+    PICVR_VOXEL_FLOAT64 = 8
 } picvr_voxel_type;
 
 typedef struct picvr_volume_desc {
@@ -361,12 +369,16 @@ typedef struct picvr_volume_desc {
     const void *data;         /* dims[0]*dims[1]*dims[2] voxels, x fastest; copied */
     float value_min, value_max; /* data values that map to 0 and 1 for the transfer
                                  function.  Both 0: 0..255 for uint8, 0..65535 for uint16,
-                                 the data's own min..max for float32.  (Use 0..4095 for
-                                 12-bit data stored in uint16.)  Values outside clamp. */
+                                 -128..127 for int8, -32768..32767 for int16, the data's
+                                 own min..max for int32, float16, float32 and float64.
+                                 (Use 0..4095 for 12-bit data stored in uint16, or a
+                                 Hounsfield window such as -1000..2000 for CT in int16.)
+                                 Values outside clamp. */
 } picvr_volume_desc;
 
 /* Copies the voxels to a 3D image on the device and builds the majorant grid.
-   float32 data must be finite (PICVR_ERROR_NON_FINITE otherwise).  On error the
+   float16, float32 and float64 data must be finite, and float64 within float's range
+   (PICVR_ERROR_NON_FINITE otherwise).  On error the
    previous volume, if any, is kept.  Resets accumulation. */
 picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *desc);
 

@@ -4,7 +4,32 @@
  * uses util, vulkan, cache, image, majorant. */
 
 static size_t picvr_voxel_bytes(picvr_voxel_type t) {
-    return t == PICVR_VOXEL_UINT8 ? 1 : t == PICVR_VOXEL_UINT16 ? 2 : t == PICVR_VOXEL_FLOAT32 ? 4 : 0;
+    switch (t) {
+    case PICVR_VOXEL_UINT8: case PICVR_VOXEL_INT8: return 1;
+    case PICVR_VOXEL_UINT16: case PICVR_VOXEL_INT16: case PICVR_VOXEL_FLOAT16: return 2;
+    case PICVR_VOXEL_FLOAT32: case PICVR_VOXEL_INT32: return 4;
+    case PICVR_VOXEL_FLOAT64: return 8;
+    default: return 0;
+    }
+}
+
+/* How a type is stored in the 3D image: 8- and 16-bit integers in R8/R16_UNORM (the
+   signed ones offset by 128 and 32768: exact), everything else as float32 (R32_SFLOAT,
+   or normalized R16_UNORM where the device cannot filter R32F). */
+static int picvr_stored_as_float(picvr_voxel_type t) {
+    return t == PICVR_VOXEL_FLOAT32 || t == PICVR_VOXEL_INT32 || t == PICVR_VOXEL_FLOAT16 || t == PICVR_VOXEL_FLOAT64;
+}
+
+/* The offset added to a signed integer voxel to store it unsigned. */
+static double picvr_voxel_bias(picvr_voxel_type t) {
+    return t == PICVR_VOXEL_INT8 ? 128.0 : t == PICVR_VOXEL_INT16 ? 32768.0 : 0.0;
+}
+
+/* IEEE 754 binary16 to double, exactly (subnormals, infinities and NaN included). */
+static double picvr_half_to_double(uint16_t h) {
+    int e = (h >> 10) & 31, f = h & 1023;
+    double v = e == 0 ? ldexp(f, -24) : e == 31 ? (f ? NAN : INFINITY) : ldexp(f + 1024, e - 25);
+    return (h & 0x8000) ? -v : v;
 }
 
 /* Reads voxel i as a double. */
@@ -12,6 +37,11 @@ static double picvr_voxel_at(const picvr_volume_desc *d, size_t i) {
     switch (d->type) {
     case PICVR_VOXEL_UINT8: return ((const uint8_t *)d->data)[i];
     case PICVR_VOXEL_UINT16: return ((const uint16_t *)d->data)[i];
+    case PICVR_VOXEL_INT8: return ((const int8_t *)d->data)[i];
+    case PICVR_VOXEL_INT16: return ((const int16_t *)d->data)[i];
+    case PICVR_VOXEL_INT32: return ((const int32_t *)d->data)[i];
+    case PICVR_VOXEL_FLOAT16: return picvr_half_to_double(((const uint16_t *)d->data)[i]);
+    case PICVR_VOXEL_FLOAT64: return ((const double *)d->data)[i];
     default: return ((const float *)d->data)[i];
     }
 }
@@ -46,21 +76,22 @@ static picvr_status picvr_validate_volume(picvr_context *ctx, const picvr_volume
     return PICVR_OK;
 }
 
-/* Data range for normalization, and (float32) the finiteness check. */
+/* Data range for normalization, and (the types stored as float32) the finiteness check:
+   every such voxel must be finite, a float64 one within float's range. */
 static picvr_status picvr_volume_range(const picvr_volume_desc *d, size_t n, picvr_value_map *m) {
     int given = d->value_min != 0.0f || d->value_max != 0.0f;
-    if (d->type != PICVR_VOXEL_FLOAT32) {
-        m->lo = given ? d->value_min : 0.0;
-        m->hi = given ? d->value_max : d->type == PICVR_VOXEL_UINT8 ? 255.0 : 65535.0;
+    if (!picvr_stored_as_float(d->type)) {
+        static const double type_lo[] = {0, 0, 0, 0, -128.0, -32768.0}, type_hi[] = {0, 255.0, 65535.0, 0, 127.0, 32767.0};
+        m->lo = given ? d->value_min : type_lo[d->type];
+        m->hi = given ? d->value_max : type_hi[d->type];
         return PICVR_OK;
     }
-    /* float32: always scanned, every voxel must be finite */
-    const float *f = (const float *)d->data;
     double lo = INFINITY, hi = -INFINITY;
     for (size_t i = 0; i < n; i++) {
-        if (!isfinite(f[i])) return PICVR_ERROR_NON_FINITE;
-        if (f[i] < lo) lo = f[i];
-        if (f[i] > hi) hi = f[i];
+        double v = picvr_voxel_at(d, i);
+        if (!isfinite(v) || fabs(v) > FLT_MAX) return PICVR_ERROR_NON_FINITE;
+        if (v < lo) lo = v;
+        if (v > hi) hi = v;
     }
     if (d->value_min != 0.0f || d->value_max != 0.0f) { lo = d->value_min; hi = d->value_max; }
     m->lo = lo; m->hi = hi;
@@ -103,13 +134,36 @@ static picvr_status picvr_build_bricks(picvr_context *ctx, const picvr_volume_de
     return PICVR_OK;
 }
 
-/* Copies voxels into the 3D image in z-slabs of at most STAGING_CHUNK bytes, converting
-   float data to R16_UNORM where the device cannot filter R32_SFLOAT. */
+/* One slab's voxels [first, first + cnt) into the staging memory dst in the stored form
+   (picvr_stored_as_float; R16_UNORM float data normalized by m). */
+static void picvr_convert_voxels(const picvr_volume_desc *d, VkFormat fmt, picvr_value_map m, size_t first,
+                                 size_t cnt, void *dst) {
+    const uint8_t *src = (const uint8_t *)d->data + first * picvr_voxel_bytes(d->type);
+    if (d->type == PICVR_VOXEL_UINT8 || d->type == PICVR_VOXEL_UINT16 ||
+        (d->type == PICVR_VOXEL_FLOAT32 && fmt == VK_FORMAT_R32_SFLOAT)) {
+        memcpy(dst, src, cnt * picvr_voxel_bytes(d->type));
+        return;
+    }
+    for (size_t i = 0; i < cnt; i++) {
+        double v = picvr_voxel_at(d, first + i);
+        if (d->type == PICVR_VOXEL_INT8) ((uint8_t *)dst)[i] = (uint8_t)(v + 128.0);
+        else if (d->type == PICVR_VOXEL_INT16) ((uint16_t *)dst)[i] = (uint16_t)(v + 32768.0);
+        else if (fmt == VK_FORMAT_R16_UNORM) ((uint16_t *)dst)[i] = (uint16_t)lrint(picvr_normalize_value(m, v) * 65535.0);
+        else ((float *)dst)[i] = (float)v;
+    }
+}
+
+/* The bytes per voxel of the 3D image of type t. */
+static size_t picvr_stored_bytes(const picvr_context *ctx, picvr_voxel_type t) {
+    if (!picvr_stored_as_float(t)) return picvr_voxel_bytes(t);
+    return ctx->vk.float_volume_format == VK_FORMAT_R16_UNORM ? 2 : 4;
+}
+
+/* Copies voxels into the 3D image in z-slabs of at most STAGING_CHUNK bytes, in their
+   stored form (picvr_convert_voxels). */
 static picvr_status picvr_upload_voxels(picvr_context *ctx, picvr_image *im, const picvr_volume_desc *d,
                                   VkFormat fmt, picvr_value_map m) {
-    size_t in_bpv = picvr_voxel_bytes(d->type);
-    size_t out_bpv = fmt == VK_FORMAT_R16_UNORM ? 2 : in_bpv;
-    size_t slice_in = (size_t)d->dims[0] * d->dims[1] * in_bpv;
+    size_t out_bpv = picvr_stored_bytes(ctx, d->type);
     size_t slice_out = (size_t)d->dims[0] * d->dims[1] * out_bpv;
     uint32_t slab = (uint32_t)(PICVR_STAGING_CHUNK / slice_out);
     if (slab == 0) slab = 1;
@@ -117,18 +171,10 @@ static picvr_status picvr_upload_voxels(picvr_context *ctx, picvr_image *im, con
     picvr_buffer staging;
     picvr_status s = picvr_buffer_create(ctx, &staging, (VkDeviceSize)slab * slice_out, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 1);
     if (s) return s;
-    int convert = d->type == PICVR_VOXEL_FLOAT32 && fmt == VK_FORMAT_R16_UNORM;
+    size_t slice = (size_t)d->dims[0] * d->dims[1];
     for (uint32_t z0 = 0; z0 < d->dims[2] && !s; z0 += slab) {
         uint32_t nz = d->dims[2] - z0 < slab ? d->dims[2] - z0 : slab;
-        const uint8_t *src = (const uint8_t *)d->data + (size_t)z0 * slice_in;
-        if (convert) {
-            uint16_t *dst = (uint16_t *)staging.mapped;
-            const float *f = (const float *)src;
-            size_t cnt = (size_t)nz * d->dims[0] * d->dims[1];
-            for (size_t i = 0; i < cnt; i++) dst[i] = (uint16_t)lrint(picvr_normalize_value(m, f[i]) * 65535.0);
-        } else {
-            memcpy(staging.mapped, src, (size_t)nz * slice_in);
-        }
+        picvr_convert_voxels(d, fmt, m, (size_t)z0 * slice, (size_t)nz * slice, staging.mapped);
         picvr_buffer_flush(ctx, &staging);
         if ((s = picvr_cmd_begin(ctx))) break;
         picvr_image_barrier(ctx, im->img, z0 == 0 ? VK_IMAGE_LAYOUT_UNDEFINED : VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
@@ -147,13 +193,14 @@ static picvr_status picvr_upload_voxels(picvr_context *ctx, picvr_image *im, con
     return s;
 }
 
-/* scale/offset so that clamp(tex * scale + offset, 0, 1) is the normalized value. */
+/* scale/offset so that clamp(tex * scale + offset, 0, 1) is the normalized value: the
+   texel times its format's unit, less the signed types' bias, is the data value. */
 static void picvr_shader_value_map(picvr_context *ctx, const picvr_volume_desc *d, VkFormat fmt, picvr_value_map m) {
     double unit = fmt == VK_FORMAT_R8_UNORM ? 255.0 : fmt == VK_FORMAT_R16_UNORM ? 65535.0 : 1.0;
     double scale = 1.0, offset = 0.0;
-    if (!(d->type == PICVR_VOXEL_FLOAT32 && fmt == VK_FORMAT_R16_UNORM) && m.hi > m.lo) {
+    if (!(picvr_stored_as_float(d->type) && fmt == VK_FORMAT_R16_UNORM) && m.hi > m.lo) {
         scale = unit / (m.hi - m.lo);
-        offset = -m.lo / (m.hi - m.lo);
+        offset = -(m.lo + picvr_voxel_bias(d->type)) / (m.hi - m.lo);
     }
     ctx->scene.gpu.value_map[0] = (float)scale;
     ctx->scene.gpu.value_map[1] = (float)offset;
@@ -174,8 +221,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     }
     {   /* a volume larger than the device can allocate (picvr_volume_alloc_limit) is
            refused before anything is allocated */
-        VkDeviceSize dev = (VkDeviceSize)(bytes / picvr_voxel_bytes(desc->type)) *
-            (desc->type == PICVR_VOXEL_FLOAT32 && ctx->vk.float_volume_format == VK_FORMAT_R16_UNORM ? 2 : picvr_voxel_bytes(desc->type));
+        VkDeviceSize dev = (VkDeviceSize)(bytes / picvr_voxel_bytes(desc->type)) * picvr_stored_bytes(ctx, desc->type);
         if (ctx->vk.max_volume_bytes && dev > ctx->vk.max_volume_bytes) {
             picvr_log_message(ctx, PICVR_LOG_WARNING, "volume of %llu bytes exceeds the device's allocation limit", (unsigned long long)dev);
             return PICVR_ERROR_OUT_OF_DEVICE_MEMORY;
@@ -191,8 +237,8 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     uint32_t grid[3];
     for (int i = 0; i < 3; i++) grid[i] = (desc->dims[i] + brick - 1) / brick;
 
-    VkFormat fmt = desc->type == PICVR_VOXEL_UINT8 ? VK_FORMAT_R8_UNORM
-                 : desc->type == PICVR_VOXEL_UINT16 ? VK_FORMAT_R16_UNORM : ctx->vk.float_volume_format;
+    VkFormat fmt = picvr_stored_as_float(desc->type) ? ctx->vk.float_volume_format
+                 : picvr_voxel_bytes(desc->type) == 1 ? VK_FORMAT_R8_UNORM : VK_FORMAT_R16_UNORM;
     /* Build the new volume beside the old one; swap only when everything succeeded. */
     picvr_image vol;
     picvr_buffer maj;

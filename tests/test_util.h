@@ -148,6 +148,11 @@
     X(test_gpu_matches_cpu_reference_bounces_chromatic)             \
     X(test_gpu_matches_cpu_reference_environment_map)               \
     X(test_gpu_matches_cpu_reference_bounces_point_light_equiangular) \
+    /* test_voxel_types.c */                                        \
+    X(test_voxel_types_signed_match_unsigned)                       \
+    X(test_voxel_types_converted_match_float32)                     \
+    X(test_voxel_types_hostile)                                     \
+    X(test_voxel_types_extremes)                                    \
     /* test_phase.c */                                              \
     X(test_phase_hg_integrates_to_one)                              \
     X(test_phase_hg_sample_inverts_cdf)                             \
