@@ -104,7 +104,7 @@ static void picvr_env_fill(const picvr_background *bg, const picvr_env_info *inf
             const float *t = bg->environment + 3 * ((size_t)r * w + x);
             float *o = out + 4 * ((size_t)r * w + x);
             for (int c = 0; c < 3; c++) o[c] = (float)(info->scale[c] * t[c]);
-            wt[x] = (0.2126 * o[0] + 0.7152 * o[1] + 0.0722 * o[2]) * omega;
+            wt[x] = picvr_luminance(o) * omega;
             row += wt[x];
         }
         picvr_env_cdf(wt, w, cond + (size_t)r * (w + 1));
