@@ -666,8 +666,14 @@ vec3 background_radiance(vec3 w) {
     return vec3(env[4u * i], env[4u * i + 1u], env[4u * i + 2u]);
 }
 
-// The solid-angle pdf of background_sample for direction w.
-float background_pdf(vec3 w) { return USE_ENV_MAP ? env[4u * env_texel(w) + 3u] : INV_4PI; }
+// The radiance arriving from w and the solid-angle pdf of background_sample for it, from
+// one texel lookup.
+vec3 background_radiance_pdf(vec3 w, out float pdf) {
+    if (!USE_ENV_MAP) { pdf = INV_4PI; return scene.background; }
+    uint i = env_texel(w);
+    pdf = env[4u * i + 3u];
+    return vec3(env[4u * i], env[4u * i + 1u], env[4u * i + 2u]);
+}
 
 // The largest i < n with cdf[base + i] <= u, for cdf[base] = 0 <= u < 1 = cdf[base + n]:
 // the interval [cdf[i], cdf[i + 1]) holding u, never one of zero width.  At most
@@ -901,8 +907,11 @@ vec3 phase_emission(vec3 x, vec3 w, int hit, float t_hit, float f) {
         return area_light_radiance(i, w) * power_weight(f, scene.lights[i].pmf * light_pdf(i, x, w, t_hit));
     }
     vec3 Le = vec3(0.0);
-    if (scene.background_pmf > 0.0)
-        Le = background_radiance(w) * power_weight(f, scene.background_pmf * background_pdf(w));
+    if (scene.background_pmf > 0.0) {
+        float pdf;
+        vec3 L = background_radiance_pdf(w, pdf);
+        Le = L * power_weight(f, scene.background_pmf * pdf);
+    }
     for (uint i = 0u; i < scene.light_count; i++) {
         Light l = scene.lights[i];
         if (l.type != LIGHT_DIRECTIONAL || l.size <= 0.0) continue;
