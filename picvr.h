@@ -150,6 +150,11 @@ typedef enum picvr_status {
     PICVR_ERROR_OUT_OF_HOST_MEMORY,
     PICVR_ERROR_OUT_OF_DEVICE_MEMORY,
     PICVR_ERROR_DEVICE_LOST,           /* the context must be destroyed */
+    PICVR_ERROR_BUSY,                  /* a step begun by picvr_step_begin() has not been
+                                          ended by picvr_step_end(); nothing was done */
+    PICVR_ERROR_NO_STEP,               /* picvr_step_end() without picvr_step_begin() */
+    PICVR_ERROR_TIMEOUT,               /* picvr_step_end(): the step's work is still
+                                          running; call it again */
     PICVR_STATUS_COUNT
 } picvr_status;
 
@@ -263,6 +268,15 @@ typedef struct picvr_scheduler_config {
     float rounds_per_second;   /* scheduling rounds (one submission each); 0: 20 */
     float hit_rate_window_ms;  /* the hit rate h is measured over this window; 0: 100 */
     picvr_switch priorities;   /* Eq. 12 per-block rendering priorities; default ON */
+    picvr_switch frames;       /* ON: real-time frames, for engines.  After a reset (a
+                                  camera, scene or view change) a step renders blocks in
+                                  round-robin order until every pixel holds a sample, and
+                                  returns no earlier: no image read or written after a
+                                  step has a pixel without one (stats.pixels_unsampled is
+                                  0).  Such a step lasts max(budget, the rest of that
+                                  pass).  Priorities apply once the pass is complete.
+                                  DEFAULT: OFF (a step keeps its budget; with priorities
+                                  on, some blocks are sampled first) */
 } picvr_scheduler_config;
 
 /* The application's own Vulkan objects (sokol's sg_environment): all four handles or
@@ -514,6 +528,18 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera);
    A budget is kept to within about one round's misestimate of the device time. */
 picvr_status picvr_step(picvr_context *ctx, double milliseconds);
 
+/* The same as picvr_step, split so that the calling thread does not wait for the
+   device: picvr_step_begin submits one round of about `milliseconds` of device time
+   (sized by the scheduler's measured costs; with scheduler.frames on, at least the rest
+   of the first pass) to the queue and returns at once.  picvr_step_end waits up to
+   timeout_ns for it (0: poll; UINT64_MAX: until done), then accounts for it as
+   picvr_step does; PICVR_ERROR_TIMEOUT means it is still running (the step stays
+   begun).  Between the two, every other call on the context returns PICVR_ERROR_BUSY
+   and does nothing, except picvr_destroy (which waits) and picvr_status_string.
+   picvr_step_end without a begun step is PICVR_ERROR_NO_STEP. */
+picvr_status picvr_step_begin(picvr_context *ctx, double milliseconds);
+picvr_status picvr_step_end(picvr_context *ctx, uint64_t timeout_ns);
+
 /* Makes the pipelines that the current volume, transfer function, lights, cache mode
    and view need, which the next picvr_step would otherwise make first: call it while a
    scene loads to keep that pause out of interaction.  Needs a volume; renders nothing.
@@ -572,6 +598,48 @@ picvr_status picvr_read_rgba8(picvr_context *ctx, uint8_t *pixels, size_t size, 
    bottom; size is in bytes and must be >= width*height*16. */
 picvr_status picvr_read_rgba32f(picvr_context *ctx, float *pixels, size_t size);
 
+/* The image on the device, for engines: picvr_write_image writes the current image
+   into a VkImage the application owns, with no host copy.  It needs the application's
+   Vulkan objects (picvr_config.vulkan); the image must be on that VkDevice, 2D, with one
+   mip level and one array layer, extent width x height equal to the camera's, usage
+   including VK_IMAGE_USAGE_TRANSFER_DST_BIT, and owned by picvr_config.vulkan's queue
+   family (or VK_SHARING_MODE_CONCURRENT).  picvr cannot check that a non-NULL handle
+   is a live image of that device: passing anything else is undefined, as in Vulkan. */
+typedef struct picvr_image_target {
+    void *image;              /* VkImage */
+    uint32_t width, height;   /* its extent: the camera's width and height */
+    uint32_t format;          /* its VkFormat, one of
+                                 R8G8B8A8_UNORM, R8G8B8A8_SRGB, B8G8R8A8_UNORM,
+                                 B8G8R8A8_SRGB: the bytes of picvr_read_rgba8 (tone-mapped,
+                                 sRGB-encoded; an _SRGB image samples as linear), in the
+                                 format's channel order;
+                                 R16G16B16A16_SFLOAT, R32G32B32A32_SFLOAT: the linear
+                                 radiance and coverage of picvr_read_rgba32f */
+    uint32_t old_layout;      /* the VkImageLayout the image is in when picvr's commands
+                                 run; VK_IMAGE_LAYOUT_UNDEFINED: its contents are discarded */
+    uint32_t new_layout;      /* the VkImageLayout picvr leaves it in (e.g.
+                                 SHADER_READ_ONLY_OPTIMAL, PRESENT_SRC_KHR, GENERAL); not
+                                 UNDEFINED or PREINITIALIZED */
+    void *wait_semaphore;     /* a binary VkSemaphore picvr's submission waits on (at the
+                                 transfer stage) before it writes the image, or NULL:
+                                 e.g. a swapchain image's acquire semaphore */
+    void *signal_semaphore;   /* a binary VkSemaphore the submission signals once the
+                                 image is written, or NULL: e.g. the one vkQueuePresentKHR
+                                 waits on */
+    float exposure;           /* 8-bit formats, as in picvr_read_rgba8; <= 0 means 1 */
+} picvr_image_target;
+
+/* Writes the image into target->image: one submission to picvr_config.vulkan's queue
+   (a tone-mapping dispatch into a buffer of picvr's, then a layout transition to
+   TRANSFER_DST_OPTIMAL, a copy and a transition to new_layout, whose barrier makes the
+   write visible to all later commands on that queue), waiting on wait_semaphore and
+   signalling signal_semaphore.  Returns once that submission has completed, so the
+   application may use the image in any command buffer it submits afterwards to the
+   same queue (another queue: wait on signal_semaphore).  Without the application's
+   device, or with a format, size or layout outside the above:
+   PICVR_ERROR_INVALID_ARGUMENT (the log says which), and nothing is submitted. */
+picvr_status picvr_write_image(picvr_context *ctx, const picvr_image_target *target);
+
 /* Reads the number of samples each pixel has accumulated (rows top to bottom): with
    priorities on, picvr_step gives more to the pixels whose error falls fastest.
    `count` is the number of uint32_t that `counts` holds. */
@@ -595,6 +663,8 @@ typedef struct picvr_stats {
     uint32_t iterations;         /* blocks rendered since the last reset / blocks of the
                                     image: whole-image passes (see picvr_step) */
     uint32_t iterations_min;     /* fewest samples of any pixel */
+    uint64_t pixels_unsampled;   /* pixels that hold no sample yet (black holes in the
+                                    image); 0 after every step with scheduler.frames on */
     double iterations_mean;      /* mean samples per pixel */
     double elapsed_ms;           /* wall time spent in picvr_step* since the last reset */
     double samples_per_second;   /* pixel samples / elapsed time */

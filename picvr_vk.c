@@ -31,4 +31,5 @@
 #include "host/rounds.c"
 #include "host/step.c"
 #include "host/readback.c"
+#include "host/gpu_image.c"
 #include "host/context.c"

@@ -424,6 +424,16 @@ static void json_value(FILE *f, const char *base, const pvc_json_field *field)
     case PVC_JSON_DISTANCE:
     case PVC_JSON_TRANSMITTANCE: pvc_json_string(f, enum_name(field, p)); break;
     case PVC_JSON_OBJECT: pvc_json_write(f, p, field->fields, field->count); break;
+    case PVC_JSON_ARRAY: {
+        const pvc_json_array *a = (const pvc_json_array *)p;
+        fputc('[', f);
+        for (size_t i = 0; i < a->length; i++) {
+            fputs(i ? ", " : "", f);
+            pvc_json_write(f, (const char *)a->items + i * a->stride, field->fields, field->count);
+        }
+        fputc(']', f);
+        break;
+    }
     }
 }
 

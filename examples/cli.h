@@ -160,16 +160,23 @@ typedef enum pvc_json_type {
     PVC_JSON_TRANSMITTANCE,   /* picvr_transmittance_estimator, by pvc_transmittance_name */
     PVC_JSON_BOUNCES,         /* uint32_t max_bounces: a number, "unlimited" for
                                  PICVR_BOUNCES_UNLIMITED */
-    PVC_JSON_OBJECT           /* a struct described by fields[count] */
+    PVC_JSON_OBJECT,          /* a struct described by fields[count] */
+    PVC_JSON_ARRAY            /* a pvc_json_array of structs described by fields[count] */
 } pvc_json_type;
+
+/* An array of structs for PVC_JSON_ARRAY: `length` items `stride` bytes apart. */
+typedef struct pvc_json_array {
+    const void *items;
+    size_t length, stride;
+} pvc_json_array;
 
 /* One row of a table that describes a struct as a JSON object. */
 typedef struct pvc_json_field {
     const char *name;
     pvc_json_type type;
     size_t offset;            /* offsetof(the struct, the member) */
-    size_t count;             /* CHARS: the array's size; OBJECT: rows in fields */
-    const struct pvc_json_field *fields; /* OBJECT: the table of the nested struct */
+    size_t count;             /* CHARS: the array's size; OBJECT, ARRAY: rows in fields */
+    const struct pvc_json_field *fields; /* OBJECT, ARRAY: the table of the (item) struct */
 } pvc_json_field;
 
 /* Writes the struct at base as one JSON object on one line, {"name": value, ...},

@@ -29,6 +29,10 @@ typedef struct render_options {
     uint32_t width, height;
     double time_ms, round_ms;
     uint32_t iterations;       /* 0: render for time_ms instead */
+    uint32_t frames;           /* --frames N: N real-time frames of frame_ms instead; 0: no */
+    double frame_ms;           /* --frame-ms: each frame's budget (default 16) */
+    float orbit_deg;           /* --orbit: the camera's azimuth step per frame, degrees */
+    int have_frame_ms, have_orbit;
     uint32_t seed;
     const char *device;
     int validation;
@@ -51,13 +55,27 @@ typedef struct render_options {
     int png_alpha, quiet;
 } render_options;
 
+/* One frame of --frames: its wall time (picvr_step alone) and the image after it. */
+typedef struct render_frame {
+    double ms;
+    uint64_t pixels_unsampled;
+    double est_rel_error;
+    double samples_per_pixel;
+} render_frame;
+
+/* The frames of a --frames run (length 0 otherwise). */
+typedef struct render_frames {
+    render_frame *items;
+    size_t length;
+} render_frames;
+
 /* Each reads the final image or statistics of ctx and writes one output of o; returns
    0 after reporting a failure. */
 int render_write_png(picvr_context *ctx, const render_options *o);         /* --out */
 int render_write_pfm(picvr_context *ctx, const render_options *o);         /* --out-float */
 int render_print_cache_error(picvr_context *ctx, const render_options *o); /* --debug-view error */
 int render_write_json(picvr_context *ctx, const render_options *o,         /* --json */
-                      const picvr_stats *stats);
+                      const picvr_stats *stats, const render_frames *frames);
 
 /* The one-line summary on stdout; interrupted: the run was stopped by Ctrl-C. */
 void render_print_summary(const render_options *o, const picvr_stats *stats, int interrupted);

@@ -110,11 +110,23 @@ typedef struct run_config {
 
 /* What --json writes: the final statistics, the scene's names and the configuration
    the library resolved (picvr_get_config: every default filled in). */
+/* --frames: the budget, the orbit and each frame; the largest hole count and the mean
+   estimated error over the frames. */
+typedef struct frames_summary {
+    uint32_t count;
+    double frame_ms;
+    float orbit_deg;
+    uint64_t pixels_unsampled_max;
+    double est_rel_error_mean, ms_mean;
+    pvc_json_array per_frame;
+} frames_summary;
+
 typedef struct summary {
     picvr_stats stats;
     run_config config;
     const char *device_type, *volume, *tf, *lights;
     uint32_t seed;
+    frames_summary frames;
 } summary;
 
 #define CACHE(member) offsetof(picvr_cache_config, member)
@@ -153,6 +165,27 @@ static const pvc_json_field SCHEDULER_FIELDS[] = {
 #undef SCHEDULER
 
 #define COUNT(table) (sizeof table / sizeof table[0])
+
+#define FRAME(member) offsetof(render_frame, member)
+static const pvc_json_field FRAME_FIELDS[] = {
+    {"ms", PVC_JSON_F64, FRAME(ms)},
+    {"pixels_unsampled", PVC_JSON_U64, FRAME(pixels_unsampled)},
+    {"est_rel_error", PVC_JSON_F64, FRAME(est_rel_error)},
+    {"samples_per_pixel", PVC_JSON_F64, FRAME(samples_per_pixel)},
+};
+#undef FRAME
+
+#define FRAMES(member) offsetof(frames_summary, member)
+static const pvc_json_field FRAMES_FIELDS[] = {
+    {"count", PVC_JSON_U32, FRAMES(count)},
+    {"frame_ms", PVC_JSON_F64, FRAMES(frame_ms)},
+    {"orbit_degrees", PVC_JSON_F32, FRAMES(orbit_deg)},
+    {"pixels_unsampled_max", PVC_JSON_U64, FRAMES(pixels_unsampled_max)},
+    {"est_rel_error_mean", PVC_JSON_F64, FRAMES(est_rel_error_mean)},
+    {"ms_mean", PVC_JSON_F64, FRAMES(ms_mean)},
+    {"per_frame", PVC_JSON_ARRAY, FRAMES(per_frame), COUNT(FRAME_FIELDS), FRAME_FIELDS},
+};
+#undef FRAMES
 
 #define SCATTERING(member) offsetof(scattering_summary, member)
 static const pvc_json_field SCATTERING_FIELDS[] = {
@@ -239,13 +272,42 @@ static const pvc_json_field SUMMARY_FIELDS[] = {
     {"seed", PVC_JSON_U32, AT(seed)},
     {"config", PVC_JSON_OBJECT, AT(config), COUNT(CONFIG_FIELDS), CONFIG_FIELDS},
     {"mean_path_length", PVC_JSON_F64, AT(stats.mean_path_length)},
+    {"pixels_unsampled", PVC_JSON_U64, AT(stats.pixels_unsampled)},
+    {"frames", PVC_JSON_OBJECT, AT(frames), COUNT(FRAMES_FIELDS), FRAMES_FIELDS},
 };
 #undef AT
 
-int render_write_json(picvr_context *ctx, const render_options *o, const picvr_stats *stats)
+/* The --frames part of the summary (all zero without --frames). */
+static frames_summary summarize_frames(const render_options *o, const render_frames *frames)
+{
+    frames_summary f;
+    memset(&f, 0, sizeof f);
+    f.count = (uint32_t)frames->length;
+    f.frame_ms = o->frames ? o->frame_ms : 0.0;
+    f.orbit_deg = o->orbit_deg;
+    f.per_frame.items = frames->items;
+    f.per_frame.length = frames->length;
+    f.per_frame.stride = sizeof(render_frame);
+    size_t known = 0;
+    for (size_t i = 0; i < frames->length; i++) {
+        const render_frame *r = &frames->items[i];
+        if (r->pixels_unsampled > f.pixels_unsampled_max) f.pixels_unsampled_max = r->pixels_unsampled;
+        if (isfinite(r->est_rel_error)) {
+            f.est_rel_error_mean += r->est_rel_error;
+            known++;
+        }
+        f.ms_mean += r->ms / (double)frames->length;
+    }
+    /* the mean over the frames whose error is known; none: unknown (null) */
+    f.est_rel_error_mean = known ? f.est_rel_error_mean / (double)known : NAN;
+    return f;
+}
+
+int render_write_json(picvr_context *ctx, const render_options *o, const picvr_stats *stats,
+                      const render_frames *frames)
 {
     summary s = {*stats, {{0}}, picvr_device_type_string(stats->device_type), o->volume_path,
-                 o->tf_name, o->lights_name, o->seed};
+                 o->tf_name, o->lights_name, o->seed, summarize_frames(o, frames)};
     if (!pvc_check(picvr_get_config(ctx, &s.config.library), "picvr_get_config")) return 0;
     scattering_summary sc = {{o->bounces, o->phase_back[0], o->phase_back[1]},
                              o->have_g ? o->g : NAN};

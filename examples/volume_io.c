@@ -60,9 +60,10 @@ const char *pvio_status_string(pvio_status status)
 size_t pvio_voxel_size(picvr_voxel_type type)
 {
     switch (type) {
-    case PICVR_VOXEL_UINT8: return 1;
-    case PICVR_VOXEL_UINT16: return 2;
-    case PICVR_VOXEL_FLOAT32: return 4;
+    case PICVR_VOXEL_UINT8: case PICVR_VOXEL_INT8: return 1;
+    case PICVR_VOXEL_UINT16: case PICVR_VOXEL_INT16: case PICVR_VOXEL_FLOAT16: return 2;
+    case PICVR_VOXEL_FLOAT32: case PICVR_VOXEL_INT32: return 4;
+    case PICVR_VOXEL_FLOAT64: return 8;
     }
     return 0;
 }
@@ -73,6 +74,11 @@ const char *pvio_type_name(picvr_voxel_type type)
     case PICVR_VOXEL_UINT8: return "uint8";
     case PICVR_VOXEL_UINT16: return "uint16";
     case PICVR_VOXEL_FLOAT32: return "float32";
+    case PICVR_VOXEL_INT8: return "int8";
+    case PICVR_VOXEL_INT16: return "int16";
+    case PICVR_VOXEL_INT32: return "int32";
+    case PICVR_VOXEL_FLOAT16: return "float16";
+    case PICVR_VOXEL_FLOAT64: return "float64";
     }
     return "unknown";
 }
@@ -101,16 +107,17 @@ static int piece_ends_with(const char *s, size_t len, const char *suffix)
 
 static pvio_status parse_type_piece(const char *s, size_t len, picvr_voxel_type *type)
 {
-    if (piece_equals(s, len, "uint8") || piece_equals(s, len, "u8")) {
-        *type = PICVR_VOXEL_UINT8;
-    } else if (piece_equals(s, len, "uint16") || piece_equals(s, len, "u16")) {
-        *type = PICVR_VOXEL_UINT16;
-    } else if (piece_equals(s, len, "float32") || piece_equals(s, len, "f32")) {
-        *type = PICVR_VOXEL_FLOAT32;
-    } else {
-        return PVIO_ERROR_BAD_TYPE;
-    }
-    return PVIO_OK;
+    static const struct { const char *name, *abbrev; picvr_voxel_type type; } names[] = {
+        {"uint8", "u8", PICVR_VOXEL_UINT8},       {"uint16", "u16", PICVR_VOXEL_UINT16},
+        {"float32", "f32", PICVR_VOXEL_FLOAT32},  {"int8", "i8", PICVR_VOXEL_INT8},
+        {"int16", "i16", PICVR_VOXEL_INT16},      {"int32", "i32", PICVR_VOXEL_INT32},
+        {"float16", "f16", PICVR_VOXEL_FLOAT16},  {"float64", "f64", PICVR_VOXEL_FLOAT64}};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        if (piece_equals(s, len, names[i].name) || piece_equals(s, len, names[i].abbrev)) {
+            *type = names[i].type;
+            return PVIO_OK;
+        }
+    return PVIO_ERROR_BAD_TYPE;
 }
 
 pvio_status pvio_parse_type(const char *text, picvr_voxel_type *type)
@@ -223,7 +230,7 @@ pvio_status pvio_parse_name(const char *path, pvio_layout *layout,
     pvio_layout parsed = {{0, 0, 0}, PICVR_VOXEL_UINT8};
     if (parse_type_piece(base + type_sep, len - type_sep, &parsed.type) != PVIO_OK) {
         set_error(err, err_size, "'%.*s': unknown voxel type '%.*s' "
-                  "(use uint8, uint16, float32, u8, u16 or f32)", quote, base,
+                  "(use uint8, uint16, float32, int8, int16, int32, float16, float64 or u8, u16, f32, i8, i16, i32, f16, f64)", quote, base,
                   (int)(len - type_sep > 20 ? 20 : len - type_sep), base + type_sep);
         return PVIO_ERROR_BAD_TYPE;
     }
@@ -454,6 +461,30 @@ void pvio_free(pvio_volume *volume)
 
 /* ---- helpers for callers --------------------------------------------------------- */
 
+/* IEEE binary16 to double (every half is exact in a double). */
+static double half_value(uint16_t h)
+{
+    int e = (h >> 10) & 31, m = h & 1023;
+    double v = e == 0 ? ldexp(m, -24) : e == 31 ? (m ? NAN : INFINITY) : ldexp(1024 + m, e - 25);
+    return (h & 0x8000) ? -v : v;
+}
+
+/* One voxel's value (host byte order), as a double. */
+static double voxel_value(picvr_voxel_type type, const unsigned char *p)
+{
+    switch (type) {
+    case PICVR_VOXEL_UINT8: return *p;
+    case PICVR_VOXEL_INT8: return (int8_t)*p;
+    case PICVR_VOXEL_UINT16: { uint16_t u; memcpy(&u, p, 2); return u; }
+    case PICVR_VOXEL_INT16: { int16_t u; memcpy(&u, p, 2); return u; }
+    case PICVR_VOXEL_FLOAT16: { uint16_t u; memcpy(&u, p, 2); return half_value(u); }
+    case PICVR_VOXEL_INT32: { int32_t u; memcpy(&u, p, 4); return u; }
+    case PICVR_VOXEL_FLOAT32: { float f; memcpy(&f, p, 4); return f; }
+    case PICVR_VOXEL_FLOAT64: { double f; memcpy(&f, p, 8); return f; }
+    }
+    return NAN;
+}
+
 pvio_status pvio_value_range(const pvio_volume *volume, double *min, double *max,
                              size_t *non_finite)
 {
@@ -463,21 +494,10 @@ pvio_status pvio_value_range(const pvio_volume *volume, double *min, double *max
     size_t count = volume->size / voxel, bad = 0;
     double lo = INFINITY, hi = -INFINITY;
     for (size_t i = 0; i < count; i++) {
-        double v;
-        if (volume->type == PICVR_VOXEL_UINT8) {
-            v = ((const uint8_t *)volume->data)[i];
-        } else if (volume->type == PICVR_VOXEL_UINT16) {
-            uint16_t u;
-            memcpy(&u, (const unsigned char *)volume->data + 2 * i, 2);
-            v = u;
-        } else {
-            float f;
-            memcpy(&f, (const unsigned char *)volume->data + 4 * i, 4);
-            if (!isfinite(f)) {
-                bad++;
-                continue;
-            }
-            v = f;
+        double v = voxel_value(volume->type, (const unsigned char *)volume->data + voxel * i);
+        if (!isfinite(v)) {
+            bad++;
+            continue;
         }
         if (v < lo) lo = v;
         if (v > hi) hi = v;

@@ -2,7 +2,8 @@
  *
  * File names carry the layout, as in the Open SciVis data sets:
  *     NAME_XxYxZ_TYPE.raw  or  NAME_XxYxZ_TYPE.raw.gz
- * with TYPE one of uint8, uint16, float32 (or u8, u16, f32), e.g.
+ * with TYPE one of uint8, uint16, float32, int8, int16, int32, float16, float64 (or
+ * u8, u16, f32, i8, i16, i32, f16, f64), e.g.
  * "bonsai_256x256x256_uint8.raw.gz".  Voxels are stored x fastest, multi-byte values
  * little-endian.  zlib reads plain and gzip files alike.
  *
@@ -60,10 +61,11 @@ const char *pvio_status_string(pvio_status status);
 /* Bytes per voxel of type, or 0 for an unknown type. */
 size_t pvio_voxel_size(picvr_voxel_type type);
 
-/* The canonical name of type ("uint8", "uint16", "float32"), or "unknown". */
+/* The canonical name of type ("uint8", "int16", "float32", ...), or "unknown". */
 const char *pvio_type_name(picvr_voxel_type type);
 
-/* Parses "uint8"/"u8", "uint16"/"u16", "float32"/"f32" (ASCII case-insensitive). */
+/* Parses a type name or its abbreviation ("uint8"/"u8", "int16"/"i16", "float64"/"f64",
+   ...; ASCII case-insensitive). */
 pvio_status pvio_parse_type(const char *text, picvr_voxel_type *type);
 
 /* Checks that every dimension is in 1..PVIO_MAX_DIM and the type is known, and
@@ -87,7 +89,7 @@ pvio_status pvio_load(const char *path, const pvio_layout *layout, pvio_volume *
 void pvio_free(pvio_volume *volume);
 
 /* Smallest and largest voxel value, ignoring NaN and infinities, and the number of
-   those non-finite values (float32 only; picvr rejects them).  Either output may be
+   those non-finite values (float types only; picvr rejects them).  Either output may be
    NULL.  An all-non-finite volume gives min = max = 0. */
 pvio_status pvio_value_range(const pvio_volume *volume, double *min, double *max,
                              size_t *non_finite);

@@ -99,6 +99,7 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
 
 picvr_status picvr_get_config(const picvr_context *ctx, picvr_config *out) {
     if (!ctx || !out) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     *out = ctx->config;
     out->device_name = ctx->vk.props.deviceName;
     out->validation = ctx->vk.validation_enabled ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
@@ -151,6 +152,7 @@ void picvr_destroy(picvr_context *ctx) {
         picvr_cache_destroy(ctx);
         picvr_rounds_destroy(ctx);
         picvr_results_destroy(ctx);
+        picvr_target_destroy(ctx);
         picvr_pipelines_destroy(ctx);
     }
     picvr_device_destroy(ctx);
@@ -164,6 +166,7 @@ void picvr_destroy(picvr_context *ctx) {
 
 picvr_status picvr_set_scheduler(picvr_context *ctx, const picvr_scheduler_config *cfg) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
     picvr_scheduler_config zero;
     memset(&zero, 0, sizeof zero);

@@ -161,6 +161,7 @@ static void picvr_env_install(picvr_context *ctx, const picvr_background *bg, co
 
 picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *sc) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     picvr_scattering z;
     memset(&z, 0, sizeof z);
     if (!sc) sc = &z;

@@ -7,6 +7,8 @@ static void picvr_invalidate_accumulation(picvr_context *ctx) {
     ctx->image.block_samples = 0;
     ctx->image.scatter_events = 0;
     ctx->image.block_cursor = 0;
+    ctx->image.first_pass_blocks = 0;
+    ctx->image.priority_used = 0;
     ctx->image.elapsed_ms = 0.0;
     ctx->results.valid = 0;
 }
@@ -25,11 +27,13 @@ static picvr_status picvr_clear_accumulation(picvr_context *ctx) {
 
 picvr_status picvr_reset(picvr_context *ctx) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     return picvr_clear_accumulation(ctx);
 }
 
 picvr_status picvr_set_view(picvr_context *ctx, picvr_debug_view view) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     if ((unsigned)view > PICVR_VIEW_CACHE_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
     if (view != PICVR_VIEW_IMAGE && !ctx->cache.on) return PICVR_ERROR_NOT_READY;
     if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
@@ -138,6 +142,7 @@ static picvr_status picvr_validate_camera(const picvr_camera *c, picvr_camera *o
 
 picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     picvr_camera c;
     picvr_status s = picvr_validate_camera(camera, &c);
     if (s) return s;

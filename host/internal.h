@@ -263,6 +263,11 @@ typedef struct picvr_image_state {
     uint32_t block_cursor;           /* position k in the round-robin order (k * stride) mod B */
     uint32_t block_stride;           /* coprime with block_total, near block_total / golden ratio */
     uint64_t block_samples;          /* blocks rendered since the accumulation was reset */
+    uint32_t first_pass_blocks;      /* blocks of the first round-robin pass since then (from
+                                        cursor 0, no priority dispatch before): the pass is
+                                        complete, every pixel sampled, at block_total */
+    int priority_used;               /* a priority dispatch since then (scheduler.frames
+                                        then restarts the first pass from cursor 0) */
     uint64_t scatter_events;         /* camera paths' scatter events since then */
     double elapsed_ms;               /* wall time of the rounds since then */
 } picvr_image_state;
@@ -310,6 +315,39 @@ typedef struct picvr_rounds {
     uint64_t timestamp_mask;         /* valid bits */
 } picvr_rounds;
 
+/* What one round does. */
+typedef struct picvr_round_plan {
+    uint32_t render_blocks;   /* blocks to render (more than the image has: several dispatches) */
+    int whole_passes;         /* round-robin from the cursor, priorities ignored
+                                 (picvr_step_iterations; the first pass of scheduler.frames) */
+    uint32_t create_budget;   /* queued requests that become entries this round */
+    uint32_t request_cap;     /* requests this round's rendering may queue */
+    uint32_t update_groups;   /* update work packages */
+    int rebuild;              /* rebuild the octree */
+} picvr_round_plan;
+
+/* A step begun by picvr_step_begin and not yet ended (host/step.c): its round is
+   submitted and the context's command buffer and fence belong to it. */
+typedef struct picvr_pending_step {
+    int active;
+    picvr_round_plan plan;
+    uint32_t created;                /* entries its creation may add */
+    double t0;                       /* picvr_clock_ms at submission */
+} picvr_pending_step;
+
+/* picvr_write_image's kernel, its own two-binding descriptor set (the accumulation's
+   plane 0 in, the encoded pixels out) and the encoded pixels; made at its first call,
+   so a context that never writes a device image holds none of it (host/gpu_image.c). */
+typedef struct picvr_target_state {
+    VkDescriptorSetLayout set_layout;
+    VkPipelineLayout layout;
+    VkDescriptorPool pool;
+    VkDescriptorSet set;
+    VkShaderModule module;
+    VkPipeline pipe;
+    picvr_buffer encoded;
+} picvr_target_state;
+
 /* Image readback and statistics (host/readback.c). */
 typedef struct picvr_results {
     picvr_buffer readback;           /* one accumulation plane, host visible */
@@ -330,7 +368,13 @@ struct picvr_context {
     picvr_sched sched;
     picvr_rounds rounds;
     picvr_results results;
+    picvr_pending_step pending;
+    picvr_target_state target;
 };
+
+/* Rule: between picvr_step_begin and picvr_step_end the command buffer, the fence and
+   the accumulation belong to the step in flight, so every other call refuses. */
+#define PICVR_REFUSE_IF_BUSY(ctx) do { if ((ctx)->pending.active) return PICVR_ERROR_BUSY; } while (0)
 
 /* Zeroes a Vulkan struct and sets its sType: C and C++ alike, and no
    missing-initializer warning as `= {sType}` draws. */
@@ -357,15 +401,6 @@ struct picvr_context {
 /* Timestamps of a round: start, after creation, after rebuild, after update, end. */
 #define PICVR_ROUND_TIMESTAMPS 5u
 
-/* What one round does. */
-typedef struct picvr_round_plan {
-    uint32_t render_blocks;   /* blocks to render (more than the image has: several dispatches) */
-    int whole_passes;         /* round-robin from block 0, priorities ignored (picvr_step_iterations) */
-    uint32_t create_budget;   /* queued requests that become entries this round */
-    uint32_t request_cap;     /* requests this round's rendering may queue */
-    uint32_t update_groups;   /* update work packages */
-    int rebuild;              /* rebuild the octree */
-} picvr_round_plan;
 
 /* What the §6 plan of a round reads of the cache and the image. */
 typedef struct picvr_plan_inputs {

@@ -110,6 +110,7 @@ static void picvr_light_chromaticity(const float (*emit)[3], uint32_t n, float l
 picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uint32_t count,
                               const picvr_background *bg) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     if (count > PICVR_MAX_LIGHTS) return PICVR_ERROR_TOO_MANY_LIGHTS;
     if (count > 0 && !lights) return PICVR_ERROR_NULL_POINTER;
     for (uint32_t i = 0; i < count; i++) {

@@ -19,6 +19,7 @@ static picvr_status picvr_read_plane(picvr_context *ctx, int plane) {
 
 static picvr_status picvr_check_image_read(picvr_context *ctx, const void *dst, size_t size, size_t bpp) {
     if (!ctx || !dst) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     if (!ctx->scene.has_camera) return PICVR_ERROR_NOT_READY;
     if (size / bpp < (size_t)ctx->scene.camera.width * ctx->scene.camera.height) return PICVR_ERROR_BUFFER_TOO_SMALL;
     return PICVR_OK;
@@ -97,6 +98,7 @@ static picvr_status picvr_stats_pass(picvr_context *ctx, float rel_floor, double
 
 picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
     if (!ctx || !out) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
     if (!ctx->results.valid) {
         picvr_stats st;
@@ -107,7 +109,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             picvr_status s = picvr_upload_scene(ctx);
             if (!s) s = picvr_stats_pass(ctx, 0.0f, sums, counts);
             if (s) return s;
-            double pixels = (double)counts[3];
+            double pixels = (double)ctx->scene.camera.width * ctx->scene.camera.height;
             double mean_lum = pixels > 0 ? sums[0] / pixels : 0.0;
             /* the second pass: the relative error's floor is 1 % of the mean luminance */
             if ((s = picvr_stats_pass(ctx, (float)(0.01 * mean_lum), sums, counts))) return s;
@@ -115,8 +117,11 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.iterations_min = (uint32_t)counts[0];
             st.iterations_mean = pixels > 0 ? (double)counts[1] / pixels : 0.0;
             st.truncated_paths = counts[2];
+            st.pixels_unsampled = (uint64_t)pixels - counts[3];
             st.est_error = sums[3] > 0 ? sums[1] / sums[3] : 0.0;
             st.est_rel_error = sums[3] > 0 ? sums[2] / sums[3] : 0.0;
+        } else if (ctx->scene.has_camera) {   /* nothing rendered yet: every pixel is a hole */
+            st.pixels_unsampled = (uint64_t)ctx->scene.camera.width * ctx->scene.camera.height;
         }
         if (ctx->cache.on) {
             const picvr_cache_counters *c = &ctx->cache.counts;   /* as of the last round */

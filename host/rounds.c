@@ -99,6 +99,20 @@ static void picvr_record_render_kernels(picvr_context *ctx, const picvr_round_pl
     picvr_barrier_all(ctx);
 }
 
+/* Keeps count of the first pass since the reset: round-robin dispatches from cursor 0
+   add their blocks until every block had one; a priority dispatch before that leaves
+   the coverage unknown (host/step.c then starts the pass again). */
+static void picvr_note_first_pass(picvr_context *ctx, int prio, uint32_t blocks) {
+    picvr_image_state *im = &ctx->image;
+    if (prio) {
+        im->priority_used = 1;
+        return;
+    }
+    if (im->priority_used || im->first_pass_blocks >= im->block_total) return;
+    uint32_t left = im->block_total - im->first_pass_blocks;
+    im->first_pass_blocks += blocks < left ? blocks : left;
+}
+
 /* The rendering procedure for `blocks` blocks: dispatches of at most one image's worth
    (a block must not be rendered twice by one dispatch), each fed by block_select. */
 static void picvr_record_render(picvr_context *ctx, const picvr_round_plan *p) {
@@ -119,6 +133,7 @@ static void picvr_record_render(picvr_context *ctx, const picvr_round_plan *p) {
         vkCmdDispatch(ctx->vk.cmd, 1, 1, 1);
         picvr_barrier_all(ctx);
         picvr_record_render_kernels(ctx, p);
+        picvr_note_first_pass(ctx, prio, want);
         ctx->image.block_cursor = (uint32_t)(((uint64_t)ctx->image.block_cursor + want) % B);
         left -= want;
     }
@@ -233,6 +248,17 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
     memcpy(&blocks, rb + sizeof(picvr_cache_counters), sizeof blocks);
     memcpy(events, rb + sizeof(picvr_cache_counters) + 4, sizeof events);
     double dev[3], rebuild_ms;
+    if (wall_ms < 0.0) {
+        /* Rule: a step the application ended after it had finished has no measured wall
+           time; it is taken as the device time (timestamps, else the cost model) plus
+           the modelled overhead, so that the cost model learns nothing false from it. */
+        picvr_status s = picvr_round_device_ms(ctx, p, 0.0, created, blocks, dev, &rebuild_ms);
+        if (s) return s;
+        const double *cost = ctx->sched.cost;
+        double planned = created * cost[PICVR_PROC_CREATE] + p->update_groups * cost[PICVR_PROC_UPDATE] +
+                         blocks * cost[PICVR_PROC_RENDER];
+        wall_ms = (ctx->rounds.timestamps ? dev[0] + dev[1] + dev[2] : planned) + ctx->sched.overhead_ms;
+    }
     picvr_status s = picvr_round_device_ms(ctx, p, wall_ms, created, blocks, dev, &rebuild_ms);
     if (s) return s;
     picvr_sched_account(&ctx->sched, dev, rebuild_ms, created, p->update_groups, blocks, wall_ms, ctx->cache.on);
@@ -253,14 +279,32 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
     return PICVR_OK;
 }
 
-static picvr_status picvr_run_round(picvr_context *ctx, const picvr_round_plan *p) {
-    uint32_t created = picvr_round_creations(ctx, p);
-    double t0 = picvr_clock_ms();
+/* Records and submits a round without waiting for it (ctx->pending holds it). */
+static picvr_status picvr_submit_round(picvr_context *ctx, const picvr_round_plan *p) {
+    picvr_pending_step *q = &ctx->pending;
+    q->plan = *p;
+    q->created = picvr_round_creations(ctx, p);
+    q->t0 = picvr_clock_ms();
     picvr_status s = picvr_cmd_begin(ctx);
     if (s) return s;
-    picvr_record_round(ctx, p, created);
-    if ((s = picvr_cmd_submit_wait(ctx))) return s;
-    return picvr_finish_round(ctx, p, picvr_clock_ms() - t0, created);
+    picvr_record_round(ctx, p, q->created);
+    return picvr_cmd_submit_with(ctx, VK_NULL_HANDLE, 0, VK_NULL_HANDLE);
+}
+
+/* Waits up to timeout_ns for the submitted round, then reads it back.  Its wall time is
+   known when the caller submitted it and waited at once (blocking), or when it finished
+   during the wait; not when it had finished before (then -1, see picvr_finish_round). */
+static picvr_status picvr_complete_round(picvr_context *ctx, uint64_t timeout_ns, int blocking) {
+    int done_before = !blocking && vkGetFenceStatus(ctx->vk.device, ctx->vk.fence) == VK_SUCCESS;
+    picvr_status s = picvr_cmd_wait(ctx, timeout_ns);
+    if (s) return s;
+    const picvr_pending_step *q = &ctx->pending;
+    return picvr_finish_round(ctx, &q->plan, done_before ? -1.0 : picvr_clock_ms() - q->t0, q->created);
+}
+
+static picvr_status picvr_run_round(picvr_context *ctx, const picvr_round_plan *p) {
+    picvr_status s = picvr_submit_round(ctx, p);
+    return s ? s : picvr_complete_round(ctx, UINT64_MAX, 1);
 }
 
 static void picvr_rounds_destroy(picvr_context *ctx) {

@@ -9,6 +9,8 @@ static picvr_status picvr_resolve_scheduler_config(const picvr_scheduler_config 
     *c = *in;
     if ((unsigned)c->priorities > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->priorities == PICVR_SWITCH_DEFAULT) c->priorities = PICVR_SWITCH_ON;
+    if ((unsigned)c->frames > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->frames == PICVR_SWITCH_DEFAULT) c->frames = PICVR_SWITCH_OFF;
     float *f[7] = {&c->create_min, &c->create_max, &c->update_min, &c->update_max, &c->exponent,
                    &c->rounds_per_second, &c->hit_rate_window_ms};
     const float def[7] = {0.05f, 0.15f, 0.01f, 0.02f, 3.0f, 20.0f, 100.0f};

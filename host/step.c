@@ -20,6 +20,7 @@ static picvr_status picvr_prepare_render(picvr_context *ctx) {
 
 picvr_status picvr_prepare(picvr_context *ctx) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     if (ctx->vk.lost) return PICVR_ERROR_DEVICE_LOST;
     if (!ctx->scene.has_volume) return PICVR_ERROR_NOT_READY;   /* dense media choose USE_FINE */
     return picvr_select_variants(ctx);
@@ -36,7 +37,37 @@ static picvr_plan_inputs picvr_plan_inputs_now(const picvr_context *ctx) {
     return in;
 }
 
-/* picvr_step: rounds until `budget_ms` of wall time have passed (at least one round). */
+/* Blocks the first pass still owes under scheduler.frames (0 when off or complete).  A
+   priority dispatch before the pass was complete (frames just turned on) leaves the
+   coverage unknown, so the pass starts again from cursor 0. */
+static uint32_t picvr_first_pass_left(picvr_context *ctx) {
+    picvr_image_state *im = &ctx->image;
+    if (ctx->sched.cfg.frames != PICVR_SWITCH_ON || im->first_pass_blocks >= im->block_total) return 0;
+    if (im->priority_used) {
+        im->priority_used = 0;
+        im->first_pass_blocks = 0;
+        im->block_cursor = 0;
+    }
+    return im->block_total - im->first_pass_blocks;
+}
+
+/* The plan of one timed round of `round_ms`: the §6 plan, and under scheduler.frames
+   round-robin while the first pass is incomplete, with at least `min_first` of its
+   blocks (all of them for picvr_step_begin, whose round is the whole step). */
+static picvr_round_plan picvr_plan_timed_round(picvr_context *ctx, double round_ms, int whole_first_pass) {
+    picvr_plan_inputs in = picvr_plan_inputs_now(ctx);
+    picvr_round_plan p = picvr_sched_plan(&ctx->sched, round_ms, &in);
+    uint32_t rest = picvr_first_pass_left(ctx);
+    if (rest > 0) {
+        p.whole_passes = 1;
+        if (whole_first_pass && p.render_blocks < rest) p.render_blocks = rest;
+        if (p.render_blocks == 0) p.render_blocks = 1;
+    }
+    return p;
+}
+
+/* picvr_step: rounds until `budget_ms` of wall time have passed (at least one round) and,
+   under scheduler.frames, until the first pass is complete. */
 static picvr_status picvr_step_time(picvr_context *ctx, double budget_ms) {
     picvr_status s = picvr_prepare_render(ctx);
     if (s) return s;
@@ -44,11 +75,10 @@ static picvr_status picvr_step_time(picvr_context *ctx, double budget_ms) {
     double start = picvr_clock_ms(), round_ms = 1000.0 / ctx->sched.cfg.rounds_per_second;
     do {
         double left = budget_ms - (picvr_clock_ms() - start);
-        picvr_plan_inputs in = picvr_plan_inputs_now(ctx);
-        picvr_round_plan p = picvr_sched_plan(&ctx->sched, left < round_ms ? left : round_ms, &in);
+        picvr_round_plan p = picvr_plan_timed_round(ctx, left < round_ms ? left : round_ms, 0);
         if ((s = picvr_run_round(ctx, &p))) return s;
         /* Rule: a remainder under a tenth of a round is not worth a round's fixed costs. */
-    } while (budget_ms - (picvr_clock_ms() - start) > 0.1 * round_ms);
+    } while (budget_ms - (picvr_clock_ms() - start) > 0.1 * round_ms || picvr_first_pass_left(ctx) > 0);
     return PICVR_OK;
 }
 
@@ -92,15 +122,44 @@ static picvr_status picvr_step_passes(picvr_context *ctx, uint32_t passes) {
     return PICVR_OK;
 }
 
-picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
+static picvr_status picvr_check_budget(picvr_context *ctx, double milliseconds) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     if (!isfinite(milliseconds)) return PICVR_ERROR_NON_FINITE;   /* the NaN/Inf convention */
     if (milliseconds < 0.0) return PICVR_ERROR_INVALID_ARGUMENT;
-    return picvr_step_time(ctx, milliseconds);
+    return PICVR_OK;
+}
+
+picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
+    picvr_status s = picvr_check_budget(ctx, milliseconds);
+    return s ? s : picvr_step_time(ctx, milliseconds);
+}
+
+/* One round of the whole budget, submitted; picvr_step_end reads it back.  The
+   scheduler's shares and the cost model apply as in picvr_step (whose rounds are
+   1/rounds_per_second long: a longer one only makes fewer, larger dispatches). */
+picvr_status picvr_step_begin(picvr_context *ctx, double milliseconds) {
+    picvr_status s = picvr_check_budget(ctx, milliseconds);
+    if (s || (s = picvr_prepare_render(ctx))) return s;
+    ctx->cache.requests_issued = 0;
+    picvr_round_plan p = picvr_plan_timed_round(ctx, milliseconds, 1);
+    if ((s = picvr_submit_round(ctx, &p))) return s;
+    ctx->pending.active = 1;
+    return PICVR_OK;
+}
+
+picvr_status picvr_step_end(picvr_context *ctx, uint64_t timeout_ns) {
+    if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    if (!ctx->pending.active) return PICVR_ERROR_NO_STEP;
+    picvr_status s = picvr_complete_round(ctx, timeout_ns, 0);
+    if (s == PICVR_ERROR_TIMEOUT) return s;   /* still running: the step stays begun */
+    ctx->pending.active = 0;
+    return s;
 }
 
 picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     if (iterations == 0) return PICVR_OK;
     return picvr_step_passes(ctx, iterations);
 }

@@ -106,6 +106,7 @@ static picvr_status picvr_default_transfer_function(picvr_context *ctx) {
 picvr_status picvr_set_transfer_function(picvr_context *ctx, const picvr_tf_point *points,
                                          uint32_t count, float density) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     picvr_status s = picvr_validate_tf(points, count, density);
     if (s) return s;
     return picvr_apply_tf(ctx, points, count, density);

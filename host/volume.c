@@ -208,6 +208,7 @@ static void picvr_shader_value_map(picvr_context *ctx, const picvr_volume_desc *
 
 picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *desc) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     size_t bytes;
     picvr_status s = picvr_validate_volume(ctx, desc, &bytes);
     if (s) return s;
@@ -289,6 +290,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
 
 picvr_status picvr_volume_box(const picvr_context *ctx, float box_min[3], float box_max[3]) {
     if (!ctx || !box_min || !box_max) return PICVR_ERROR_NULL_POINTER;
+    PICVR_REFUSE_IF_BUSY(ctx);
     if (!ctx->scene.has_volume) return PICVR_ERROR_NOT_READY;
     for (int i = 0; i < 3; i++) {
         box_min[i] = ctx->scene.gpu.box_min[i];

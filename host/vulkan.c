@@ -168,16 +168,37 @@ static void picvr_barrier_all(picvr_context *ctx) {
     vkCmdPipelineBarrier(ctx->vk.cmd, src, dst, 0, 1, &mb, 0, NULL, 0, NULL);
 }
 
-static picvr_status picvr_cmd_submit_wait(picvr_context *ctx) {
+/* Ends the command buffer and submits it with the fence; wait (stage: wait_stage)
+   and signal are optional binary semaphores. */
+static picvr_status picvr_cmd_submit_with(picvr_context *ctx, VkSemaphore wait, VkPipelineStageFlags wait_stage,
+                                          VkSemaphore signal) {
     PICVR_VK_TRY(ctx, vkEndCommandBuffer(ctx->vk.cmd));
     PICVR_VK_TRY(ctx, vkResetFences(ctx->vk.device, 1, &ctx->vk.fence));
     VkSubmitInfo si;
     PICVR_VK_INIT(si, VK_STRUCTURE_TYPE_SUBMIT_INFO);
     si.commandBufferCount = 1;
     si.pCommandBuffers = &ctx->vk.cmd;
+    si.waitSemaphoreCount = wait != VK_NULL_HANDLE;
+    si.pWaitSemaphores = &wait;
+    si.pWaitDstStageMask = &wait_stage;
+    si.signalSemaphoreCount = signal != VK_NULL_HANDLE;
+    si.pSignalSemaphores = &signal;
     PICVR_VK_TRY(ctx, vkQueueSubmit(ctx->vk.queue, 1, &si, ctx->vk.fence));
-    PICVR_VK_TRY(ctx, vkWaitForFences(ctx->vk.device, 1, &ctx->vk.fence, VK_TRUE, UINT64_MAX));
     return PICVR_OK;
+}
+
+/* Waits up to timeout_ns for the last submission: PICVR_ERROR_TIMEOUT if it is still
+   running. */
+static picvr_status picvr_cmd_wait(picvr_context *ctx, uint64_t timeout_ns) {
+    VkResult r = vkWaitForFences(ctx->vk.device, 1, &ctx->vk.fence, VK_TRUE, timeout_ns);
+    if (r == VK_TIMEOUT) return PICVR_ERROR_TIMEOUT;
+    PICVR_VK_TRY(ctx, r);
+    return PICVR_OK;
+}
+
+static picvr_status picvr_cmd_submit_wait(picvr_context *ctx) {
+    picvr_status s = picvr_cmd_submit_with(ctx, VK_NULL_HANDLE, 0, VK_NULL_HANDLE);
+    return s ? s : picvr_cmd_wait(ctx, UINT64_MAX);
 }
 
 static void picvr_image_barrier(picvr_context *ctx, VkImage img, VkImageLayout from, VkImageLayout to) {

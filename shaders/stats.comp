@@ -1,11 +1,12 @@
 #version 450
 // stats.comp - reduces the per-pixel statistics to per-workgroup partial sums that
 // the host adds up in double precision: mean luminance, the image mean of the left
-// side of Eq. 5 (absolute and relative), sample counts and truncated samples.
+// side of Eq. 5 (absolute and relative), sample counts, truncated samples and the pixels
+// that hold a sample.
 layout(local_size_x = 256) in;
 
 layout(set = 0, binding = 6, std430) readonly buffer AccumStat { vec4 accum_stat[]; };
-struct Partial { vec4 sums; uvec4 counts; };  // sums: lum, err, rel, valid; counts: min n, sum n, bad, pixels
+struct Partial { vec4 sums; uvec4 counts; };  // sums: lum, err, rel, valid; counts: min n, sum n, bad, sampled pixels
 layout(set = 0, binding = 7, std430) writeonly buffer Partials { Partial partials[]; };
 
 layout(push_constant) uniform Push { uint pixel_count; float rel_floor; } pc;
@@ -35,7 +36,7 @@ void main() {
             sums.z = err > 0.0 ? err / max(lum + pc.rel_floor, 1e-30) : 0.0;
             sums.w = 1.0;
         }
-        counts = uvec4(n, n, floatBitsToUint(s.w), 1u);
+        counts = uvec4(n, n, floatBitsToUint(s.w), n > 0u ? 1u : 0u);
         // Rule: each pixel adds at most FLT_MAX / 256 to each sum, so that a workgroup's
         // sum of 256 stays finite (a pixel beyond ~1e36 saturates the image statistics).
         sums = min(sums, vec4(1.329e36));

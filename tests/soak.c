@@ -1,7 +1,8 @@
 /* soak.c - `make soak`: SOAK_SECONDS (default 120) of picvr_step with random camera
  * moves, image-size changes, transfer-function (with phase g), light (with environment
  * maps), scattering (bounces, lobes), scheduler and volume changes, image reads
- * and stats, then checks that memory is flat.
+ * and stats, then checks that memory is flat.  Half the steps are picvr_step_begin /
+ * picvr_step_end pairs, polled.
  *
  * Three measures, each taken in the same scene configuration (the same volume and
  * image size) after a warm-up and at the end:
@@ -265,6 +266,7 @@ static void random_scheduler(picvr_context *ctx) {
     picvr_scheduler_config c;
     memset(&c, 0, sizeof c);
     c.priorities = rnd() < 0.5 ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
+    c.frames = rnd() < 0.5 ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
     c.create_min = (float)(rnd() * 0.3);
     c.create_max = c.create_min + (float)(rnd() * 0.3);
     c.update_min = (float)(rnd() * 0.05);
@@ -329,7 +331,7 @@ int main(int argc, char **argv) {
     ref_cam.position[2] = 120;
     ref_cam.width = 128; ref_cam.height = 128;
 
-    unsigned long steps = 0, changes = 0, reads = 0, uploads = 0, iters = 0;
+    unsigned long steps = 0, changes = 0, reads = 0, uploads = 0, iters = 0, nonblocking = 0;
     int cur_vol = 0, size = 0;
     upload(ctx, va, 64, 64, 64);
     CHECK(picvr_set_camera(ctx, &ref_cam));
@@ -379,7 +381,21 @@ int main(int argc, char **argv) {
         } else if (a < 0.69) { CHECK(picvr_reset(ctx)); }
         else if (a < 0.71) { random_scheduler(ctx); changes++; }
         else if (a < 0.75 && paths_on) { random_scattering(ctx); changes++; }
-        CHECK(picvr_step(ctx, 20 + rnd() * 60));
+        /* half the steps do not block: begun, polled (every other call is refused
+           meanwhile, which must change nothing), ended */
+        if (rnd() < 0.5) {
+            CHECK(picvr_step(ctx, 20 + rnd() * 60));
+        } else {
+            CHECK(picvr_step_begin(ctx, 20 + rnd() * 60));
+            picvr_status s;
+            while ((s = picvr_step_end(ctx, rnd() < 0.5 ? 0 : 1000000)) == PICVR_ERROR_TIMEOUT)
+                if (picvr_reset(ctx) != PICVR_ERROR_BUSY) {
+                    fprintf(stderr, "soak: a call during a begun step was not refused\n");
+                    return 1;
+                }
+            CHECK(s);
+            nonblocking++;
+        }
         steps++;
         picvr_stats st;
         CHECK(picvr_get_stats(ctx, &st));
@@ -417,8 +433,9 @@ int main(int argc, char **argv) {
     sample after = measure();
     free(va); free(vb); free(img); free(img8);
 
-    printf("soak: %.0f s, %lu steps, %lu scene changes, %lu volume uploads, %lu image reads, %lu iterations counted\n",
-           total, steps, changes, uploads, reads, iters);
+    printf("soak: %.0f s, %lu steps (%lu of them begun and ended without blocking), %lu scene changes, "
+           "%lu volume uploads, %lu image reads, %lu iterations counted\n",
+           total, steps, nonblocking, changes, uploads, reads, iters);
     printf("soak: RSS          %.1f MiB -> %.1f MiB (%+.1f MiB; tolerance +16 MiB); pipeline compiles %llu, "
            "%llu of them after the warm-up\n", base.rss / 1048576.0,
            end.rss / 1048576.0, (end.rss - base.rss) / 1048576.0, g_compiles, g_compiles - base_compiles);

@@ -921,6 +921,8 @@ void test_create_config_errors(void **state) {
                 (cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE, cfg.cache.max_entries = 1u << 24));
     /* scheduler (zero = default; shares are fractions of device time) */
     CFG_ROW("scheduler.priorities 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.priorities = (picvr_switch)7);
+    CFG_ROW("scheduler.frames 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.frames = (picvr_switch)7);
+    CFG_ROW("scheduler.frames -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.frames = (picvr_switch)-1);
     CFG_ROW("scheduler.create_min NaN", PICVR_ERROR_NON_FINITE, cfg.scheduler.create_min = NAN);
     CFG_ROW("scheduler.create_max Inf", PICVR_ERROR_NON_FINITE, cfg.scheduler.create_max = INFINITY);
     CFG_ROW("scheduler.create_min -0.1", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.create_min = -0.1f);
@@ -1001,6 +1003,7 @@ void test_get_config_resolves_defaults(void **state) {
     assert_true(c.scheduler.exponent == 3.0f && c.scheduler.rounds_per_second == 20.0f);
     assert_true(c.scheduler.hit_rate_window_ms == 100.0f);
     assert_int_equal(c.scheduler.priorities, PICVR_SWITCH_ON);
+    assert_int_equal(c.scheduler.frames, PICVR_SWITCH_OFF);
     assert_non_null(c.vulkan.instance);
     assert_non_null(c.vulkan.physical_device);
     assert_non_null(c.vulkan.device);

@@ -15,7 +15,7 @@
 static picvr_context *tu_live[TU_MAX_LIVE];
 static struct timespec tu_t_start;
 
-static void tu_register(picvr_context *ctx, int add) {
+void tu_register(picvr_context *ctx, int add) {
     for (int i = 0; i < TU_MAX_LIVE; i++) {
         if (add && !tu_live[i]) { tu_live[i] = ctx; return; }
         if (!add && tu_live[i] == ctx) { tu_live[i] = NULL; return; }

@@ -188,7 +188,13 @@
     X(test_sweep_volume_shapes_and_spacing)                         \
     X(test_sweep_float32_huge_range_and_uint16_12bit)               \
     X(test_sweep_cameras_and_image_sizes)                           \
-    X(test_sweep_long_run_precision_1e6)
+    X(test_sweep_long_run_precision_1e6)                            \
+    /* test_engine.c */                                             \
+    X(test_frames_leave_no_hole)                                    \
+    X(test_frames_turned_on_later)                                  \
+    X(test_step_begin_end)                                          \
+    X(test_write_image_formats)                                     \
+    X(test_write_image_bad_targets)
 
 #define TU_DECLARE(name) void name(void **state);
 TU_ALL_TESTS(TU_DECLARE)
@@ -202,6 +208,9 @@ TU_ALL_TESTS(TU_DECLARE)
 picvr_context *tu_create(uint32_t seed);
 /* Same with the caller's config (validation is forced on). */
 picvr_context *tu_create_config(const picvr_config *cfg);
+/* Adds (1) or removes (0) a context made by picvr_create itself (an application's
+   device: validation is the first context's) to those the teardown destroys. */
+void tu_register(picvr_context *ctx, int add);
 /* Asserts picvr_get_stats().validation_messages == 0, then destroys the context. */
 void tu_finish(picvr_context *ctx);
 /* 1 when picvr picks a CPU device (lavapipe's llvmpipe, SwiftShader), by its name. */

@@ -102,8 +102,25 @@ for key in '"max_bounces": 0' '"g": null' '"file": null'; do
     if grep -q -e "$key" "$T/single.json"; then pass=$((pass + 1)); else
         fail=$((fail + 1)); echo "check_cli: FAIL: --json lacks $key"; fi
 done
+# real-time frames: one sample per pixel at least in every frame, even at a 0 ms budget
+F="--volume $V --size 40x24 --quiet"
+expect 2 "give --frames, --time or --iterations" $F --frames 3 --time 100
+expect 2 "give --frames, --time or --iterations" $F --frames 3 --iterations 2
+expect 2 "apply to --frames" $F --orbit 5
+expect 2 "apply to --frames" $F --frame-ms 16
+expect 2 "bad value for --frames" $F --frames 0
+expect 2 "bad value for --frames" $F --frames -2
+expect 2 "bad value for --frame-ms" $F --frames 2 --frame-ms -1
+expect 2 "bad value for --frame-ms" $F --frames 2 --frame-ms nan
+expect 2 "bad value for --orbit" $F --frames 2 --orbit inf
+expect 0 "mean_luminance" $F --frames 4 --frame-ms 0 --orbit 30 --json "$T/frames.json"
+for key in '"pixels_unsampled": 0' '"count": 4' '"orbit_degrees": 30' '"pixels_unsampled_max": 0' \
+           '"per_frame": \[{"ms": '; do
+    if grep -q -e "$key" "$T/frames.json"; then pass=$((pass + 1)); else
+        fail=$((fail + 1)); echo "check_cli: FAIL: --json lacks $key"; fi
+done
 for key in '--bounces N|unlimited' '--g G' '--phase-back G,W' '--env FILE' '--env-rotate DEG' \
-           '--env-intensity X' 'sun-sky' 'cloud-iso'; do
+           '--env-intensity X' 'sun-sky' 'cloud-iso' '--frames N' '--frame-ms MS' '--orbit DEG'; do
     expect 0 "$key" --help
 done
 

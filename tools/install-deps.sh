@@ -10,6 +10,7 @@ extra=""
 for a in "$@"; do
   case "$a" in
     robust) extra="$extra clang libclang-rt-14-dev valgrind" ;;
+    viewer) extra="$extra libglfw3-dev xvfb xauth" ;;
     *) extra="$extra $a" ;;
   esac
 done
