@@ -17,7 +17,7 @@ LIB_OBJ     := $(B)/picvr_vk.o
 # The implementation: picvr_vk.c includes the parts in host/.
 LIB_SRC     := picvr_vk.c picvr.h picvr_shaders.h $(wildcard host/*.h host/*.c)
 
-.PHONY: all deps lib test check-build demo demo-volume bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-paths shaders check-shaders check-layout check-examples clean help
+.PHONY: all deps lib test check-build demo demo-volume bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-paths bench-frames shaders check-shaders check-layout check-examples clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
 
 help:
@@ -28,6 +28,8 @@ help:
 	@echo "make bench-long-run   10 min plain vs cached: hit rate and error ratio over time"
 	@echo "make bench-hit-rate   hit rate against entry count; time to 0.8 on this device"
 	@echo "make bench-sampling   plain Monte Carlo before/after its distance sampling (~25 min)"
+	@echo "make bench-frames     orbiting real-time frames, temporal reuse off and on (~6 min)"
+	@echo "make viewer           the interactive viewer (GLFW); make test-viewer: its Xvfb test"
 	@echo "make bench-paths      the path tracer: error vs time with 0, 1, 4, unlimited bounces (~25 min)"
 	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
 	@echo "make check-layout host mirrors of the shaders' buffer layouts and constants match"
@@ -102,7 +104,8 @@ check-examples: deps $(B)/libpicvr.a
 	CC=$(CC) sh tools/check_examples.sh $(B) $(B)/libpicvr.a
 
 # Every check and the suite (tools/run_tests.sh); the last line sums them: "N passed, N failed".
-test: deps $(B)/picvr_shaders.h $(B)/layout-host $(B)/libpicvr.a $(B)/picvr-tests $(B)/picvr-render $(B)/picvr-bench-error
+test: deps $(B)/picvr_shaders.h $(B)/layout-host $(B)/libpicvr.a $(B)/picvr-tests $(B)/picvr-render $(B)/picvr-bench-error \
+      $(B)/.deps-viewer $(B)/picvr-viewer
 	@MAKE="$(MAKE)" B=$(B) DATA=$(abspath $(DATA)) sh tools/run_tests.sh
 
 # The library compiled as applications compile it: gcc and clang, C99, C11 and C++17,
@@ -149,6 +152,12 @@ bench-sampling: deps $(B)/picvr-bench-sampling
 
 # The path tracer: error against run time with 0, 1, 4 and unlimited bounces, each
 # against its own reference (docs/paths.md; ~25 min).
+# The engine's case: orbiting real-time frames of the cloud, temporal reuse off and on,
+# true error at three frames (docs/engines.md; ~6 min on lavapipe).
+bench-frames: deps $(B)/picvr-bench-sampling
+	$(B)/picvr-bench-sampling --data $(DATA) --scenes cloud-sky --size 320x180 --frames 30 --frame-ms 16 \
+	  --orbit 1 --checkpoints 3 --ref-time 90000 --ref-chunks 3 --out bench/results/frames
+
 bench-paths: deps $(B)/picvr-bench-sampling
 	$(B)/picvr-bench-sampling --data $(DATA) --scenes cloud-sky,bonsai --size 128x128 --time 30000 \
 	    --ref-time 120000 --bounces 0,1,4,unlimited --out bench/results/paths
@@ -302,3 +311,6 @@ $(B)/picvr-soak: tests/soak.c $(B)/libpicvr.a
 soak: deps-robust $(B)/picvr-soak
 	PICVR_VALIDATION=0 $(B)/picvr-soak $(SOAK_SECONDS)
 	PICVR_VALIDATION=0 $(B)/picvr-soak $(SOAK_SECONDS) none paths
+
+# The interactive viewer (examples/viewer.cpp) and its Xvfb test: last, after `all`.
+include examples/viewer.mk

@@ -99,8 +99,15 @@
  * Random numbers are a hash of (pixel, iteration, dimension, seed): the same seed
  *   and the same number of iterations give a bit-identical image on one device.
  * Accumulation restarts (iterations back to 0) whenever the camera, volume,
- *   transfer function or lights change, and on picvr_reset().
+ *   transfer function or lights change, and on picvr_reset(); with
+ *   scheduler.temporal_reuse a camera move keeps it, reprojected, instead.
  * Threading: a context is not thread-safe; use one per thread or lock around it.
+ * Engines (README "In an engine", docs/engines.md): the application's VkDevice goes in
+ *   (config.vulkan), scheduler.frames gives every pixel a sample in every step,
+ *   picvr_step_begin / picvr_step_end let the thread work while the device renders,
+ *   picvr_write_image puts the image into the application's VkImage on the device.
+ *   picvr submits to config.vulkan's queue only inside its own calls (and, between
+ *   picvr_step_begin and picvr_step_end, the one begun step's work runs there).
  *
  * ENVIRONMENT
  *   PICVR_DEVICE=<substring>  pick the Vulkan device whose name contains it
@@ -277,14 +284,33 @@ typedef struct picvr_scheduler_config {
                                   pass).  Priorities apply once the pass is complete.
                                   DEFAULT: OFF (a step keeps its budget; with priorities
                                   on, some blocks are sampled first) */
+    picvr_switch temporal_reuse; /* ON: a camera move (picvr_set_camera, same image size)
+                                  keeps the accumulation, reprojected into the new view,
+                                  instead of discarding it: every pixel's samples move to
+                                  where the mean depth of its scatter events (the
+                                  direction alone where its rays met no medium) lands in
+                                  the new image; the nearest wins where several land on one
+                                  pixel; pixels nothing lands on (disoccluded, newly in
+                                  view) start empty.  A moved pixel keeps at most
+                                  reuse_history samples' weight, so that the view-dependent
+                                  error of old samples fades as new ones come: the image
+                                  is then biased by the motion, never by a still camera.
+                                  Costs 24 bytes per pixel (a depth plane and the previous
+                                  planes); OFF allocates none.  DEFAULT: OFF */
+    uint32_t reuse_history;    /* the most samples a reprojected pixel keeps; 0: 16;
+                                  at most 1 << 20 */
 } picvr_scheduler_config;
 
 /* The application's own Vulkan objects (sokol's sg_environment): all four handles or
    none.  picvr then creates no instance or device and never destroys these.  The queue
    must support compute; the device needs Vulkan 1.1, no optional feature or extension,
-   and linear filtering of R8_UNORM, R16_UNORM and R32G32B32A32_SFLOAT images.  picvr submits to the queue only inside its own calls and waits for that work
-   before returning, so the queue may be shared with the application's work as long as
-   no other thread uses it during a picvr call. */
+   and linear filtering of R8_UNORM, R16_UNORM and R32G32B32A32_SFLOAT images.  picvr
+   submits to the queue only inside its own calls and waits for that work before
+   returning (picvr_step_begin excepted: its work runs until picvr_step_end), so the
+   queue may be shared with the application's work as long as no other thread uses it
+   during a picvr call.  Work the application submits meanwhile runs after picvr's in
+   queue order; picvr's image barriers (picvr_write_image) make its writes visible to
+   every later command on the queue. */
 typedef struct picvr_vulkan {
     void *instance;           /* VkInstance */
     void *physical_device;    /* VkPhysicalDevice */
@@ -326,7 +352,10 @@ typedef struct picvr_config {
                                  validation.  DEFAULT: on when PICVR_VALIDATION=1;
                                  ON: on unless PICVR_VALIDATION=0; OFF: off.  Messages go
                                  to the log at PICVR_LOG_ERROR and are counted in
-                                 stats.validation_messages */
+                                 stats.validation_messages.  With the application's
+                                 device (config.vulkan) the layer is the application's
+                                 to enable: this field is then ignored (OFF) and its
+                                 own messenger sees picvr's calls */
     uint32_t seed;            /* random seed (0 is a valid seed) */
     picvr_log_fn log;         /* NULL: messages go to stderr */
     void *log_user;

@@ -23,6 +23,7 @@
 #include "host/pipelines.c"
 #include "host/cache.c"
 #include "host/image.c"
+#include "host/reproject.c"
 #include "host/majorant.c"
 #include "host/transfer.c"
 #include "host/volume.c"

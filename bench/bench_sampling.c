@@ -35,6 +35,14 @@
  *     the last half of the run) and samples per second (pixels x passes / s): which of the
  *     two moved.  Printed as a Markdown table and written to OUT/sampling.md, .csv.
  *
+ * With --frames N (the engine's case): real-time frames (scheduler.frames on, --frame-ms
+ * each) while the camera turns --orbit degrees a frame, temporal reuse off against on,
+ * stepped in turn frame by frame (both see the same machine load), with the --tf
+ * preset's bounces.  At --checkpoints frames evenly spaced (the last included) the true
+ * relative RMSE against a reference of that frame's view (each --ref-time, made first);
+ * every frame its wall time, samples per pixel and pixels without a sample.  Results:
+ * OUT/frames.md, .csv.
+ *
  * Relative RMSE = sqrt(mean_p ((Y_p - Yref_p) / (Yref_p + 0.01 mean(Yref)))^2), Y the
  * Rec. 709 luminance of picvr_read_rgba32f, as picvr-bench-error defines it.
  *
@@ -64,6 +72,8 @@ typedef struct options {
     double time_ms, slice_ms, ref_ms;
     uint32_t ref_chunks, seed;
     const char *bounces;      /* NULL: the before/after comparison */
+    uint32_t frames, checkpoints; /* --frames: the engine's case (0: not) */
+    double frame_ms, orbit_deg;
 } options;
 
 /* One condition of a run: the sampler, and the bounce count. */
@@ -71,6 +81,7 @@ typedef struct condition {
     char name[32];
     int before;               /* the paper's sampler (FREE_FLIGHT, RATIO) */
     uint32_t bounces;         /* picvr_scattering.max_bounces */
+    int frames, reuse;        /* scheduler.frames and .temporal_reuse on (priorities on) */
 } condition;
 #define MAX_CONDITIONS 8
 
@@ -167,7 +178,9 @@ static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const 
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
     cfg.cache.mode = PICVR_CACHE_NONE;
-    cfg.scheduler.priorities = PICVR_SWITCH_OFF;
+    cfg.scheduler.priorities = cd->frames ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
+    cfg.scheduler.frames = cd->frames ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
+    cfg.scheduler.temporal_reuse = cd->reuse ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
     if (before) {
         cfg.distance_sampling = PICVR_DISTANCE_FREE_FLIGHT;
         cfg.transmittance = PICVR_TRANSMITTANCE_RATIO;
@@ -436,6 +449,109 @@ static int run_scene(const options *o, const scene_def *sd, FILE *md, FILE *csv)
     return ok;
 }
 
+/* ---- the engine's case: orbiting frames, temporal reuse off and on ------------------------ */
+
+/* The camera of frame f: the default orbit turned by f * orbit_deg. */
+static int frame_camera(const options *o, const loaded_scene *ls, uint32_t f, picvr_camera *cam)
+{
+    float box_min[3], box_max[3];
+    for (int i = 0; i < 3; i++) {
+        box_max[i] = 0.5f * ls->desc.dims[i] * ls->desc.spacing[i];
+        box_min[i] = -box_max[i];
+    }
+    float az = (float)fmod(PVP_DEFAULT_AZIMUTH + f * o->orbit_deg, 360.0);
+    return pvp_orbit_camera(box_min, box_max, az, PVP_DEFAULT_ELEVATION, PVP_DEFAULT_DISTANCE, PVP_DEFAULT_FOV,
+                            o->width, o->height, cam) == PVP_OK;
+}
+
+typedef struct frame_row { double ms, spp, err; uint64_t holes; } frame_row;
+
+static int run_frames(const options *o, const scene_def *sd, FILE *md, FILE *csv)
+{
+    loaded_scene ls;
+    if (!load_scene(o, sd, &ls)) return 0;
+    size_t pixels = (size_t)o->width * o->height;
+    uint32_t K = o->checkpoints < 1 ? 1 : o->checkpoints > o->frames ? o->frames : o->checkpoints;
+    condition cd[2];
+    memset(cd, 0, sizeof cd);
+    for (int c = 0; c < 2; c++) {
+        snprintf(cd[c].name, sizeof cd[c].name, "reuse %s", c ? "on" : "off");
+        cd[c].bounces = ls.tf.max_bounces;
+        cd[c].frames = 1;
+        cd[c].reuse = c;
+    }
+    reference *ref = (reference *)calloc(K, sizeof *ref);
+    uint32_t *at = (uint32_t *)calloc(K, sizeof *at);
+    frame_row *rows = (frame_row *)calloc(2 * (size_t)o->frames, sizeof *rows);
+    float *rgba = (float *)malloc(pixels * 16);
+    double *lum = (double *)malloc(pixels * sizeof(double));
+    int ok = ref && at && rows && rgba && lum;
+    if (!ok) pvc_fail("out of memory");
+    for (uint32_t k = 0; k < K && ok; k++) {   /* checkpoints: frames (k + 1) N / K - 1 */
+        at[k] = (uint32_t)(((uint64_t)(k + 1) * o->frames) / K) - 1;
+        condition rc = cd[0];
+        rc.frames = 0;   /* the reference: whole passes, priorities off */
+        double t0 = pvc_now_ms();
+        ok = frame_camera(o, &ls, at[k], &ls.cam) && make_reference(o, &ls, &rc, &ref[k]);
+        if (ok) fprintf(stderr, "%s: reference of frame %u: %llu passes in %.0f s, relative RMSE %.4f\n", sd->name, at[k],
+                        (unsigned long long)ref[k].passes, (pvc_now_ms() - t0) / 1000.0, ref[k].rel_err);
+    }
+    picvr_context *ctx[2] = {NULL, NULL};
+    if (ok) ok = frame_camera(o, &ls, 0, &ls.cam);
+    for (int c = 0; c < 2 && ok; c++) ok = (ctx[c] = open_context(&ls, o->seed, &cd[c])) != NULL;
+    for (uint32_t f = 0, k = 0; f < o->frames && ok; f++) {
+        picvr_camera cam;
+        ok = frame_camera(o, &ls, f, &cam);
+        for (int c = 0; c < 2 && ok; c++) {
+            frame_row *r = &rows[(size_t)c * o->frames + f];
+            picvr_stats st;
+            double t0 = pvc_now_ms();
+            ok = pvc_check(picvr_set_camera(ctx[c], &cam), "picvr_set_camera") &&
+                 pvc_check(picvr_step(ctx[c], o->frame_ms), "picvr_step");
+            r->ms = pvc_now_ms() - t0;
+            ok = ok && pvc_check(picvr_get_stats(ctx[c], &st), "picvr_get_stats");
+            r->spp = st.iterations_mean;
+            r->holes = st.pixels_unsampled;
+            r->err = NAN;
+            if (ok && k < K && f == at[k]) {
+                ok = read_luminance(ctx[c], pixels, rgba, lum);
+                double e = rel_rmse(lum, ref[k].lum, pixels, ref[k].mean);
+                double e2 = e * e - ref[k].rel_err * ref[k].rel_err;   /* the reference's own error removed */
+                r->err = sqrt(e2 > 0.0 ? e2 : 0.0);
+            }
+        }
+        if (k < K && f == at[k]) k++;
+    }
+    if (ok) {
+        for (int c = 0; c < 2; c++) {
+            const frame_row *r = rows + (size_t)c * o->frames;
+            double ms = 0.0;
+            uint64_t holes = 0;
+            for (uint32_t f = 0; f < o->frames; f++) {
+                ms += r[f].ms / o->frames;
+                holes = r[f].holes > holes ? r[f].holes : holes;
+                fprintf(csv, "%s,%s,%u,%.2f,%.3f,%llu,%.6f\n", sd->name, cd[c].name, f, r[f].ms, r[f].spp,
+                        (unsigned long long)r[f].holes, r[f].err);
+            }
+            fprintf(md, "| %s | %s | %.1f | %llu |", sd->name, cd[c].name, ms, (unsigned long long)holes);
+            for (uint32_t k = 0; k < K; k++) fprintf(md, " %.4f (%.1f spp) |", r[at[k]].err, r[at[k]].spp);
+            fprintf(md, "\n");
+        }
+        for (uint32_t k = 0; k < K; k++)
+            fprintf(md, "|  | reference of frame %u: %llu passes, relative RMSE %.4f (removed in quadrature) |\n", at[k],
+                    (unsigned long long)ref[k].passes, ref[k].rel_err);
+    }
+    for (int c = 0; c < 2; c++) picvr_destroy(ctx[c]);
+    for (uint32_t k = 0; ref && k < K; k++) free(ref[k].lum);
+    free(ref);
+    free(at);
+    free(rows);
+    free(rgba);
+    free(lum);
+    free_scene(&ls);
+    return ok;
+}
+
 /* ---- options ---------------------------------------------------------------------------- */
 
 static void print_help(FILE *f)
@@ -456,12 +572,18 @@ static void print_help(FILE *f)
         "  --write-thin F   write the thin medium to F (name it thin_64x64x64_float32.raw for\n"
         "                   picvr-render --volume) and exit\n"
         "  --bounces LIST   compare these max_bounces values (0,1,4,unlimited) instead of the\n"
-        "                   two samplers; results in OUT/paths.md, .csv\n");
+        "                   two samplers; results in OUT/paths.md, .csv\n"
+        "  --frames N       the engine's case instead: N real-time frames, temporal reuse off\n"
+        "                   and on; results in OUT/frames.md, .csv\n"
+        "  --frame-ms MS    each frame's budget (default 16)\n"
+        "  --orbit DEG      the camera's turn per frame (default 1)\n"
+        "  --checkpoints K  frames measured against a reference of their view (default 3)\n");
 }
 
 static const pvc_option OPTIONS[] = {
     {"help", 0}, {"scenes", 1}, {"data", 1}, {"size", 1}, {"time", 1}, {"slice", 1},
-    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {"write-thin", 1}, {"bounces", 1}, {NULL, 0}};
+    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {"write-thin", 1}, {"bounces", 1},
+    {"frames", 1}, {"frame-ms", 1}, {"orbit", 1}, {"checkpoints", 1}, {NULL, 0}};
 
 static int apply_option(void *target, const char *name, const char *value)
 {
@@ -474,6 +596,14 @@ static int apply_option(void *target, const char *name, const char *value)
     else if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "ref-chunks")) return pvc_parse_u32(value, 2, 1000, &o->ref_chunks) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "seed")) return pvc_parse_u32(value, 0, 999, &o->seed) ? 1 : (pvc_bad_value(name, value), 0);
+    else if (!strcmp(name, "frames")) return pvc_parse_u32(value, 1, 100000, &o->frames) ? 1 : (pvc_bad_value(name, value), 0);
+    else if (!strcmp(name, "checkpoints")) return pvc_parse_u32(value, 1, 100, &o->checkpoints) ? 1 : (pvc_bad_value(name, value), 0);
+    else if (!strcmp(name, "frame-ms") || !strcmp(name, "orbit")) {
+        double v;
+        if (!pvc_parse_double(value, &v) || !(v >= 0.0)) { pvc_bad_value(name, value); return 0; }
+        if (!strcmp(name, "frame-ms")) o->frame_ms = v;
+        else o->orbit_deg = v;
+    }
     else {
         double v;
         if (!pvc_parse_double(value, &v) || !(v > 0.0)) { pvc_bad_value(name, value); return 0; }
@@ -487,7 +617,8 @@ static int apply_option(void *target, const char *name, const char *value)
 int main(int argc, char **argv)
 {
     pvc_set_program(PROGRAM);
-    options o = {"thin", "../shared/data", "bench/results/sampling", NULL, 256, 256, 60000.0, 500.0, 240000.0, 4, 101, NULL};
+    options o = {"thin", "../shared/data", "bench/results/sampling", NULL, 256, 256, 60000.0, 500.0, 240000.0, 4, 101, NULL,
+                 0, 3, 16.0, 1.0};
     int rc = pvc_parse_options(argc, argv, OPTIONS, apply_option, &o, print_help);
     if (rc >= 0) return rc;
     if (o.write_thin) {   /* raw float32, x fastest, host byte order as picvr-render reads it */
@@ -502,18 +633,30 @@ int main(int argc, char **argv)
     char path[4096];
     snprintf(path, sizeof path, "mkdir -p '%s'", o.out);
     if (system(path) != 0) { pvc_fail("cannot make %s", o.out); return 1; }
-    const char *stem = o.bounces ? "paths" : "sampling";
+    const char *stem = o.frames ? "frames" : o.bounces ? "paths" : "sampling";
     snprintf(path, sizeof path, "%s/%s.md", o.out, stem);
     FILE *md = fopen(path, "w");
     snprintf(path, sizeof path, "%s/%s.csv", o.out, stem);
     FILE *csv = fopen(path, "w");
     if (!md || !csv) { pvc_fail("cannot write to %s", o.out); return 1; }
-    fprintf(md, "%ux%u, %.0f s per condition side by side (slices of %.0f ms), seed %u; time in s to a true "
-                "relative RMSE; '~': extrapolated by err ~ t^-1/2\n\n", o.width, o.height, o.time_ms / 1000.0, o.slice_ms, o.seed);
-    fprintf(md, "| scene | condition | t(0.05) | t(0.02) | t(0.01) | variance per sample | Msamples/s | final rel. RMSE | "
-                "mean / reference | reference mean / first's | scatter events per sample |\n");
-    fprintf(md, "|---|---|---|---|---|---|---|---|---|---|---|\n");
-    fprintf(csv, "scene,condition,ms,passes,rel_rmse,mean_ratio\n");
+    if (o.frames) {
+        fprintf(md, "%ux%u, %u frames of %.0f ms, the camera turning %.2f degrees a frame, seed %u; true relative "
+                    "RMSE at the checkpoint frames (samples per pixel then)\n\n", o.width, o.height, o.frames, o.frame_ms,
+                o.orbit_deg, o.seed);
+        fprintf(md, "| scene | condition | mean frame, ms | most pixels unsampled |");
+        for (uint32_t k = 0; k < o.checkpoints; k++) fprintf(md, " frame %u |", (k + 1) * o.frames / o.checkpoints - 1);
+        fprintf(md, "\n|---|---|---|---|");
+        for (uint32_t k = 0; k < o.checkpoints; k++) fprintf(md, "---|");
+        fprintf(md, "\n");
+        fprintf(csv, "scene,condition,frame,ms,spp,pixels_unsampled,rel_rmse\n");
+    } else {
+        fprintf(md, "%ux%u, %.0f s per condition side by side (slices of %.0f ms), seed %u; time in s to a true "
+                    "relative RMSE; '~': extrapolated by err ~ t^-1/2\n\n", o.width, o.height, o.time_ms / 1000.0, o.slice_ms, o.seed);
+        fprintf(md, "| scene | condition | t(0.05) | t(0.02) | t(0.01) | variance per sample | Msamples/s | final rel. RMSE | "
+                    "mean / reference | reference mean / first's | scatter events per sample |\n");
+        fprintf(md, "|---|---|---|---|---|---|---|---|---|---|---|\n");
+        fprintf(csv, "scene,condition,ms,passes,rel_rmse,mean_ratio\n");
+    }
     int ok = 1;
     char list[1024];
     snprintf(list, sizeof list, "%s", o.scenes);
@@ -523,7 +666,7 @@ int main(int argc, char **argv)
         for (size_t i = 0; i < N_SCENES; i++)
             if (!strcmp(SCENES[i].name, tok)) sd = &SCENES[i];
         if (!sd) { pvc_fail("unknown scene '%s'", tok); ok = 0; break; }
-        ok = run_scene(&o, sd, md, csv);
+        ok = o.frames ? run_frames(&o, sd, md, csv) : run_scene(&o, sd, md, csv);
     }
     fclose(md);
     fclose(csv);

@@ -108,6 +108,8 @@ static void print_help(FILE *f)
         "                         one sample per pixel)\n"
         "  --orbit DEG            turn the camera's azimuth by DEG every frame (default 0:\n"
         "                         the frames refine one image)\n"
+        "  --reuse on|off         temporal reuse: a moved camera keeps its samples,\n"
+        "                         reprojected (default off)\n"
         "  --seed N               random seed (default 0)\n"
         "  --cache off|object|screen  irradiance cache: off (plain Monte Carlo, the default\n"
         "                         for now), object- or screen-space locking\n"
@@ -180,7 +182,7 @@ static const pvc_option OPTIONS[] = {
     {"turns", 1}, {"debug-view", 1}, {"device", 1}, {"exposure", 1}, {"camera", 1},
     {"fov", 1}, {"out", 1}, {"out-float", 1}, {"log", 1}, {"json", 1}, {"bounces", 1},
     {"g", 1}, {"phase-back", 1}, {"env", 1}, {"env-rotate", 1}, {"env-intensity", 1},
-    {"frames", 1}, {"frame-ms", 1}, {"orbit", 1}, {NULL, 0}};
+    {"frames", 1}, {"frame-ms", 1}, {"orbit", 1}, {"reuse", 1}, {NULL, 0}};
 
 static int positive_all(const float *v, int n)
 {
@@ -319,6 +321,7 @@ static int apply_run_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "frame-ms"))
         return (o->have_frame_ms = pvc_parse_double(value, &o->frame_ms)) && o->frame_ms >= 0.0 && o->frame_ms <= 60000.0;
     if (!strcmp(name, "orbit")) return o->have_orbit = pvc_parse_float(value, &o->orbit_deg);
+    if (!strcmp(name, "reuse")) return pvc_parse_switch(value, &o->reuse);
     if (!strcmp(name, "seed")) return pvc_parse_u32(value, 0, UINT32_MAX, &o->seed);
     if (!strcmp(name, "turns")) return parse_turns(value, o);
     if (!strcmp(name, "device")) {
@@ -788,6 +791,7 @@ static void library_config(const render_options *o, progress *prog, picvr_config
     cfg->cache.mode = o->cache;
     cfg->scheduler.priorities = o->priorities;
     cfg->scheduler.frames = o->frames ? PICVR_SWITCH_ON : PICVR_SWITCH_DEFAULT;
+    cfg->scheduler.temporal_reuse = o->reuse;
     cfg->distance_sampling = o->distance_sampling;
     cfg->transmittance = o->transmittance;
     cfg->cache.curvature_limit = o->curvature;

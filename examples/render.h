@@ -33,6 +33,7 @@ typedef struct render_options {
     double frame_ms;           /* --frame-ms: each frame's budget (default 16) */
     float orbit_deg;           /* --orbit: the camera's azimuth step per frame, degrees */
     int have_frame_ms, have_orbit;
+    picvr_switch reuse;        /* --reuse: scheduler.temporal_reuse */
     uint32_t seed;
     const char *device;
     int validation;

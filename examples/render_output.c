@@ -161,6 +161,9 @@ static const pvc_json_field SCHEDULER_FIELDS[] = {
     {"rounds_per_second", PVC_JSON_F32, SCHEDULER(rounds_per_second)},
     {"hit_rate_window_ms", PVC_JSON_F32, SCHEDULER(hit_rate_window_ms)},
     {"priorities", PVC_JSON_SWITCH, SCHEDULER(priorities)},
+    {"frames", PVC_JSON_SWITCH, SCHEDULER(frames)},
+    {"temporal_reuse", PVC_JSON_SWITCH, SCHEDULER(temporal_reuse)},
+    {"reuse_history", PVC_JSON_U32, SCHEDULER(reuse_history)},
 };
 #undef SCHEDULER
 

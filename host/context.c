@@ -153,6 +153,7 @@ void picvr_destroy(picvr_context *ctx) {
         picvr_rounds_destroy(ctx);
         picvr_results_destroy(ctx);
         picvr_target_destroy(ctx);
+        picvr_aux_kernel_destroy(ctx, &ctx->reproject);
         picvr_pipelines_destroy(ctx);
     }
     picvr_device_destroy(ctx);
@@ -174,6 +175,16 @@ picvr_status picvr_set_scheduler(picvr_context *ctx, const picvr_scheduler_confi
     picvr_status s = picvr_resolve_scheduler_config(cfg ? cfg : &zero, &c);
     if (s) return s;
     if (c.priorities == PICVR_SWITCH_ON && (s = picvr_create_priority_pipeline(ctx))) return s;
+    if (c.temporal_reuse != ctx->sched.cfg.temporal_reuse && ctx->scene.has_camera) {
+        /* the depth plane follows: on a failure the old settings stay in force */
+        picvr_scheduler_config old = ctx->sched.cfg;
+        ctx->sched.cfg.temporal_reuse = c.temporal_reuse;
+        s = picvr_reuse_buffers(ctx, ctx->scene.camera.width, ctx->scene.camera.height);
+        if (s) {
+            ctx->sched.cfg = old;
+            return s;
+        }
+    }
     ctx->sched.cfg = c;
     ctx->sched.use_priorities = c.priorities == PICVR_SWITCH_ON;
     /* credit owed under the old shares would be spent under the new ones */

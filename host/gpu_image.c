@@ -29,64 +29,12 @@ static int picvr_target_layout_ok(uint32_t layout, int before) {
 }
 
 static void picvr_target_destroy(picvr_context *ctx) {
-    picvr_target_state *t = &ctx->target;
-    VkDevice d = ctx->vk.device;
-    picvr_buffer_destroy(ctx, &t->encoded);
-    if (t->pipe) vkDestroyPipeline(d, t->pipe, NULL);
-    if (t->module) vkDestroyShaderModule(d, t->module, NULL);
-    if (t->pool) vkDestroyDescriptorPool(d, t->pool, NULL);   /* frees the set */
-    if (t->layout) vkDestroyPipelineLayout(d, t->layout, NULL);
-    if (t->set_layout) vkDestroyDescriptorSetLayout(d, t->set_layout, NULL);
-    memset(t, 0, sizeof *t);
-}
-
-/* The kernel and its descriptor set, made once; a failure leaves nothing behind. */
-static picvr_status picvr_target_pipeline(picvr_context *ctx) {
-    picvr_target_state *t = &ctx->target;
-    if (t->pipe) return PICVR_OK;
-    VkDescriptorSetLayoutBinding b[2];
-    memset(b, 0, sizeof b);
-    for (uint32_t i = 0; i < 2; i++) {
-        b[i].binding = i;
-        b[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-        b[i].descriptorCount = 1;
-        b[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
-    }
-    VkDescriptorSetLayoutCreateInfo li;
-    PICVR_VK_INIT(li, VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
-    li.bindingCount = 2;
-    li.pBindings = b;
-    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};
-    VkPipelineLayoutCreateInfo pl;
-    PICVR_VK_INIT(pl, VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-    pl.setLayoutCount = 1;
-    pl.pSetLayouts = &t->set_layout;
-    pl.pushConstantRangeCount = 1;
-    pl.pPushConstantRanges = &pcr;
-    VkDescriptorPoolSize size = {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2};
-    VkDescriptorPoolCreateInfo pi;
-    PICVR_VK_INIT(pi, VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    pi.maxSets = 1;
-    pi.poolSizeCount = 1;
-    pi.pPoolSizes = &size;
-    VkDescriptorSetAllocateInfo ai;
-    PICVR_VK_INIT(ai, VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-    ai.descriptorSetCount = 1;
-    ai.pSetLayouts = &t->set_layout;
-    picvr_status s = picvr_vk_status(ctx, vkCreateDescriptorSetLayout(ctx->vk.device, &li, NULL, &t->set_layout),
-                                     "vkCreateDescriptorSetLayout");
-    if (!s) s = picvr_vk_status(ctx, vkCreatePipelineLayout(ctx->vk.device, &pl, NULL, &t->layout), "vkCreatePipelineLayout");
-    if (!s) s = picvr_vk_status(ctx, vkCreateDescriptorPool(ctx->vk.device, &pi, NULL, &t->pool), "vkCreateDescriptorPool");
-    ai.descriptorPool = t->pool;
-    if (!s) s = picvr_vk_status(ctx, vkAllocateDescriptorSets(ctx->vk.device, &ai, &t->set), "vkAllocateDescriptorSets");
-    if (!s) s = picvr_create_shader(ctx, picvr_spv_write_image, sizeof picvr_spv_write_image, &t->module);
-    if (!s) s = picvr_create_pipeline(ctx, t->module, t->layout, NULL, &t->pipe);
-    if (s) picvr_target_destroy(ctx);
-    return s;
+    picvr_buffer_destroy(ctx, &ctx->target.encoded);
+    picvr_aux_kernel_destroy(ctx, &ctx->target.kernel);
 }
 
 /* The encoded-pixel buffer, at least `bytes` (kept between calls; regrown when the
-   image grows), and the descriptors pointing at it and at plane 0. */
+   image grows), and the kernel's bindings: plane 0, then it. */
 static picvr_status picvr_target_buffer(picvr_context *ctx, VkDeviceSize bytes) {
     picvr_target_state *t = &ctx->target;
     if (t->encoded.size < bytes) {
@@ -98,17 +46,8 @@ static picvr_status picvr_target_buffer(picvr_context *ctx, VkDeviceSize bytes) 
         picvr_buffer_destroy(ctx, &t->encoded);
         t->encoded = fresh;
     }
-    VkDescriptorBufferInfo info[2] = {{ctx->image.planes[0].buf, 0, VK_WHOLE_SIZE}, {t->encoded.buf, 0, VK_WHOLE_SIZE}};
-    VkWriteDescriptorSet w[2];
-    for (uint32_t i = 0; i < 2; i++) {
-        PICVR_VK_INIT(w[i], VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-        w[i].dstSet = t->set;
-        w[i].dstBinding = i;
-        w[i].descriptorCount = 1;
-        w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-        w[i].pBufferInfo = &info[i];
-    }
-    vkUpdateDescriptorSets(ctx->vk.device, 2, w, 0, NULL);
+    VkBuffer bufs[2] = {ctx->image.planes[0].buf, t->encoded.buf};
+    picvr_aux_kernel_bind(ctx, &t->kernel, bufs, 2);
     return PICVR_OK;
 }
 
@@ -164,7 +103,9 @@ picvr_status picvr_write_image(picvr_context *ctx, const picvr_image_target *tar
     uint32_t pixels = target->width * target->height;
     VkBuffer src = ctx->image.planes[0].buf;
     if (kind != 3) {
-        if ((s = picvr_target_pipeline(ctx)) || (s = picvr_target_buffer(ctx, (VkDeviceSize)pixels * bpp))) return s;
+        if ((s = picvr_aux_kernel_make(ctx, &ctx->target.kernel, 2, picvr_spv_write_image, sizeof picvr_spv_write_image)) ||
+            (s = picvr_target_buffer(ctx, (VkDeviceSize)pixels * bpp)))
+            return s;
         src = ctx->target.encoded.buf;
     }
     if ((s = picvr_cmd_begin(ctx))) return s;
@@ -175,11 +116,7 @@ picvr_status picvr_write_image(picvr_context *ctx, const picvr_image_target *tar
         push[1].u = kind;
         push[2].f = target->exposure > 0.0f ? target->exposure : 1.0f;
         push[3].u = 0;
-        vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->target.pipe);
-        vkCmdBindDescriptorSets(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->target.layout, 0, 1, &ctx->target.set, 0, NULL);
-        vkCmdPushConstants(ctx->vk.cmd, ctx->target.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, push);
-        uint32_t groups = (pixels + 255) / 256, gx = groups < 65535 ? groups : 65535, gy = (groups + gx - 1) / gx;
-        vkCmdDispatch(ctx->vk.cmd, gx, gy, 1);
+        picvr_aux_kernel_dispatch(ctx, &ctx->target.kernel, push, sizeof push, pixels);
         picvr_barrier_all(ctx);
     }
     VkImage image = (VkImage)target->image;

@@ -5,6 +5,7 @@
 
 static void picvr_invalidate_accumulation(picvr_context *ctx) {
     ctx->image.block_samples = 0;
+    ctx->image.has_samples = 0;
     ctx->image.scatter_events = 0;
     ctx->image.block_cursor = 0;
     ctx->image.first_pass_blocks = 0;
@@ -13,6 +14,8 @@ static void picvr_invalidate_accumulation(picvr_context *ctx) {
     ctx->results.valid = 0;
 }
 
+static int picvr_reuse_on(const picvr_context *ctx) { return ctx->sched.cfg.temporal_reuse == PICVR_SWITCH_ON; }
+
 static picvr_status picvr_clear_accumulation(picvr_context *ctx) {
     picvr_invalidate_accumulation(ctx);
     if (!ctx->image.planes[0].buf) return PICVR_OK;
@@ -20,6 +23,8 @@ static picvr_status picvr_clear_accumulation(picvr_context *ctx) {
     if (s) return s;
     picvr_barrier_all(ctx);
     for (int i = 0; i < 3; i++) vkCmdFillBuffer(ctx->vk.cmd, ctx->image.planes[i].buf, 0, VK_WHOLE_SIZE, 0);
+    vkCmdFillBuffer(ctx->vk.cmd, ctx->image.depth.buf, 0, VK_WHOLE_SIZE, 0);
+    ctx->image.depth_valid = picvr_reuse_on(ctx);
     vkCmdFillBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, 0, VK_WHOLE_SIZE, 0);   /* block credits */
     picvr_barrier_all(ctx);
     return picvr_cmd_submit_wait(ctx);
@@ -55,6 +60,33 @@ static uint32_t picvr_spread_stride(uint32_t n) {
     return s % n ? s % n : 1;
 }
 
+/* The buffers of temporal reuse's reprojection (made by its first one). */
+static void picvr_reuse_buffers_destroy(picvr_context *ctx) {
+    for (int i = 0; i < 4; i++) picvr_buffer_destroy(ctx, &ctx->image.previous[i]);
+    picvr_buffer_destroy(ctx, &ctx->image.landing);
+}
+
+/* The depth plane for the image size and the scheduler's temporal_reuse: 8 bytes per
+   pixel with it, a placeholder without; the reprojection's buffers are dropped when it
+   is off or the size changed (they come back at the next reprojection).  On a failure
+   nothing changed.  The depth is stale afterwards (depth_valid 0) until the next reset. */
+static picvr_status picvr_reuse_buffers(picvr_context *ctx, uint32_t w, uint32_t h) {
+    VkDeviceSize want = picvr_reuse_on(ctx) ? (VkDeviceSize)w * h * 8 : PICVR_PLACEHOLDER_BYTES;
+    if (ctx->image.previous[0].buf && (!picvr_reuse_on(ctx) || ctx->image.previous[0].size != (VkDeviceSize)w * h * 16))
+        picvr_reuse_buffers_destroy(ctx);
+    if (ctx->image.depth.buf && ctx->image.depth.size == want) return PICVR_OK;
+    if (want > ctx->vk.props.limits.maxStorageBufferRange) return PICVR_ERROR_SIZE_OVERFLOW;
+    picvr_buffer d;
+    memset(&d, 0, sizeof d);
+    picvr_status s = picvr_buffer_create(ctx, &d, want, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
+    if (s) return s;
+    picvr_buffer_destroy(ctx, &ctx->image.depth);
+    ctx->image.depth = d;
+    ctx->image.depth_valid = 0;
+    ctx->pipes.descriptors_dirty = 1;
+    return PICVR_OK;
+}
+
 static picvr_status picvr_create_image_buffers(picvr_context *ctx, uint32_t w, uint32_t h) {
     VkDeviceSize pixels = (VkDeviceSize)w * h;
     VkDeviceSize plane = pixels * 16;
@@ -70,14 +102,16 @@ static picvr_status picvr_create_image_buffers(picvr_context *ctx, uint32_t w, u
     }
     VkDeviceSize groups = (pixels + 255) / 256;
     uint32_t blocks = ((w + 15) / 16) * ((h + 7) / 8);
-    picvr_buffer acc[3], rb, part, queue, shade, lookup, sp;
-    picvr_buffer *made[] = {&acc[0], &acc[1], &acc[2], &rb, &part, &queue, &shade, &lookup, &sp};
+    picvr_buffer acc[3], rb, part, queue, shade, lookup, sp, depth;
+    picvr_buffer *made[] = {&acc[0], &acc[1], &acc[2], &rb, &part, &queue, &shade, &lookup, &sp, &depth};
     for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) memset(made[i], 0, sizeof *made[i]);
     picvr_status s = PICVR_OK;
     for (int i = 0; i < 3 && !s; i++)
         s = picvr_buffer_create(ctx, &acc[i], plane, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT, 0);
     if (!s) s = picvr_buffer_create(ctx, &rb, plane, VK_BUFFER_USAGE_TRANSFER_DST_BIT, 1);
+    if (!s) s = picvr_buffer_create(ctx, &depth, picvr_reuse_on(ctx) ? pixels * 8 : PICVR_PLACEHOLDER_BYTES,
+                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
     if (!s) s = picvr_buffer_create(ctx, &part, groups * sizeof(picvr_gpu_partial), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, 1);
     /* the rendering queue: a 32-byte header, then one uvec4 per block */
     if (!s) s = picvr_buffer_create(ctx, &queue, 32 + (VkDeviceSize)blocks * 16,
@@ -118,6 +152,10 @@ static picvr_status picvr_create_image_buffers(picvr_context *ctx, uint32_t w, u
     ctx->image.block_total = blocks;
     ctx->image.block_stride = picvr_spread_stride(blocks);
     ctx->pipes.descriptors_dirty = 1;
+    picvr_reuse_buffers_destroy(ctx);   /* the previous view's size is gone */
+    picvr_buffer_destroy(ctx, &ctx->image.depth);
+    ctx->image.depth = depth;
+    ctx->image.depth_valid = 0;
     return PICVR_OK;
 }
 
@@ -140,6 +178,10 @@ static picvr_status picvr_validate_camera(const picvr_camera *c, picvr_camera *o
     return PICVR_OK;
 }
 
+/* host/reproject.c (after this part: it uses the image's buffers). */
+static int picvr_can_reproject(const picvr_context *ctx, uint32_t width, uint32_t height);
+static picvr_status picvr_reproject(picvr_context *ctx, const picvr_gpu_scene *old);
+
 picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     PICVR_REFUSE_IF_BUSY(ctx);
@@ -147,6 +189,8 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
     picvr_status s = picvr_validate_camera(camera, &c);
     if (s) return s;
     if (ctx->scene.has_camera && !memcmp(&c, &ctx->scene.camera, sizeof c)) return PICVR_OK;
+    int reproject = picvr_can_reproject(ctx, c.width, c.height);
+    picvr_gpu_scene old = ctx->scene.gpu;   /* the view the accumulation was made from */
     if (!ctx->scene.has_camera || c.width != ctx->scene.camera.width || c.height != ctx->scene.camera.height)
         if ((s = picvr_create_image_buffers(ctx, c.width, c.height))) return s;
     float f[3] = {c.target[0] - c.position[0], c.target[1] - c.position[1], c.target[2] - c.position[2]}, r[3], u[3];
@@ -173,11 +217,13 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
         picvr_barrier_all(ctx);
         if ((s = picvr_cmd_submit_wait(ctx))) return s;
     }
-    return picvr_clear_accumulation(ctx);
+    return reproject ? picvr_reproject(ctx, &old) : picvr_clear_accumulation(ctx);
 }
 
 /* The accumulation planes and the rendering procedure's queues. */
 static void picvr_image_buffers_destroy(picvr_context *ctx) {
+    picvr_reuse_buffers_destroy(ctx);
+    picvr_buffer_destroy(ctx, &ctx->image.depth);
     for (int i = 0; i < 3; i++) picvr_buffer_destroy(ctx, &ctx->image.planes[i]);
     picvr_buffer_destroy(ctx, &ctx->image.render_queue);
     picvr_buffer_destroy(ctx, &ctx->image.shade_queue);

@@ -82,7 +82,8 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_BOUNCES 256u      /* constant 10 USE_BOUNCES */
 #define PICVR_KEY_HG 512u           /* constant 11 USE_HG */
 #define PICVR_KEY_ENV_MAP 1024u     /* constant 12 USE_ENV_MAP */
-#define PICVR_SPEC_CONSTANTS 13u
+#define PICVR_KEY_REUSE 2048u       /* constant 13 USE_REUSE */
+#define PICVR_SPEC_CONSTANTS 14u
 
 /* The kernels of one variant: creation and update have one (KERNEL_MAIN); rendering
    has its tracking kernel there, then its shading kernel and, cached, the lookup
@@ -256,6 +257,15 @@ typedef struct picvr_scene {
    (host/camera.c). */
 typedef struct picvr_image_state {
     picvr_buffer planes[3];          /* mean rgba, Kahan terms, (lum mean, M2, n, bad) */
+    picvr_buffer depth;              /* binding 20: per pixel (mean depth of its scatter
+                                        events, their count) with temporal reuse, else a
+                                        placeholder */
+    picvr_buffer previous[4];        /* temporal reuse: the three planes and the depth of
+                                        the view before the last camera move, and */
+    picvr_buffer landing;            /* per pixel the nearest depth landing there (made at
+                                        the first reprojection, host/reproject.c) */
+    int depth_valid;                 /* the depth plane holds every sample since the reset */
+    int has_samples;                 /* some pixel holds a sample (rendered or moved there) */
     picvr_buffer render_queue;       /* header + one uvec4 per block (shaders/queue.glsl) */
     picvr_buffer shade_queue;        /* the rendering procedure's event queues (shaders/render.glsl): */
     picvr_buffer lookup_queue;       /* for shading, and with the cache for the lookup */
@@ -335,16 +345,22 @@ typedef struct picvr_pending_step {
     double t0;                       /* picvr_clock_ms at submission */
 } picvr_pending_step;
 
-/* picvr_write_image's kernel, its own two-binding descriptor set (the accumulation's
-   plane 0 in, the encoded pixels out) and the encoded pixels; made at its first call,
-   so a context that never writes a device image holds none of it (host/gpu_image.c). */
-typedef struct picvr_target_state {
+/* A kernel outside the procedures, with a descriptor set of its own (storage buffers
+   only) and 128 bytes of push constants, made at its first use (host/pipelines.c). */
+typedef struct picvr_aux_kernel {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout layout;
     VkDescriptorPool pool;
     VkDescriptorSet set;
     VkShaderModule module;
     VkPipeline pipe;
+} picvr_aux_kernel;
+
+/* picvr_write_image's kernel (the accumulation's plane 0 in, the encoded pixels out) and
+   the encoded pixels; made at its first call, so a context that never writes a device
+   image holds none of it (host/gpu_image.c). */
+typedef struct picvr_target_state {
+    picvr_aux_kernel kernel;
     picvr_buffer encoded;
 } picvr_target_state;
 
@@ -370,6 +386,7 @@ struct picvr_context {
     picvr_results results;
     picvr_pending_step pending;
     picvr_target_state target;
+    picvr_aux_kernel reproject;      /* temporal reuse's kernel (host/reproject.c) */
 };
 
 /* Rule: between picvr_step_begin and picvr_step_end the command buffer, the fence and
@@ -386,9 +403,10 @@ struct picvr_context {
    8 opacity range-max table, 9-13 cache entries, nodes, refs, counters, requests,
    14 superpixels (screen-space locking), 15 the rendering queue, 16 and 17 the rendering
    procedure's event queues for shading and for the cache lookup, 18 the phase function's
-   g per transfer-function entry, 19 the environment map. */
-#define PICVR_NUM_BINDINGS 20
-#define PICVR_PLACEHOLDER_BYTES 16u      /* bindings 18, 19 when the scene needs neither */
+   g per transfer-function entry, 19 the environment map, 20 the depth plane (temporal
+   reuse). */
+#define PICVR_NUM_BINDINGS 21
+#define PICVR_PLACEHOLDER_BYTES 16u      /* bindings 18-20 when the scene needs none */
 #define PICVR_CACHE_PREBUILT_MAX_DEPTH 4u  /* levels of the octree's pre-built top (§4.4) */
 #define PICVR_CACHE_NODE_RADII 1.0f     /* as in shaders/cache.glsl (insertion_depth) */
 

@@ -123,7 +123,8 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
     uint32_t qmc = mis_mode ? PICVR_KEY_QMC : 0u;
     uint32_t env = ctx->scene.use_env ? PICVR_KEY_ENV_MAP : 0u;
     uint32_t paths = (ctx->scene.scattering.max_bounces > 0 ? PICVR_KEY_BOUNCES : 0u) |
-                     (picvr_use_hg(ctx) ? PICVR_KEY_HG : 0u);
+                     (picvr_use_hg(ctx) ? PICVR_KEY_HG : 0u) |
+                     (ctx->sched.cfg.temporal_reuse == PICVR_SWITCH_ON ? PICVR_KEY_REUSE : 0u);
     if (proc == PICVR_PROC_CREATE) return mis | fine | env;
     if (proc == PICVR_PROC_UPDATE) return fine | mono | qmc;
     if (!ctx->cache.on) return mis | fine | residual | equi | qmc | env | paths;
@@ -135,7 +136,7 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
    for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
    creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
    MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR, 8 USE_RESIDUAL, 9 USE_QMC, 10
-   USE_BOUNCES, 11 USE_HG and 12 USE_ENV_MAP from the key. */
+   USE_BOUNCES, 11 USE_HG, 12 USE_ENV_MAP and 13 USE_REUSE from the key. */
 static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
@@ -151,7 +152,8 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
                          ctx->cache.on ? ctx->cache.cfg.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS,
                          (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0,
                          (key & PICVR_KEY_QMC) != 0, (key & PICVR_KEY_BOUNCES) != 0,
-                         (key & PICVR_KEY_HG) != 0, (key & PICVR_KEY_ENV_MAP) != 0};
+                         (key & PICVR_KEY_HG) != 0, (key & PICVR_KEY_ENV_MAP) != 0,
+                         (key & PICVR_KEY_REUSE) != 0};
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;
@@ -307,7 +309,7 @@ static void picvr_update_descriptors(picvr_context *ctx) {
         {ctx->cache.requests.buf, 0, VK_WHOLE_SIZE}, {ctx->cache.superpixels.buf, 0, VK_WHOLE_SIZE},
         {ctx->image.render_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->image.shade_queue.buf, 0, VK_WHOLE_SIZE},
         {ctx->image.lookup_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->scene.tf_g.buf, 0, VK_WHOLE_SIZE},
-        {ctx->scene.env.buf, 0, VK_WHOLE_SIZE}};
+        {ctx->scene.env.buf, 0, VK_WHOLE_SIZE}, {ctx->image.depth.buf, 0, VK_WHOLE_SIZE}};
     VkWriteDescriptorSet w[PICVR_NUM_BINDINGS];
     memset(w, 0, sizeof w);
     uint32_t n = 0;
@@ -350,4 +352,92 @@ static void picvr_pipelines_destroy(picvr_context *ctx) {
     if (p->layout) vkDestroyPipelineLayout(d, p->layout, NULL);
     if (p->stats_layout) vkDestroyPipelineLayout(d, p->stats_layout, NULL);
     if (p->set_layout) vkDestroyDescriptorSetLayout(d, p->set_layout, NULL);
+}
+
+/* ---- kernels outside the procedures (picvr_write_image, the reprojection) ---------- */
+
+static void picvr_aux_kernel_destroy(picvr_context *ctx, picvr_aux_kernel *k) {
+    VkDevice d = ctx->vk.device;
+    if (k->pipe) vkDestroyPipeline(d, k->pipe, NULL);
+    if (k->module) vkDestroyShaderModule(d, k->module, NULL);
+    if (k->pool) vkDestroyDescriptorPool(d, k->pool, NULL);   /* frees the set */
+    if (k->layout) vkDestroyPipelineLayout(d, k->layout, NULL);
+    if (k->set_layout) vkDestroyDescriptorSetLayout(d, k->set_layout, NULL);
+    memset(k, 0, sizeof *k);
+}
+
+/* Makes kernel k from SPIR-V `code` (size bytes) with `bindings` storage buffers, once;
+   a failure leaves nothing behind. */
+static picvr_status picvr_aux_kernel_make(picvr_context *ctx, picvr_aux_kernel *k, uint32_t bindings,
+                                          const uint32_t *code, size_t size) {
+    if (k->pipe) return PICVR_OK;
+    VkDescriptorSetLayoutBinding b[16];
+    memset(b, 0, sizeof b);
+    for (uint32_t i = 0; i < bindings && i < 16; i++) {
+        b[i].binding = i;
+        b[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+        b[i].descriptorCount = 1;
+        b[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+    }
+    VkDescriptorSetLayoutCreateInfo li;
+    PICVR_VK_INIT(li, VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+    li.bindingCount = bindings;
+    li.pBindings = b;
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 128};   /* every device's minimum */
+    VkPipelineLayoutCreateInfo pl;
+    PICVR_VK_INIT(pl, VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+    pl.setLayoutCount = 1;
+    pl.pSetLayouts = &k->set_layout;
+    pl.pushConstantRangeCount = 1;
+    pl.pPushConstantRanges = &pcr;
+    VkDescriptorPoolSize pool_size = {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, bindings};
+    VkDescriptorPoolCreateInfo pi;
+    PICVR_VK_INIT(pi, VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+    pi.maxSets = 1;
+    pi.poolSizeCount = 1;
+    pi.pPoolSizes = &pool_size;
+    VkDescriptorSetAllocateInfo ai;
+    PICVR_VK_INIT(ai, VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &k->set_layout;
+    picvr_status s = picvr_vk_status(ctx, vkCreateDescriptorSetLayout(ctx->vk.device, &li, NULL, &k->set_layout),
+                                     "vkCreateDescriptorSetLayout");
+    if (!s) s = picvr_vk_status(ctx, vkCreatePipelineLayout(ctx->vk.device, &pl, NULL, &k->layout), "vkCreatePipelineLayout");
+    if (!s) s = picvr_vk_status(ctx, vkCreateDescriptorPool(ctx->vk.device, &pi, NULL, &k->pool), "vkCreateDescriptorPool");
+    ai.descriptorPool = k->pool;
+    if (!s) s = picvr_vk_status(ctx, vkAllocateDescriptorSets(ctx->vk.device, &ai, &k->set), "vkAllocateDescriptorSets");
+    if (!s) s = picvr_create_shader(ctx, code, size, &k->module);
+    if (!s) s = picvr_create_pipeline(ctx, k->module, k->layout, NULL, &k->pipe);
+    if (s) picvr_aux_kernel_destroy(ctx, k);
+    return s;
+}
+
+/* Points kernel k's bindings 0..n-1 at the whole of buffers[0..n-1]. */
+static void picvr_aux_kernel_bind(picvr_context *ctx, picvr_aux_kernel *k, const VkBuffer *buffers, uint32_t n) {
+    VkDescriptorBufferInfo info[16];
+    VkWriteDescriptorSet w[16];
+    for (uint32_t i = 0; i < n && i < 16; i++) {
+        info[i].buffer = buffers[i];
+        info[i].offset = 0;
+        info[i].range = VK_WHOLE_SIZE;
+        PICVR_VK_INIT(w[i], VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+        w[i].dstSet = k->set;
+        w[i].dstBinding = i;
+        w[i].descriptorCount = 1;
+        w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+        w[i].pBufferInfo = &info[i];
+    }
+    vkUpdateDescriptorSets(ctx->vk.device, n, w, 0, NULL);
+}
+
+/* Records kernel k over `threads` threads of 256 (a 2D grid past 65535 groups) with
+   push constants push (bytes <= 128). */
+static void picvr_aux_kernel_dispatch(picvr_context *ctx, const picvr_aux_kernel *k, const void *push, uint32_t bytes,
+                                      uint64_t threads) {
+    vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, k->pipe);
+    vkCmdBindDescriptorSets(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, k->layout, 0, 1, &k->set, 0, NULL);
+    vkCmdPushConstants(ctx->vk.cmd, k->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, bytes, push);
+    uint64_t groups = (threads + 255) / 256;
+    uint32_t gx = groups < 65535 ? (uint32_t)groups : 65535, gy = (uint32_t)((groups + gx - 1) / gx);
+    vkCmdDispatch(ctx->vk.cmd, gx, gy, 1);
 }

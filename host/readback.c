@@ -103,7 +103,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
     if (!ctx->results.valid) {
         picvr_stats st;
         memset(&st, 0, sizeof st);
-        if (ctx->scene.has_volume && ctx->scene.has_camera && ctx->image.block_samples > 0) {
+        if (ctx->scene.has_volume && ctx->scene.has_camera && (ctx->image.block_samples > 0 || ctx->image.has_samples)) {
             double sums[4];
             uint64_t counts[4];
             picvr_status s = picvr_upload_scene(ctx);

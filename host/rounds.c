@@ -263,6 +263,7 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
     if (s) return s;
     picvr_sched_account(&ctx->sched, dev, rebuild_ms, created, p->update_groups, blocks, wall_ms, ctx->cache.on);
     ctx->image.block_samples += blocks;
+    if (blocks > 0) ctx->image.has_samples = 1;
     ctx->image.scatter_events += (uint64_t)events[1] << 32 | events[0];
     ctx->rounds.count++;
     ctx->image.elapsed_ms += wall_ms;

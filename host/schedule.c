@@ -11,6 +11,10 @@ static picvr_status picvr_resolve_scheduler_config(const picvr_scheduler_config 
     if (c->priorities == PICVR_SWITCH_DEFAULT) c->priorities = PICVR_SWITCH_ON;
     if ((unsigned)c->frames > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->frames == PICVR_SWITCH_DEFAULT) c->frames = PICVR_SWITCH_OFF;
+    if ((unsigned)c->temporal_reuse > PICVR_SWITCH_OFF || c->reuse_history > (1u << 20))
+        return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->temporal_reuse == PICVR_SWITCH_DEFAULT) c->temporal_reuse = PICVR_SWITCH_OFF;
+    if (c->reuse_history == 0) c->reuse_history = 16;
     float *f[7] = {&c->create_min, &c->create_max, &c->update_min, &c->update_max, &c->exponent,
                    &c->rounds_per_second, &c->hit_rate_window_ms};
     const float def[7] = {0.05f, 0.15f, 0.01f, 0.02f, 3.0f, 20.0f, 100.0f};

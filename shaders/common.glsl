@@ -641,6 +641,9 @@ float transmittance(vec3 x, vec3 w, float dist, inout Rng rng, inout bool trunca
 // ---- the background: constant, or an environment map (picvr.h, picvr_background) ----
 // Specialization: the environment map (false: the constant scene.background).
 layout(constant_id = 12) const bool USE_ENV_MAP = false;
+// Temporal reuse (picvr_scheduler_config.temporal_reuse): the rendering kernels keep
+// each pixel's mean scatter depth (render.glsl, accumulate_depth).
+layout(constant_id = 13) const bool USE_REUSE = false;
 // Built by host/environment.c: per texel (rows top to bottom) 4 floats, its radiance
 // (colour * intensity included) and the solid-angle pdf of env_sample in it; then the
 // marginal CDF over rows (env_h + 1 values, 0 .. 1), then per row the CDF over its

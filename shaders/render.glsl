@@ -19,6 +19,7 @@
 layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  // rgb, coverage
 layout(set = 0, binding = 5, std430) buffer AccumComp { vec4 accum_comp[]; };  // Kahan terms
 layout(set = 0, binding = 6, std430) buffer AccumStat { vec4 accum_stat[]; };  // lum mean, M2, n, bad
+layout(set = 0, binding = 20, std430) buffer AccumDepth { vec2 accum_depth[]; };  // mean t, count (uint bits)
 
 // The event queues of one dispatch of the rendering procedure, one buffer each so that
 // each stays within maxStorageBufferRange as the image does: for shading (binding 16),
@@ -67,6 +68,16 @@ void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
     precise float m2 = min(s.y + delta * (lum - mean), 3.4028235e38);
     uint nbad = floatBitsToUint(s.w) + (bad ? 1u : 0u);
     accum_stat[idx] = vec4(mean, m2, uintBitsToFloat(n), uintBitsToFloat(nbad));
+}
+
+// With USE_REUSE: the running mean of the camera ray's scatter distance t over the
+// pixel's samples that scattered (the depth that host/reproject.c moves it by).
+// Rule: t < 0 (the ray passed) and non-finite t leave the mean alone.
+void accumulate_depth(uint idx, float t) {
+    if (!USE_REUSE || !(t >= 0.0) || isinf(t)) return;
+    vec2 d = accum_depth[idx];
+    uint n = floatBitsToUint(d.y) + 1u;
+    accum_depth[idx] = vec2(d.x + (t - d.x) / float(n), uintBitsToFloat(n));
 }
 
 // Rule: a non-finite sample (only possible from extreme user input overflowing float)

@@ -50,4 +50,5 @@ void main() {
         radiance = hit ? cache_error_sample(e.x, radiance, e.rng, e.truncated) : vec3(0.0);
     count_events(1u);
     accumulate_sample(e.idx, radiance, coverage, e.truncated);
+    accumulate_depth(e.idx, e.t);
 }

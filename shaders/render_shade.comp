@@ -22,4 +22,5 @@ void main() {
     }
     count_events(events);
     accumulate_sample(e.idx, L, coverage, e.truncated);
+    accumulate_depth(e.idx, e.t);
 }

@@ -923,6 +923,9 @@ void test_create_config_errors(void **state) {
     CFG_ROW("scheduler.priorities 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.priorities = (picvr_switch)7);
     CFG_ROW("scheduler.frames 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.frames = (picvr_switch)7);
     CFG_ROW("scheduler.frames -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.frames = (picvr_switch)-1);
+    CFG_ROW("scheduler.temporal_reuse 3", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.temporal_reuse = (picvr_switch)3);
+    CFG_ROW("scheduler.reuse_history 2^20+1", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.reuse_history = (1u << 20) + 1);
+    CFG_ROW("scheduler.reuse_history UINT32_MAX", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.reuse_history = UINT32_MAX);
     CFG_ROW("scheduler.create_min NaN", PICVR_ERROR_NON_FINITE, cfg.scheduler.create_min = NAN);
     CFG_ROW("scheduler.create_max Inf", PICVR_ERROR_NON_FINITE, cfg.scheduler.create_max = INFINITY);
     CFG_ROW("scheduler.create_min -0.1", PICVR_ERROR_INVALID_ARGUMENT, cfg.scheduler.create_min = -0.1f);
@@ -1004,6 +1007,8 @@ void test_get_config_resolves_defaults(void **state) {
     assert_true(c.scheduler.hit_rate_window_ms == 100.0f);
     assert_int_equal(c.scheduler.priorities, PICVR_SWITCH_ON);
     assert_int_equal(c.scheduler.frames, PICVR_SWITCH_OFF);
+    assert_int_equal(c.scheduler.temporal_reuse, PICVR_SWITCH_OFF);
+    assert_int_equal(c.scheduler.reuse_history, 16);
     assert_non_null(c.vulkan.instance);
     assert_non_null(c.vulkan.physical_device);
     assert_non_null(c.vulkan.device);

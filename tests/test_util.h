@@ -194,7 +194,10 @@
     X(test_frames_turned_on_later)                                  \
     X(test_step_begin_end)                                          \
     X(test_write_image_formats)                                     \
-    X(test_write_image_bad_targets)
+    X(test_write_image_bad_targets)                                 \
+    X(test_reuse_moves_the_image)                                   \
+    X(test_reuse_lowers_the_error_of_moving_frames)                 \
+    X(test_reuse_extreme_moves)
 
 #define TU_DECLARE(name) void name(void **state);
 TU_ALL_TESTS(TU_DECLARE)

@@ -113,14 +113,16 @@ expect 2 "bad value for --frames" $F --frames -2
 expect 2 "bad value for --frame-ms" $F --frames 2 --frame-ms -1
 expect 2 "bad value for --frame-ms" $F --frames 2 --frame-ms nan
 expect 2 "bad value for --orbit" $F --frames 2 --orbit inf
-expect 0 "mean_luminance" $F --frames 4 --frame-ms 0 --orbit 30 --json "$T/frames.json"
+expect 2 "bad value for --reuse" $F --frames 2 --reuse maybe
+expect 0 "mean_luminance" $F --frames 4 --frame-ms 0 --orbit 30 --reuse on --json "$T/frames.json"
 for key in '"pixels_unsampled": 0' '"count": 4' '"orbit_degrees": 30' '"pixels_unsampled_max": 0' \
+           '"temporal_reuse": "on"' '"reuse_history": 16' \
            '"per_frame": \[{"ms": '; do
     if grep -q -e "$key" "$T/frames.json"; then pass=$((pass + 1)); else
         fail=$((fail + 1)); echo "check_cli: FAIL: --json lacks $key"; fi
 done
 for key in '--bounces N|unlimited' '--g G' '--phase-back G,W' '--env FILE' '--env-rotate DEG' \
-           '--env-intensity X' 'sun-sky' 'cloud-iso' '--frames N' '--frame-ms MS' '--orbit DEG'; do
+           '--env-intensity X' 'sun-sky' 'cloud-iso' '--frames N' '--frame-ms MS' '--orbit DEG' '--reuse on|off'; do
     expect 0 "$key" --help
 done
 

@@ -61,4 +61,24 @@ WRAP
         -I. -I"$D" -o "$D/$name-cpp" "$D/$name.cpp" "$LIB" -lvulkan -lm
     PICVR_VALIDATION=1 "$D/$name-cpp" > "$D/$name-cpp.out"
 done
-echo "check_examples: the header's and the README's examples compile and run, as C and as C++"
+# The README's engine example (the first ```cpp block): it needs a window and a swapchain
+# (examples/viewer.cpp runs it for real, tools/check_viewer.sh tests that), so here it is
+# compiled only, against the current API, with the engine's objects as parameters.
+awk '/^```cpp$/ { on = 1; next } on && /^```$/ { exit } on' README.md |
+    grep -v -e '^#include' -e '^#define PICVR_IMPLEMENTATION' > "$D/readme_engine.inc"
+if [ ! -s "$D/readme_engine.inc" ]; then echo "check_examples: readme_engine not found" >&2; exit 1; fi
+cat > "$D/readme_engine.cpp" <<WRAP
+#include <vulkan/vulkan.h>
+#include "picvr.h"
+void engine_work();
+void present(VkSemaphore rendered);
+int engine_example(VkInstance instance, VkPhysicalDevice physical_device, VkDevice device, VkQueue queue,
+                   uint32_t queue_family, const picvr_volume_desc &cloud, const picvr_tf_point *tf,
+                   uint32_t tf_count, const picvr_light &sun, const picvr_background &sky,
+                   const picvr_camera &camera, VkImage swapchain_image, uint32_t width, uint32_t height,
+                   VkSemaphore acquired, VkSemaphore rendered) {
+#include "readme_engine.inc"
+}
+WRAP
+$CXX -std=c++17 -fsyntax-only -Wall -Wextra -Wpedantic -Wshadow -Werror -I. -I"$D" "$D/readme_engine.cpp"
+echo "check_examples: the header's and the README's examples compile and run, as C and as C++; the README's engine example compiles"

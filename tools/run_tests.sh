@@ -40,6 +40,9 @@ else
 fi
 "$B/picvr-bench-error" --self-test
 count bench-self-test $?
+# the viewer under Xvfb, its screenshots against picvr-render's images
+DATA=${DATA:-} sh tools/check_viewer.sh "$B"
+count check-viewer $?
 # the test suite: cmocka's own summary, "[  PASSED  ] N test(s)." / "[  FAILED  ] N test(s)"
 log=$B/picvr-tests.log
 (cd "$B" && PICVR_VALIDATION=1 PICVR_DATA="$DATA" ./picvr-tests; echo $? > picvr-tests.rc) 2>&1 | tee "$log"
