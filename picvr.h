@@ -293,10 +293,13 @@ typedef struct picvr_scheduler_config {
                                   pixel; pixels nothing lands on (disoccluded, newly in
                                   view) start empty.  A moved pixel keeps at most
                                   reuse_history samples' weight, so that the view-dependent
-                                  error of old samples fades as new ones come: the image
-                                  is then biased by the motion, never by a still camera.
-                                  Costs 24 bytes per pixel (a depth plane and the previous
-                                  planes); OFF allocates none.  DEFAULT: OFF */
+                                  error of old samples fades as new ones come: after a
+                                  move the image is biased, by at most h / (h + N) of
+                                  the moved samples' error after N new samples (it
+                                  converges); a camera that never moved, not at all.
+                                  Costs 8 bytes per pixel (a depth plane), and 60 more
+                                  from the first move on (the previous view's planes, a
+                                  landing buffer); OFF allocates none.  DEFAULT: OFF */
     uint32_t reuse_history;    /* the most samples a reprojected pixel keeps; 0: 16;
                                   at most 1 << 20 */
 } picvr_scheduler_config;

@@ -20,6 +20,8 @@
 #   5. paths.tgz   with PATHS=1: the path tracer's error against run time with 0, 1, 4 and
 #                  unlimited bounces, cloud under sun and sky and bonsai, 256x256 (make
 #                  bench-paths, shortened: about 3 min; docs/paths.md)
+#   6. frames.tgz  with FRAMES=1: 120 orbiting 16 ms frames of the cloud at 1280x720,
+#                  temporal reuse off and on, true error at 4 frames (docs/engines.md)
 #
 # usage (device machine, repo root, build/ and .gpu/ carried): sh bench/gpu_session.sh OUT [SECS]
 # env:   B (default build), DATA (default .gpu: the volumes and libvulkan1's .deb),
@@ -122,5 +124,12 @@ if [ "${PATHS:-0}" = 1 ]; then
         --time 4000 --slice 250 --ref-time 16000 --ref-chunks 4 --bounces 0,1,4,unlimited \
         --out "$W/paths" | tail -14
     pack paths
+fi
+if [ "${FRAMES:-0}" = 1 ]; then
+    stage "6 engines: orbiting 16 ms frames of the cloud at 1280x720, temporal reuse off and on"
+    mkdir -p "$W/frames"
+    timeout 300 "$B/picvr-bench-sampling" --data "$DATA" --scenes cloud-sky --size 1280x720 --frames 120 \
+        --frame-ms 16 --orbit 0.5 --checkpoints 4 --ref-time 30000 --ref-chunks 3 --out "$W/frames" | tail -8
+    pack frames
 fi
 stage "done"
