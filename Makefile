@@ -84,8 +84,10 @@ $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.
 	$(CC) $(CFLAGS) -O3 -fopenmp -c -o $@ $<
 
 $(B)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
-              shaders/cache_math.glsl shaders/sampling_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -fopenmp -o $@ $(TEST_SRC) $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lcmocka
+              shaders/cache_math.glsl shaders/sampling_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a \
+              examples/volume_io.c examples/volume_io.h
+	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a \
+	  $(LDLIBS) -lcmocka -lz
 
 $(B)/picvr-bench-speed: bench/bench_speed.c $(CLI_SRC) examples/volume_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/cli.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
@@ -260,8 +262,9 @@ $(BA)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr
 	@mkdir -p $(BA)
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -O2 -fopenmp -c -o $@ $<
 $(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
-              tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -o $@ $(TEST_SRC) tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl
+              tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a examples/volume_io.c examples/volume_io.h
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) examples/volume_io.c tests/asan_keep_drivers.c \
+	  $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl -lz
 $(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) examples/volume_io.h examples/presets.h examples/env_io.h \
               tests/asan_keep_drivers.c $(BA)/libpicvr.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ $(RENDER_SRC) tests/asan_keep_drivers.c $(BA)/libpicvr.a $(LDLIBS) -lstb -lz -ldl
@@ -299,7 +302,7 @@ $(BF)/fuzz_env_io: tests/fuzz/fuzz_env_io.c examples/env_io.c examples/env_io.h 
 fuzz: deps-robust $(BF)/fuzz_volume_io $(BF)/fuzz_env_io
 	@mkdir -p $(BF)/corpus $(BF)/corpus_env
 	cd $(BF) && ./fuzz_volume_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
-	  -max_len=8192 -print_final_stats=1 corpus $(abspath tests/fuzz/corpus)
+	  -max_len=8192 -print_final_stats=1 -dict=$(abspath tests/fuzz/volume_io.dict) corpus $(abspath tests/fuzz/corpus)
 	cd $(BF) && ./fuzz_env_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
 	  -max_len=8192 -print_final_stats=1 -dict=$(abspath tests/fuzz/env_io.dict) \
 	  corpus_env $(abspath tests/fuzz/corpus_env)

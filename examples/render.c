@@ -73,6 +73,8 @@ static void print_help(FILE *f)
         "  --spacing X,Y,Z        world size of a voxel (default 1,1,1)\n"
         "  --range MIN,MAX        data values mapped to 0..1 (default: the type's range;\n"
         "                         the data's min..max for f32)\n"
+        "  --range auto           from the data: its 0.5th and 99.5th percentiles (a CT's\n"
+        "                         air and its densest tissue, whatever their units)\n"
         "look\n"
         "  --tf PRESET            transfer function (default ramp)\n"
         "  --density D            override the preset's density factor D (per world unit)\n"
@@ -263,8 +265,14 @@ static int apply_scene_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "type")) return o->have_type = pvio_parse_type(value, &o->type) == PVIO_OK;
     if (!strcmp(name, "spacing"))
         return o->have_spacing = pvc_parse_floats(value, 3, o->spacing) && positive_all(o->spacing, 3);
-    if (!strcmp(name, "range"))
+    if (!strcmp(name, "range") && !strcmp(value, "auto")) {   /* the last --range wins */
+        o->have_range = 0;
+        return o->range_auto = 1;
+    }
+    if (!strcmp(name, "range")) {
+        o->range_auto = 0;
         return o->have_range = pvc_parse_floats(value, 2, o->range) && o->range[0] < o->range[1];
+    }
     if (!strcmp(name, "density"))
         return o->have_density = pvc_parse_float(value, &o->density) && o->density >= 0.0f;
     if (!strcmp(name, "camera")) return parse_camera(value, o);
@@ -434,6 +442,13 @@ static int parse_options(int argc, char **argv, render_options *o)
 static int resolve_layout(const render_options *o, pvio_layout *layout)
 {
     char err[512];
+    if (pvio_is_nrrd(o->volume_path)) {   /* the header gives the layout (render: NULL) */
+        if (o->have_dims || o->have_type) {
+            pvc_fail("%s: --dims and --type come from the NRRD header", o->volume_path);
+            return 0;
+        }
+        return 1;
+    }
     if (!(o->have_dims && o->have_type)) {
         if (pvio_parse_name(o->volume_path, layout, err, sizeof err) != PVIO_OK) {
             pvc_fail("%s", err);
@@ -713,6 +728,13 @@ static int load_volume(const render_options *o, const pvio_layout *layout, pvio_
         return 0;
     }
     if (o->have_spacing) memcpy(vol->spacing, o->spacing, sizeof vol->spacing);
+    static const float identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    for (int i = 0; i < 9; i++)
+        if (fabsf(vol->direction[i] - identity[i]) > 1e-6f) {
+            fprintf(stderr, "picvr-render: %s: the volume's axes are not the world's; it is rendered axis-aligned "
+                            "(picvr does not apply an orientation yet)\n", o->volume_path);
+            break;
+        }
     return 1;
 }
 
@@ -723,6 +745,16 @@ static int upload_volume(picvr_context *ctx, const render_options *o, const pvio
     if (o->have_range) {
         desc.value_min = o->range[0];
         desc.value_max = o->range[1];
+    }
+    if (o->range_auto) {
+        double lo, hi;
+        if (pvio_percentile_range(vol, 0.005, 0.995, &lo, &hi) != PVIO_OK) {
+            pvc_fail("--range auto: the volume has no finite value");
+            return 0;
+        }
+        desc.value_min = (float)lo;
+        desc.value_max = (float)hi;
+        if (!o->quiet) fprintf(stderr, "picvr-render: --range auto: %g,%g\n", lo, hi);
     }
     return pvc_check(picvr_upload_volume(ctx, &desc), "picvr_upload_volume");
 }
@@ -845,7 +877,8 @@ static int render(const render_options *o, const pvio_layout *layout)
     int ok = !o->log_path || open_log(o->log_path, &r.log);
     /* The files first: a bad file should not cost a Vulkan start-up.  The host copies
        are freed right after the upload (picvr keeps its own). */
-    pvio_volume vol = {{0, 0, 0}, PICVR_VOXEL_UINT8, {0, 0, 0}, NULL, 0};
+    pvio_volume vol;
+    memset(&vol, 0, sizeof vol);
     env_map env = {NULL, 0, 0};
     ok = ok && (!o->env_path || load_env(o->env_path, &env));
     ok = ok && load_volume(o, layout, &vol);
@@ -882,5 +915,5 @@ int main(int argc, char **argv)
     if (status >= 0) return status;
     pvio_layout layout;
     if (!resolve_layout(&o, &layout)) return EXIT_USAGE;
-    return render(&o, &layout);
+    return render(&o, pvio_is_nrrd(o.volume_path) ? NULL : &layout);
 }

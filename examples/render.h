@@ -17,6 +17,7 @@ typedef struct render_options {
     picvr_voxel_type type;
     float spacing[3];
     float range[2];
+    int range_auto;            /* --range auto: the data's 0.5th and 99.5th percentiles */
     const char *tf_name, *lights_name;
     float density;
     int have_bounces, have_g;

@@ -266,7 +266,7 @@ static int parse_options(int argc, char **argv, viewer_options *o)
 struct viewer {
     viewer_options opt;
     /* host copies kept for the life of the program: a new context (key C) uploads again */
-    pvio_volume volume = {{0, 0, 0}, PICVR_VOXEL_UINT8, {0, 0, 0}, nullptr, 0};
+    pvio_volume volume = {};
     float *env_rgb = nullptr;
     uint32_t env_width = 0, env_height = 0;
 
@@ -1177,13 +1177,19 @@ static bool load_files(viewer &v)
 {
     char err[8192];
     pvio_layout layout;
-    if (!(v.opt.have_dims && v.opt.have_type) && pvio_parse_name(v.opt.volume_path, &layout, err, sizeof err) != PVIO_OK) {
+    const bool nrrd = pvio_is_nrrd(v.opt.volume_path);   /* its header gives the layout */
+    if (nrrd && (v.opt.have_dims || v.opt.have_type)) {
+        pvc_fail("%s: --dims and --type come from the NRRD header", v.opt.volume_path);
+        return false;
+    }
+    if (!nrrd && !(v.opt.have_dims && v.opt.have_type) &&
+        pvio_parse_name(v.opt.volume_path, &layout, err, sizeof err) != PVIO_OK) {
         pvc_fail("%s", err);
         return false;
     }
     if (v.opt.have_dims) memcpy(layout.dims, v.opt.dims, sizeof layout.dims);
     if (v.opt.have_type) layout.type = v.opt.type;
-    if (pvio_load(v.opt.volume_path, &layout, &v.volume, err, sizeof err) != PVIO_OK) {
+    if (pvio_load(v.opt.volume_path, nrrd ? nullptr : &layout, &v.volume, err, sizeof err) != PVIO_OK) {
         pvc_fail("%s", err);
         return false;
     }

@@ -11,7 +11,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <zlib.h>
 
@@ -52,6 +54,7 @@ const char *pvio_status_string(pvio_status status)
     case PVIO_ERROR_TRUNCATED: return "PVIO_ERROR_TRUNCATED";
     case PVIO_ERROR_TOO_LONG: return "PVIO_ERROR_TOO_LONG";
     case PVIO_ERROR_OUT_OF_MEMORY: return "PVIO_ERROR_OUT_OF_MEMORY";
+    case PVIO_ERROR_BAD_HEADER: return "PVIO_ERROR_BAD_HEADER";
     case PVIO_STATUS_COUNT: break;
     }
     return "PVIO_ERROR_UNKNOWN_STATUS";
@@ -421,6 +424,399 @@ static pvio_status read_volume_file(const char *path, size_t expected, unsigned 
     return PVIO_OK;
 }
 
+/* ---- NRRD (.nrrd with the data attached, .nhdr with a detached data file) -------------
+ * A reader of the documented format (teem.sourceforge.net/nrrd/format.html), for the
+ * subset volumes use: magic NRRD0001..NRRD0005; dimension 3; the sizes; a type picvr
+ * holds (int8, uint8, int16, uint16, int32, float, double; uint32 and 64-bit integers
+ * are refused); encoding raw or gzip; endian; spacings or space directions (their
+ * lengths are the spacing, their unit vectors the orientation) and space origin; a data
+ * file relative to the header's folder; byte skip (>= 0, or -1 for raw: the data ends
+ * the file).  Comments (#) and key:=value pairs are skipped, fields the renderer does
+ * not use (kinds, units, labels, ...) ignored.  Everything else is refused with a
+ * message, never guessed. */
+
+#define NRRD_MAX_HEADER 65536   /* bytes of header read at most */
+#define NRRD_MAX_LINE 4096
+
+typedef struct nrrd_header {
+    int dimension, have_sizes, have_type, have_encoding, gzip, big_endian, have_endian;
+    uint32_t dims[3];
+    picvr_voxel_type type;
+    double spacing[3], direction[9], origin[3];
+    int have_directions, have_origin;
+    long long byte_skip;
+    char data_file[1024];
+} nrrd_header;
+
+static const char *trim(char *s)
+{
+    while (*s == ' ' || *s == '\t') s++;
+    size_t n = strlen(s);
+    while (n > 0 && (s[n - 1] == ' ' || s[n - 1] == '\t' || s[n - 1] == '\r' || s[n - 1] == '\n')) s[--n] = '\0';
+    return s;
+}
+
+static int nrrd_type(const char *v, picvr_voxel_type *t)
+{
+    static const struct { const char *name; picvr_voxel_type type; } names[] = {
+        {"signed char", PICVR_VOXEL_INT8}, {"int8", PICVR_VOXEL_INT8}, {"int8_t", PICVR_VOXEL_INT8},
+        {"uchar", PICVR_VOXEL_UINT8}, {"unsigned char", PICVR_VOXEL_UINT8}, {"uint8", PICVR_VOXEL_UINT8},
+        {"uint8_t", PICVR_VOXEL_UINT8}, {"short", PICVR_VOXEL_INT16}, {"short int", PICVR_VOXEL_INT16},
+        {"signed short", PICVR_VOXEL_INT16}, {"signed short int", PICVR_VOXEL_INT16}, {"int16", PICVR_VOXEL_INT16},
+        {"int16_t", PICVR_VOXEL_INT16}, {"ushort", PICVR_VOXEL_UINT16}, {"unsigned short", PICVR_VOXEL_UINT16},
+        {"unsigned short int", PICVR_VOXEL_UINT16}, {"uint16", PICVR_VOXEL_UINT16}, {"uint16_t", PICVR_VOXEL_UINT16},
+        {"int", PICVR_VOXEL_INT32}, {"signed int", PICVR_VOXEL_INT32}, {"int32", PICVR_VOXEL_INT32},
+        {"int32_t", PICVR_VOXEL_INT32}, {"float", PICVR_VOXEL_FLOAT32}, {"double", PICVR_VOXEL_FLOAT64}};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        if (!strcmp(v, names[i].name)) {
+            *t = names[i].type;
+            return 1;
+        }
+    return 0;
+}
+
+/* "(a,b,c)" into v[3]; 0 unless three finite numbers. */
+static int nrrd_vector(const char **p, double v[3])
+{
+    const char *s = *p;
+    while (*s == ' ' || *s == '\t') s++;
+    if (*s++ != '(') return 0;
+    for (int i = 0; i < 3; i++) {
+        char *end;
+        errno = 0;
+        v[i] = strtod(s, &end);
+        if (end == s || errno == ERANGE || !isfinite(v[i])) return 0;
+        s = end;
+        while (*s == ' ' || *s == '\t') s++;
+        if (*s++ != (i < 2 ? ',' : ')')) return 0;
+    }
+    *p = s;
+    return 1;
+}
+
+/* Three numbers separated by blanks: finite and positive (spacings) or >= 1 (sizes). */
+static int nrrd_numbers(const char *s, double v[3], int sizes)
+{
+    for (int i = 0; i < 3; i++) {
+        char *end;
+        errno = 0;
+        v[i] = strtod(s, &end);
+        if (end == s || errno == ERANGE || !isfinite(v[i]) || !(v[i] > 0.0)) return 0;
+        if (sizes && (v[i] != floor(v[i]) || v[i] > PVIO_MAX_DIM)) return 0;
+        s = end;
+    }
+    while (*s == ' ' || *s == '\t') s++;
+    return *s == '\0';
+}
+
+static pvio_status nrrd_field(nrrd_header *h, const char *key, const char *v, const char *path, char *err, size_t err_size)
+{
+    double n[3];
+    if (!strcmp(key, "dimension")) {
+        if (strcmp(v, "3")) {
+            set_error(err, err_size, "%s: NRRD dimension %s: picvr reads 3-dimensional volumes", path, v);
+            return PVIO_ERROR_BAD_DIMS;
+        }
+        h->dimension = 3;
+    } else if (!strcmp(key, "sizes")) {
+        if (!nrrd_numbers(v, n, 1)) {
+            set_error(err, err_size, "%s: NRRD sizes '%s': three sizes in 1..%u", path, v, PVIO_MAX_DIM);
+            return PVIO_ERROR_BAD_DIMS;
+        }
+        for (int i = 0; i < 3; i++) h->dims[i] = (uint32_t)n[i];
+        h->have_sizes = 1;
+    } else if (!strcmp(key, "type")) {
+        if (!nrrd_type(v, &h->type)) {
+            set_error(err, err_size, "%s: NRRD type '%s' is not one picvr holds", path, v);
+            return PVIO_ERROR_BAD_TYPE;
+        }
+        h->have_type = 1;
+    } else if (!strcmp(key, "encoding")) {
+        if (!strcmp(v, "raw")) h->gzip = 0;
+        else if (!strcmp(v, "gzip") || !strcmp(v, "gz")) h->gzip = 1;
+        else {
+            set_error(err, err_size, "%s: NRRD encoding '%s' is not read (raw and gzip are)", path, v);
+            return PVIO_ERROR_BAD_HEADER;
+        }
+        h->have_encoding = 1;
+    } else if (!strcmp(key, "endian")) {
+        if (strcmp(v, "little") && strcmp(v, "big")) {
+            set_error(err, err_size, "%s: NRRD endian '%s'", path, v);
+            return PVIO_ERROR_BAD_HEADER;
+        }
+        h->big_endian = !strcmp(v, "big");
+        h->have_endian = 1;
+    } else if (!strcmp(key, "spacings")) {
+        if (!nrrd_numbers(v, n, 0)) {
+            set_error(err, err_size, "%s: NRRD spacings '%s': three positive numbers", path, v);
+            return PVIO_ERROR_BAD_DIMS;
+        }
+        for (int i = 0; i < 3; i++) h->spacing[i] = n[i];
+    } else if (!strcmp(key, "space directions")) {
+        const char *s = v;
+        for (int a = 0; a < 3; a++) {
+            double d[3];
+            double len = nrrd_vector(&s, d) ? sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) : 0.0;
+            if (!(len > 0.0) || !isfinite(len)) {
+                set_error(err, err_size, "%s: NRRD space directions '%s': three non-zero vectors (a,b,c)", path, v);
+                return PVIO_ERROR_BAD_DIMS;
+            }
+            h->spacing[a] = len;
+            for (int c = 0; c < 3; c++) h->direction[3 * a + c] = d[c] / len;
+        }
+        h->have_directions = 1;
+    } else if (!strcmp(key, "space origin")) {
+        const char *s = v;
+        if (!nrrd_vector(&s, h->origin)) {
+            set_error(err, err_size, "%s: NRRD space origin '%s': (x,y,z)", path, v);
+            return PVIO_ERROR_BAD_DIMS;
+        }
+        h->have_origin = 1;
+    } else if (!strcmp(key, "byte skip")) {
+        char *end;
+        errno = 0;
+        h->byte_skip = strtoll(v, &end, 10);
+        if (end == v || *end || errno == ERANGE || h->byte_skip < -1) {
+            set_error(err, err_size, "%s: NRRD byte skip '%s'", path, v);
+            return PVIO_ERROR_BAD_HEADER;
+        }
+    } else if (!strcmp(key, "line skip") || !strcmp(key, "lineskip")) {
+        if (strcmp(v, "0")) {
+            set_error(err, err_size, "%s: NRRD line skip %s is not read", path, v);
+            return PVIO_ERROR_BAD_HEADER;
+        }
+    } else if (!strcmp(key, "data file") || !strcmp(key, "datafile")) {
+        if (!*v || strlen(v) >= sizeof h->data_file || !strcmp(v, "LIST") || strchr(v, '%')) {
+            set_error(err, err_size, "%s: NRRD data file '%s' is not read (one file name is)", path, v);
+            return PVIO_ERROR_BAD_HEADER;
+        }
+        snprintf(h->data_file, sizeof h->data_file, "%s", v);
+    }
+    return PVIO_OK;   /* other fields describe what picvr does not use */
+}
+
+/* Reads the header: fields until the blank line (attached data follows it) or the end
+   of the file (.nhdr); *data_at is the offset after the blank line. */
+static pvio_status nrrd_read_header(FILE *f, const char *path, nrrd_header *h, long *data_at, char *err, size_t err_size)
+{
+    char line[NRRD_MAX_LINE];
+    memset(h, 0, sizeof *h);
+    h->spacing[0] = h->spacing[1] = h->spacing[2] = 1.0;
+    h->direction[0] = h->direction[4] = h->direction[8] = 1.0;
+    if (!fgets(line, sizeof line, f) || strncmp(line, "NRRD000", 7) || line[7] < '1' || line[7] > '5' ||
+        (line[8] != '\n' && line[8] != '\r')) {
+        set_error(err, err_size, "%s: not a NRRD file (no NRRD0001..NRRD0005 magic line)", path);
+        return PVIO_ERROR_BAD_HEADER;
+    }
+    while (fgets(line, sizeof line, f)) {
+        long at = ftell(f);
+        if (at < 0 || at > NRRD_MAX_HEADER || !strchr(line, '\n')) {
+            set_error(err, err_size, "%s: NRRD header line too long, or header over %d bytes", path, NRRD_MAX_HEADER);
+            return PVIO_ERROR_BAD_HEADER;
+        }
+        if (line[0] == '\n' || (line[0] == '\r' && line[1] == '\n')) {
+            *data_at = at;
+            return PVIO_OK;
+        }
+        if (line[0] == '#') continue;
+        if (strstr(line, ":=")) continue;   /* key/value pairs */
+        char *colon = strstr(line, ": ");
+        if (!colon) {
+            set_error(err, err_size, "%s: NRRD header line without 'field: value': %.60s", path, trim(line));
+            return PVIO_ERROR_BAD_HEADER;
+        }
+        *colon = '\0';
+        pvio_status st = nrrd_field(h, trim(line), trim(colon + 2), path, err, err_size);
+        if (st != PVIO_OK) return st;
+    }
+    if (ferror(f)) {
+        set_error(err, err_size, "%s: read error: %s", path, strerror(errno));
+        return PVIO_ERROR_READ;
+    }
+    *data_at = -1;   /* no blank line: a detached header */
+    return PVIO_OK;
+}
+
+/* Exactly `expected` bytes of fd from its position, then the end of the file. */
+static pvio_status read_raw_exact(int fd, const char *path, size_t expected, unsigned char **out, char *err, size_t err_size)
+{
+    unsigned char *buf = malloc(expected ? expected : 1);
+    if (!buf) {
+        set_error(err, err_size, "%s: out of memory for %zu bytes", path, expected);
+        return PVIO_ERROR_OUT_OF_MEMORY;
+    }
+    size_t have = 0;
+    while (have < expected) {
+        size_t want = expected - have < MAX_READ_CHUNK ? expected - have : MAX_READ_CHUNK;
+        ssize_t n = read(fd, buf + have, want);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) {
+            set_error(err, err_size, "%s: read error: %s", path, strerror(errno));
+            free(buf);
+            return PVIO_ERROR_READ;
+        }
+        if (n == 0) {
+            set_error(err, err_size, "%s: truncated: %zu data bytes, the header needs %zu", path, have, expected);
+            free(buf);
+            return PVIO_ERROR_TRUNCATED;
+        }
+        have += (size_t)n;
+    }
+    unsigned char extra;
+    if (read(fd, &extra, 1) > 0) {
+        set_error(err, err_size, "%s: too long: more than the %zu data bytes the header gives", path, expected);
+        free(buf);
+        return PVIO_ERROR_TOO_LONG;
+    }
+    *out = buf;
+    return PVIO_OK;
+}
+
+/* The data of header h in file `path` from byte `offset`: raw or gzip, byte skip
+   applied (to the file for raw, to the decompressed stream for gzip). */
+static pvio_status nrrd_read_data(const char *path, long offset, const nrrd_header *h, size_t expected,
+                                  unsigned char **out, char *err, size_t err_size)
+{
+    int fd = open(path, O_RDONLY);
+    if (fd < 0) {
+        set_error(err, err_size, "%s: %s", path, strerror(errno));
+        return PVIO_ERROR_OPEN;
+    }
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        set_error(err, err_size, "%s: not a regular file", path);
+        close(fd);
+        return PVIO_ERROR_OPEN;
+    }
+    long long skip = h->byte_skip;
+    if (skip == -1 && h->gzip) {
+        set_error(err, err_size, "%s: NRRD byte skip -1 with gzip encoding (the format forbids it)", path);
+        close(fd);
+        return PVIO_ERROR_BAD_HEADER;
+    }
+    if (!h->gzip) {   /* raw: the skip is in the file; -1: the data ends it */
+        /* Rule: a skip past the file's end (also one that would overflow) is truncation. */
+        long long start = skip == -1 ? (long long)st.st_size - (long long)expected
+                        : skip > (long long)st.st_size ? -1 : offset + skip;
+        if (start < offset || lseek(fd, (off_t)start, SEEK_SET) < 0) {
+            set_error(err, err_size, "%s: truncated: the file is shorter than its %zu data bytes", path, expected);
+            close(fd);
+            return PVIO_ERROR_TRUNCATED;
+        }
+        pvio_status s = read_raw_exact(fd, path, expected, out, err, err_size);
+        close(fd);
+        return s;
+    }
+    if (lseek(fd, (off_t)offset, SEEK_SET) < 0) {
+        set_error(err, err_size, "%s: %s", path, strerror(errno));
+        close(fd);
+        return PVIO_ERROR_READ;
+    }
+    gzFile gz = gzdopen(fd, "rb");
+    if (!gz) {
+        close(fd);
+        set_error(err, err_size, "%s: out of memory", path);
+        return PVIO_ERROR_OUT_OF_MEMORY;
+    }
+    size_t total = expected + (size_t)skip, have = 0;
+    unsigned char *buf = NULL;
+    pvio_status s = total < expected ? PVIO_ERROR_SIZE_OVERFLOW : read_up_to(gz, path, total, &buf, &have, err, err_size);
+    if (s == PVIO_OK && gzdirect(gz)) {
+        set_error(err, err_size, "%s: the NRRD data is not gzip although the header says so", path);
+        s = PVIO_ERROR_READ;
+    }
+    if (s == PVIO_OK) s = check_end_of_data(gz, path, have, total, err, err_size);
+    gzclose(gz);   /* closes fd */
+    if (s != PVIO_OK) {
+        free(buf);
+        return s;
+    }
+    if (skip > 0) memmove(buf, buf + skip, expected);
+    *out = buf;
+    return PVIO_OK;
+}
+
+/* The detached data file's path: relative names are next to the header. */
+static void nrrd_data_path(const char *header_path, const char *name, char *out, size_t size)
+{
+    const char *slash = strrchr(header_path, '/');
+    if (name[0] == '/' || !slash) snprintf(out, size, "%s", name);
+    else snprintf(out, size, "%.*s/%s", (int)(slash - header_path), header_path, name);
+}
+
+static void swap_bytes(unsigned char *data, size_t bytes, size_t voxel_size)
+{
+    for (size_t i = 0; i + voxel_size <= bytes; i += voxel_size)
+        for (size_t a = 0, b = voxel_size - 1; a < b; a++, b--) {
+            unsigned char t = data[i + a];
+            data[i + a] = data[i + b];
+            data[i + b] = t;
+        }
+}
+
+int pvio_is_nrrd(const char *path)
+{
+    size_t n = path ? strlen(path) : 0;
+    return n && (piece_ends_with(path, n, ".nrrd") || piece_ends_with(path, n, ".nhdr"));
+}
+
+pvio_status pvio_load_nrrd(const char *path, pvio_volume *volume, char *err, size_t err_size)
+{
+    if (volume) memset(volume, 0, sizeof *volume);
+    if (!path || !volume) {
+        set_error(err, err_size, "no file name or output given");
+        return PVIO_ERROR_NULL_POINTER;
+    }
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        set_error(err, err_size, "%s: %s", path, strerror(errno));
+        return PVIO_ERROR_OPEN;
+    }
+    nrrd_header h;
+    long data_at = -1;
+    pvio_status st = nrrd_read_header(f, path, &h, &data_at, err, err_size);
+    fclose(f);
+    if (st != PVIO_OK) return st;
+    if (!h.dimension || !h.have_sizes || !h.have_type || !h.have_encoding) {
+        set_error(err, err_size, "%s: the NRRD header lacks one of dimension, sizes, type, encoding", path);
+        return PVIO_ERROR_BAD_HEADER;
+    }
+    size_t vs = pvio_voxel_size(h.type);
+    if (vs > 1 && !h.have_endian) {
+        set_error(err, err_size, "%s: the NRRD header gives no endian for %zu-byte voxels", path, vs);
+        return PVIO_ERROR_BAD_HEADER;
+    }
+    pvio_layout layout = {{h.dims[0], h.dims[1], h.dims[2]}, h.type};
+    size_t bytes = 0;
+    if ((st = pvio_layout_bytes(&layout, &bytes, err, err_size)) != PVIO_OK) return st;
+    char data_path[4096];
+    if (h.data_file[0]) nrrd_data_path(path, h.data_file, data_path, sizeof data_path);
+    else if (data_at < 0) {
+        set_error(err, err_size, "%s: a NRRD header without data: no blank line and no data file", path);
+        return PVIO_ERROR_TRUNCATED;
+    }
+    unsigned char *data = NULL;
+    st = nrrd_read_data(h.data_file[0] ? data_path : path, h.data_file[0] ? 0 : data_at, &h, bytes, &data, err, err_size);
+    if (st != PVIO_OK) return st;
+    if (vs > 1 && h.big_endian == host_is_little_endian()) swap_bytes(data, bytes, vs);
+    memcpy(volume->dims, h.dims, sizeof volume->dims);
+    volume->type = h.type;
+    for (int i = 0; i < 3; i++) {
+        volume->spacing[i] = (float)h.spacing[i];
+        volume->origin[i] = (float)h.origin[i];
+    }
+    for (int i = 0; i < 9; i++) volume->direction[i] = (float)h.direction[i];
+    volume->data = data;
+    volume->size = bytes;
+    if (!(volume->spacing[0] > 0.0f && volume->spacing[1] > 0.0f && volume->spacing[2] > 0.0f) ||
+        !isfinite(volume->spacing[0] + volume->spacing[1] + volume->spacing[2])) {
+        set_error(err, err_size, "%s: a spacing beyond float", path);
+        pvio_free(volume);
+        return PVIO_ERROR_BAD_DIMS;
+    }
+    return PVIO_OK;
+}
+
 pvio_status pvio_load(const char *path, const pvio_layout *layout, pvio_volume *volume,
                       char *err, size_t err_size)
 {
@@ -429,6 +825,7 @@ pvio_status pvio_load(const char *path, const pvio_layout *layout, pvio_volume *
         set_error(err, err_size, "no file name or output given");
         return PVIO_ERROR_NULL_POINTER;
     }
+    if (!layout && pvio_is_nrrd(path)) return pvio_load_nrrd(path, volume, err, err_size);
     pvio_layout from_name;
     if (!layout) {
         pvio_status st = pvio_parse_name(path, &from_name, err, err_size);
@@ -447,6 +844,7 @@ pvio_status pvio_load(const char *path, const pvio_layout *layout, pvio_volume *
     memcpy(volume->dims, layout->dims, sizeof volume->dims);
     volume->type = layout->type;
     volume->spacing[0] = volume->spacing[1] = volume->spacing[2] = 1.0f;
+    volume->direction[0] = volume->direction[4] = volume->direction[8] = 1.0f;
     volume->data = data;
     volume->size = bytes;
     return PVIO_OK;
@@ -483,6 +881,39 @@ static double voxel_value(picvr_voxel_type type, const unsigned char *p)
     case PICVR_VOXEL_FLOAT64: { double f; memcpy(&f, p, 8); return f; }
     }
     return NAN;
+}
+
+static int compare_doubles(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+pvio_status pvio_percentile_range(const pvio_volume *volume, double lo_frac, double hi_frac, double *lo, double *hi)
+{
+    if (!volume || !volume->data || !lo || !hi) return PVIO_ERROR_NULL_POINTER;
+    size_t voxel = pvio_voxel_size(volume->type);
+    if (voxel == 0) return PVIO_ERROR_BAD_TYPE;
+    if (!(lo_frac >= 0.0 && lo_frac < hi_frac && hi_frac <= 1.0)) return PVIO_ERROR_BAD_DIMS;
+    size_t count = volume->size / voxel, want = count < ((size_t)1 << 20) ? count : ((size_t)1 << 20);
+    double *v = (double *)malloc((want ? want : 1) * sizeof(double));
+    if (!v) return PVIO_ERROR_OUT_OF_MEMORY;
+    size_t n = 0;
+    for (size_t k = 0; k < want; k++) {   /* voxel k * count / want: evenly spaced, exact when want == count */
+        size_t i = (size_t)(((unsigned long long)k * count) / want);
+        double x = voxel_value(volume->type, (const unsigned char *)volume->data + voxel * i);
+        if (isfinite(x)) v[n++] = x;
+    }
+    if (n == 0) {
+        free(v);
+        return PVIO_ERROR_BAD_TYPE;
+    }
+    qsort(v, n, sizeof *v, compare_doubles);
+    *lo = v[(size_t)(lo_frac * (double)(n - 1) + 0.5)];
+    *hi = v[(size_t)(hi_frac * (double)(n - 1) + 0.5)];
+    if (!(*hi > *lo)) *hi = *lo + 1.0;   /* rule: one value (a constant volume) maps to [v, v + 1] */
+    free(v);
+    return PVIO_OK;
 }
 
 pvio_status pvio_value_range(const pvio_volume *volume, double *min, double *max,

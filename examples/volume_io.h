@@ -1,6 +1,7 @@
 /* volume_io.h - load headerless raw volumes (optionally gzip-compressed) for picvr.
  *
- * File names carry the layout, as in the Open SciVis data sets:
+ * NRRD files (.nrrd, .nhdr) carry their layout and geometry in their header
+ * (pvio_load_nrrd).  Raw files' names carry the layout, as in the Open SciVis data sets:
  *     NAME_XxYxZ_TYPE.raw  or  NAME_XxYxZ_TYPE.raw.gz
  * with TYPE one of uint8, uint16, float32, int8, int16, int32, float16, float64 (or
  * u8, u16, f32, i8, i16, i32, f16, f64), e.g.
@@ -37,6 +38,7 @@ typedef enum pvio_status {
     PVIO_ERROR_TRUNCATED,      /* fewer bytes than the layout needs */
     PVIO_ERROR_TOO_LONG,       /* more bytes than the layout needs */
     PVIO_ERROR_OUT_OF_MEMORY,
+    PVIO_ERROR_BAD_HEADER,     /* a NRRD header that is malformed or asks for what is not read */
     PVIO_STATUS_COUNT
 } pvio_status;
 
@@ -50,9 +52,12 @@ typedef struct pvio_layout {
 typedef struct pvio_volume {
     uint32_t dims[3];
     picvr_voxel_type type;
-    float spacing[3];          /* 1,1,1 after loading; the caller may change it */
+    float spacing[3];          /* the file's (NRRD), else 1,1,1; the caller may change it */
     void *data;                /* dims[0]*dims[1]*dims[2] voxels, x fastest, host order */
     size_t size;               /* bytes in data */
+    float origin[3];           /* world position of voxel 0's centre (NRRD space origin; 0) */
+    float direction[9];        /* unit vectors of the x, y, z axes in world space, three
+                                  floats each (NRRD space directions; else the identity) */
 } pvio_volume;
 
 /* A static English name for the status ("PVIO_OK", ...); never NULL. */
@@ -85,6 +90,17 @@ pvio_status pvio_parse_name(const char *path, pvio_layout *layout,
 pvio_status pvio_load(const char *path, const pvio_layout *layout, pvio_volume *volume,
                       char *err, size_t err_size);
 
+/* Loads a NRRD volume: NAME.nrrd (header and data in one file) or NAME.nhdr (the header
+   names its data file), raw or gzip-encoded, 3 dimensions, a type picvr holds; spacing,
+   orientation and origin from the header.  pvio_load calls it for those two extensions
+   (with layout NULL).  Unsupported features (other encodings, line skip, data file
+   lists) are refused with a message.  On failure *volume is zeroed and nothing leaks. */
+pvio_status pvio_load_nrrd(const char *path, pvio_volume *volume, char *err, size_t err_size);
+
+/* 1 when path names a NRRD file (ends in .nrrd or .nhdr, ASCII case-insensitive): its
+   header, not its name, gives the layout. */
+int pvio_is_nrrd(const char *path);
+
 /* Frees volume->data and zeroes *volume.  NULL and zeroed volumes are allowed. */
 void pvio_free(pvio_volume *volume);
 
@@ -93,6 +109,12 @@ void pvio_free(pvio_volume *volume);
    NULL.  An all-non-finite volume gives min = max = 0. */
 pvio_status pvio_value_range(const pvio_volume *volume, double *min, double *max,
                              size_t *non_finite);
+
+/* The lo_frac and hi_frac quantiles (0 <= lo_frac < hi_frac <= 1) of the finite voxels:
+   the sorted values at index round(frac (n - 1)), from at most 2^20 voxels evenly spaced
+   through the volume (every voxel of a smaller one).  A range of one value (a constant volume) is widened to
+   [v, v + 1].  PVIO_ERROR_BAD_TYPE for an unknown type or no finite voxel. */
+pvio_status pvio_percentile_range(const pvio_volume *volume, double lo_frac, double hi_frac, double *lo, double *hi);
 
 /* Fills a picvr_volume_desc that points at volume's data (value range left 0:
    picvr's default for the type). */

@@ -366,14 +366,17 @@ static void picvr_aux_kernel_destroy(picvr_context *ctx, picvr_aux_kernel *k) {
     memset(k, 0, sizeof *k);
 }
 
-/* Makes kernel k from SPIR-V `code` (size bytes) with `bindings` storage buffers, once;
-   a failure leaves nothing behind. */
+#define PICVR_AUX_BINDINGS 16u
+
+/* Makes kernel k from SPIR-V `code` (size bytes) with `bindings` (at most
+   PICVR_AUX_BINDINGS) storage buffers, once; a failure leaves nothing behind. */
 static picvr_status picvr_aux_kernel_make(picvr_context *ctx, picvr_aux_kernel *k, uint32_t bindings,
                                           const uint32_t *code, size_t size) {
     if (k->pipe) return PICVR_OK;
-    VkDescriptorSetLayoutBinding b[16];
+    if (bindings > PICVR_AUX_BINDINGS) return PICVR_ERROR_INVALID_ARGUMENT;
+    VkDescriptorSetLayoutBinding b[PICVR_AUX_BINDINGS];
     memset(b, 0, sizeof b);
-    for (uint32_t i = 0; i < bindings && i < 16; i++) {
+    for (uint32_t i = 0; i < bindings; i++) {
         b[i].binding = i;
         b[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
         b[i].descriptorCount = 1;
@@ -412,11 +415,13 @@ static picvr_status picvr_aux_kernel_make(picvr_context *ctx, picvr_aux_kernel *
     return s;
 }
 
-/* Points kernel k's bindings 0..n-1 at the whole of buffers[0..n-1]. */
+/* Points kernel k's bindings 0..n-1 (n <= the bindings it was made with) at the whole
+   of buffers[0..n-1]. */
 static void picvr_aux_kernel_bind(picvr_context *ctx, picvr_aux_kernel *k, const VkBuffer *buffers, uint32_t n) {
-    VkDescriptorBufferInfo info[16];
-    VkWriteDescriptorSet w[16];
-    for (uint32_t i = 0; i < n && i < 16; i++) {
+    VkDescriptorBufferInfo info[PICVR_AUX_BINDINGS];
+    VkWriteDescriptorSet w[PICVR_AUX_BINDINGS];
+    if (n > PICVR_AUX_BINDINGS) n = PICVR_AUX_BINDINGS;
+    for (uint32_t i = 0; i < n; i++) {
         info[i].buffer = buffers[i];
         info[i].offset = 0;
         info[i].range = VK_WHOLE_SIZE;

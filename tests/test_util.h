@@ -197,7 +197,11 @@
     X(test_write_image_bad_targets)                                 \
     X(test_reuse_moves_the_image)                                   \
     X(test_reuse_lowers_the_error_of_moving_frames)                 \
-    X(test_reuse_extreme_moves)
+    X(test_reuse_extreme_moves)                                     \
+    /* test_nrrd.c */                                               \
+    X(test_nrrd_reads_layout_values_and_geometry)                   \
+    X(test_nrrd_refuses_bad_headers)                                \
+    X(test_volume_io_percentile_range)
 
 #define TU_DECLARE(name) void name(void **state);
 TU_ALL_TESTS(TU_DECLARE)

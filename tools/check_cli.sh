@@ -102,6 +102,22 @@ for key in '"max_bounces": 0' '"g": null' '"file": null'; do
     if grep -q -e "$key" "$T/single.json"; then pass=$((pass + 1)); else
         fail=$((fail + 1)); echo "check_cli: FAIL: --json lacks $key"; fi
 done
+# NRRD volumes: the header gives the layout (never --dims), a bad one is refused (status
+# 1), an orientation other than the identity is announced
+{ printf 'NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nspacings: 1 1 2\nencoding: raw\n\n'
+  printf '\377%.0s' $(seq 64); } > "$T/cube.nrrd"
+{ printf 'NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n'
+  printf 'space directions: (0,1,0) (1,0,0) (0,0,1)\n\n'; printf '\377%.0s' $(seq 64); } > "$T/turned.nrrd"
+{ printf 'NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n\n'; printf 'x%.0s' $(seq 10); } > "$T/short.nrrd"
+expect 0 "mean_luminance" --volume "$T/cube.nrrd" --size 8x8 --iterations 1 --quiet
+if timeout 120 "$R" --volume "$T/turned.nrrd" --size 8x8 --iterations 1 --quiet 2>&1 >/dev/null |
+       grep -q "rendered axis-aligned"; then pass=$((pass + 1)); else
+    fail=$((fail + 1)); echo "check_cli: FAIL: a turned NRRD volume is not announced"; fi
+expect 2 "come from the NRRD header" --volume "$T/cube.nrrd" --dims 4,4,4 --size 8x8 --iterations 1
+expect 1 "truncated" --volume "$T/short.nrrd" --size 8x8 --iterations 1 --quiet
+expect 0 "mean_luminance" --volume "$T/cube.nrrd" --range auto --size 8x8 --iterations 1 --quiet
+expect 2 "bad value for --range" --volume "$T/cube.nrrd" --range automatic --size 8x8 --iterations 1
+
 # real-time frames: one sample per pixel at least in every frame, even at a 0 ms budget
 F="--volume $V --size 40x24 --quiet"
 expect 2 "give --frames, --time or --iterations" $F --frames 3 --time 100

@@ -5,9 +5,11 @@
  *     byte 0      flags: bit 0 gzip-compress the contents before writing the file,
  *                 bit 1 load with an explicit layout (bytes 1..4) instead of the name,
  *                 bit 2 also call pvio_parse_name on the raw name bytes with a tiny
- *                 error buffer (truncated messages)
+ *                 error buffer (truncated messages),
+ *                 bit 3 name the file NAME.nrrd, so that the NRRD reader takes it (its
+ *                 header and data, attached; a detached one names any file it likes)
  *     bytes 1..4  explicit layout: dims (1 + byte % 8 each, so tiny files can match) and
- *                 type (byte 4 % 5: 0..4, including invalid 0 and 4)
+ *                 type (byte 4 % 10: 0..9, including the invalid 0 and 9)
  *     then        a file name up to the first '\n' (any bytes; '/' and NUL are replaced
  *                 when the file is written, the raw bytes go to pvio_parse_name)
  *     then        the file contents (raw, or gzip data as is, or compressed by bit 0)
@@ -69,7 +71,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     const uint8_t flags = data[0];
     pvio_layout explicit_layout;
     for (int i = 0; i < 3; i++) explicit_layout.dims[i] = 1u + data[1 + i] % 8u;
-    explicit_layout.type = (picvr_voxel_type)(data[4] % 5u);
+    explicit_layout.type = (picvr_voxel_type)(data[4] % 10u);
     data += 5;
     size -= 5;
 
@@ -103,13 +105,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
 
     /* The file: the name's bytes with '/' and NUL replaced, at most 200 of them. */
     size_t fl = name_len < 200 ? name_len : 200;
-    char *path = malloc(strlen(dir) + fl + 2);
+    char *path = malloc(strlen(dir) + fl + 2 + 5);
     if (!path) { free(raw); return 0; }
     size_t dl = strlen(dir);
     memcpy(path, dir, dl);
     path[dl] = '/';
     for (size_t i = 0; i < fl; i++) path[dl + 1 + i] = (data[i] == '/' || data[i] == 0) ? '_' : (char)data[i];
     path[dl + 1 + fl] = 0;
+    if (flags & 8) strcat(path, ".nrrd");
     if (fl == 0 || strcmp(path + dl + 1, ".") == 0 || strcmp(path + dl + 1, "..") == 0) {
         free(raw); free(path);
         return 0;
