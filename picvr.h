@@ -297,7 +297,7 @@ typedef struct picvr_scheduler_config {
                                   move the image is biased, by at most h / (h + N) of
                                   the moved samples' error after N new samples (it
                                   converges); a camera that never moved, not at all.
-                                  Costs 8 bytes per pixel (a depth plane), and 60 more
+                                  Costs 8 bytes per pixel (a depth plane), and 64 more
                                   from the first move on (the previous view's planes, a
                                   landing buffer); OFF allocates none.  DEFAULT: OFF */
     uint32_t reuse_history;    /* the most samples a reprojected pixel keeps; 0: 16;

@@ -91,6 +91,7 @@ struct viewer_options {
     uint32_t seed = 0;
     picvr_cache_mode cache = PICVR_CACHE_NONE;
     picvr_switch priorities = PICVR_SWITCH_DEFAULT;
+    picvr_switch reuse = PICVR_SWITCH_ON;   /* a moving camera keeps its samples */
     const char *device = nullptr;
     bool validation = false;
     double max_spp = 65536.0;                /* refinement stops (idles) past this */
@@ -122,6 +123,8 @@ static void print_help(FILE *f)
         "  --cache off|object|screen  the irradiance cache at start (default off; key C)\n"
         "  --priorities on|off    Eq. 12 block priorities once a frame's pass is done\n"
         "                         (default on; off: round robin, every pixel alike)\n"
+        "  --reuse on|off         temporal reuse: a moved camera keeps its samples,\n"
+        "                         reprojected (default on)\n"
         "viewer\n"
         "  --size WxH             window and image size (default 1280x720 on a GPU,\n"
         "                         512x384 on a CPU device)\n"
@@ -152,7 +155,7 @@ static const pvc_option OPTIONS[] = {
     {"volume", 1}, {"dims", 1}, {"type", 1}, {"spacing", 1}, {"range", 1}, {"tf", 1},
     {"density", 1}, {"lights", 1}, {"env", 1}, {"env-rotate", 1}, {"env-intensity", 1},
     {"bounces", 1}, {"g", 1}, {"phase-back", 1}, {"camera", 1}, {"fov", 1}, {"exposure", 1},
-    {"seed", 1}, {"cache", 1}, {"priorities", 1}, {"size", 1}, {"frame-ms", 1}, {"orbit", 1}, {"max-spp", 1}, {"device", 1},
+    {"seed", 1}, {"cache", 1}, {"priorities", 1}, {"reuse", 1}, {"size", 1}, {"frame-ms", 1}, {"orbit", 1}, {"max-spp", 1}, {"device", 1},
     {"frames", 1}, {"screenshot", 1}, {nullptr, 0}};
 
 static bool known_name(const char *value, const char *(*name)(size_t))
@@ -211,6 +214,7 @@ static int apply_scene_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "seed")) return pvc_parse_u32(value, 0, UINT32_MAX, &o->seed);
     if (!strcmp(name, "cache")) return pvc_parse_cache_mode(value, &o->cache);
     if (!strcmp(name, "priorities")) return pvc_parse_switch(value, &o->priorities);
+    if (!strcmp(name, "reuse")) return pvc_parse_switch(value, &o->reuse);
     return -1;
 }
 
@@ -704,6 +708,7 @@ static bool create_context(viewer &v, picvr_cache_mode cache)
     cfg.cache.mode = cache;
     cfg.scheduler.frames = PICVR_SWITCH_ON;  /* every frame a whole image: no holes */
     cfg.scheduler.priorities = v.opt.priorities;
+    cfg.scheduler.temporal_reuse = v.opt.reuse;
     if (!check(picvr_create(&cfg, &v.ctx), "picvr_create")) return false;
     v.cache = cache;
     picvr_volume_desc desc;

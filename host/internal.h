@@ -262,7 +262,8 @@ typedef struct picvr_image_state {
                                         placeholder */
     picvr_buffer previous[4];        /* temporal reuse: the three planes and the depth of
                                         the view before the last camera move, and */
-    picvr_buffer landing;            /* per pixel the nearest depth landing there (made at
+    picvr_buffer landing;            /* per pixel the nearest distance landing there and the
+                                        lowest old index at it (made at
                                         the first reprojection, host/reproject.c) */
     int depth_valid;                 /* the depth plane holds every sample since the reset */
     int has_samples;                 /* some pixel holds a sample (rendered or moved there) */

@@ -33,7 +33,7 @@ static picvr_status picvr_reproject_buffers(picvr_context *ctx, VkDeviceSize pix
     picvr_status s = PICVR_OK;
     for (int i = 0; i < 4 && !s; i++)
         s = picvr_buffer_create(ctx, &im->previous[i], i < 3 ? pixels * 16 : pixels * 8, usage, 0);
-    if (!s) s = picvr_buffer_create(ctx, &im->landing, pixels * 4, usage, 0);
+    if (!s) s = picvr_buffer_create(ctx, &im->landing, pixels * 8, usage, 0);
     if (s) picvr_reuse_buffers_destroy(ctx);
     return s;
 }
@@ -69,10 +69,10 @@ static picvr_status picvr_reproject(picvr_context *ctx, const picvr_gpu_scene *o
     picvr_barrier_all(ctx);
     for (int i = 0; i < 3; i++) vkCmdFillBuffer(ctx->vk.cmd, im->planes[i].buf, 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(ctx->vk.cmd, im->depth.buf, 0, VK_WHOLE_SIZE, 0);
-    vkCmdFillBuffer(ctx->vk.cmd, im->landing.buf, 0, VK_WHOLE_SIZE, 0xfffffffeu);   /* "empty" */
+    vkCmdFillBuffer(ctx->vk.cmd, im->landing.buf, 0, VK_WHOLE_SIZE, 0xffffffffu);   /* "empty" */
     vkCmdFillBuffer(ctx->vk.cmd, im->render_queue.buf, 0, VK_WHOLE_SIZE, 0);         /* block credits */
     picvr_barrier_all(ctx);
-    for (uint32_t pass = 0; pass < 2; pass++) {
+    for (uint32_t pass = 0; pass < 3; pass++) {
         push[31].u = pass;
         picvr_aux_kernel_dispatch(ctx, &ctx->reproject, push, sizeof push, pixels);
         picvr_barrier_all(ctx);

@@ -52,15 +52,17 @@ static uint32_t picvr_first_pass_left(picvr_context *ctx) {
 }
 
 /* The plan of one timed round of `round_ms`: the §6 plan, and under scheduler.frames
-   round-robin while the first pass is incomplete, with at least `min_first` of its
-   blocks (all of them for picvr_step_begin, whose round is the whole step). */
+   round-robin while the first pass is incomplete: at most the rest of the pass for
+   picvr_step (its next rounds go by priority), at least the rest for picvr_step_begin
+   (whose one round is the whole step; blocks beyond it start the next pass in the same
+   order). */
 static picvr_round_plan picvr_plan_timed_round(picvr_context *ctx, double round_ms, int whole_first_pass) {
     picvr_plan_inputs in = picvr_plan_inputs_now(ctx);
     picvr_round_plan p = picvr_sched_plan(&ctx->sched, round_ms, &in);
     uint32_t rest = picvr_first_pass_left(ctx);
     if (rest > 0) {
         p.whole_passes = 1;
-        if (whole_first_pass && p.render_blocks < rest) p.render_blocks = rest;
+        if (whole_first_pass ? p.render_blocks < rest : p.render_blocks > rest) p.render_blocks = rest;
         if (p.render_blocks == 0) p.render_blocks = 1;
     }
     return p;

@@ -4,14 +4,15 @@
 // new view where its scene point lands.  The point is the old pixel's centre ray at the
 // mean distance of its scatter events (render.glsl, accumulate_depth); a pixel whose
 // rays never scattered saw only what lies beyond the medium, so it moves by its
-// direction alone (a point at infinity).  One thread per old pixel, two passes:
+// direction alone (a point at infinity).  One thread per old pixel, three passes, so
+// that the result does not depend on the order threads run in:
 //   pass 0: each landing pixel keeps the nearest landing distance (atomicMin on its
 //           float bits: non-negative floats order as their bits);
-//   pass 1: the old pixel whose distance won claims the landing pixel (compare-and-swap,
-//           so that one wins even between equal distances) and writes its history
-//           there, with at most `history` samples' weight: mean and Kahan terms as they
-//           are, the sample variance kept (M2 scaled by (n' - 1) / (n - 1)), the
-//           truncated count and the depth count scaled to n'.
+//   pass 1: of the old pixels at that distance, the lowest index (atomicMin);
+//   pass 2: that old pixel writes its history there, with at most `history` samples'
+//           weight: mean and Kahan terms as they are, the sample variance kept (M2
+//           scaled by (n' - 1) / (n - 1)), the truncated count and the depth count
+//           scaled to n'.
 // Pixels nothing lands on (disoccluded, newly in view) stay zero: no sample.
 layout(local_size_x = 256) in;
 
@@ -23,13 +24,11 @@ layout(set = 0, binding = 4, std430) writeonly buffer NewMean { vec4 new_mean[];
 layout(set = 0, binding = 5, std430) writeonly buffer NewComp { vec4 new_comp[]; };
 layout(set = 0, binding = 6, std430) writeonly buffer NewStat { vec4 new_stat[]; };
 layout(set = 0, binding = 7, std430) writeonly buffer NewDepth { vec2 new_depth[]; };
-layout(set = 0, binding = 8, std430) buffer Landing { uint landing[]; };
+layout(set = 0, binding = 8, std430) buffer Landing { uint landing[]; };   // per pixel: distance bits, old index
 
 // view[0..13] the old camera, view[14..27] the new one: position, tan(fov_y / 2),
 // forward, aspect, right, up (host/image.c's basis).
 layout(push_constant) uniform Push { float view[28]; uint width; uint height; uint history; uint pass_index; } pc;
-
-const uint CLAIMED = 0xffffffffu;   // above every distance's bits and the 0xfffffffe "empty"
 
 struct View { vec3 pos; float tan_half; vec3 fwd; float aspect; vec3 right; vec3 up; };
 
@@ -82,11 +81,17 @@ void main() {
     if (!land(to, w, q)) return;
     float distance = at_infinity ? 3.4028235e38 : length(w);
     uint key = floatBitsToUint(distance);
+    // landing starts at 0xffffffff: above every distance's bits and every index
     if (pc.pass_index == 0u) {
-        atomicMin(landing[q], key);
+        atomicMin(landing[2u * q], key);
         return;
     }
-    if (atomicCompSwap(landing[q], key, CLAIMED) != key) return;
+    if (landing[2u * q] != key) return;
+    if (pc.pass_index == 1u) {
+        atomicMin(landing[2u * q + 1u], i);
+        return;
+    }
+    if (landing[2u * q + 1u] != i) return;
     uint kept = min(n, pc.history);
     float m2 = kept >= 2u && n >= 2u ? stat.y * (float(kept - 1u) / float(n - 1u)) : 0.0;
     uint bad = min(floatBitsToUint(stat.w), kept);

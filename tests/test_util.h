@@ -198,6 +198,7 @@
     X(test_reuse_moves_the_image)                                   \
     X(test_reuse_lowers_the_error_of_moving_frames)                 \
     X(test_reuse_extreme_moves)                                     \
+    X(test_reuse_is_deterministic)                                  \
     /* test_nrrd.c */                                               \
     X(test_nrrd_reads_layout_values_and_geometry)                   \
     X(test_nrrd_refuses_bad_headers)                                \

@@ -9,8 +9,9 @@
 # 1. Moving: ORBIT_FRAMES frames, the camera turned by 3 degrees every frame (--orbit 3),
 #    a 0 ms budget: with scheduler.frames on, each frame is then exactly one pass over
 #    the image (a step lasts max(budget, the rest of the pass)), on any device.  The same
-#    seed, camera path and pass count give the same image (picvr.h, random numbers), so
-#    the last frame must equal picvr-render --frames N --orbit 3 --frame-ms 0 to the byte
+#    seed, camera path and pass count give the same image (picvr.h, random numbers; the
+#    viewer's temporal reuse is deterministic too), so the last frame must equal
+#    picvr-render --frames N --orbit 3 --frame-ms 0 --reuse on to the byte
 #    (channel order, rows, exposure, camera, lights: everything the window shows).
 # 2. Still: FRAMES frames at the default 16 ms budget (--priorities off: round robin, so
 #    every pixel holds the same number of samples, give or take one), which depend on
@@ -195,7 +196,7 @@ EOF
 
 # 1. moving: every frame one pass, byte for byte picvr-render's
 viewer orbit --orbit 3 --frame-ms 0 --frames "$ORBIT_FRAMES"
-render orbit_ref --frames "$ORBIT_FRAMES" --orbit 3 --frame-ms 0
+render orbit_ref --frames "$ORBIT_FRAMES" --orbit 3 --frame-ms 0 --reuse on   # the viewer's default
 python3 "$T/compare.py" same "$T/orbit.png" "$T/orbit_ref.png" ||
     fail "the viewer's moving frame is not picvr-render's"
 
