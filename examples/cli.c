@@ -448,3 +448,15 @@ void pvc_json_write(FILE *f, const void *base, const pvc_json_field *fields, siz
     }
     fputc('}', f);
 }
+
+int pvc_has_extension(const char *path, const char *ext)
+{
+    size_t n = path ? strlen(path) : 0, k = strlen(ext);
+    if (n < k) return 0;
+    for (size_t i = 0; i < k; i++) {
+        int a = (unsigned char)path[n - k + i], b = (unsigned char)ext[i];
+        if (a >= 'A' && a <= 'Z') a += 'a' - 'A';
+        if (a != b) return 0;
+    }
+    return 1;
+}

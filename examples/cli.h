@@ -183,6 +183,9 @@ typedef struct pvc_json_field {
    its members in the table's order. */
 void pvc_json_write(FILE *f, const void *base, const pvc_json_field *fields, size_t count);
 
+/* 1 when path ends in ext (".png", ...), ASCII case-insensitive. */
+int pvc_has_extension(const char *path, const char *ext);
+
 /* A JSON string literal, escaped. */
 void pvc_json_string(FILE *f, const char *s);
 

@@ -155,9 +155,12 @@ static void print_help(FILE *f)
         "  --device NAME          Vulkan device whose name contains NAME\n"
         "  --validation           enable the Khronos validation layer\n"
         "output\n"
-        "  --out FILE.png         tone-mapped sRGB image\n"
-        "  --alpha                keep the coverage as PNG alpha (default: opaque RGB)\n"
-        "  --out-float FILE.pfm   linear radiance, PFM\n"
+        "  --out FILE             tone-mapped sRGB image, in the format its extension names:\n"
+        "                         .png, .jpg (quality 95), .bmp or .tga\n"
+        "  --alpha                keep the coverage (1 - transmittance) as alpha, .png and\n"
+        "                         .tga (default: opaque RGB, the background included)\n"
+        "  --out-float FILE       linear radiance: .pfm (RGB float) or .hdr (Radiance RGBE);\n"
+        "                         OpenEXR is not written\n"
         "  --log FILE.csv         statistics after every round\n"
         "  --json FILE            final statistics as JSON\n"
         "  --quiet                no progress on stderr (the summary still goes to stdout)\n"
@@ -351,8 +354,20 @@ static int apply_output_option(void *target, const char *name, const char *value
     else if (!strcmp(name, "quiet")) o->quiet = 1;
     else if (!strcmp(name, "alpha")) o->png_alpha = 1;
     else if (!strcmp(name, "exposure")) return pvc_parse_float(value, &o->exposure) && o->exposure > 0.0f;
-    else if (!strcmp(name, "out")) o->out_png = value;
-    else if (!strcmp(name, "out-float")) o->out_pfm = value;
+    else if (!strcmp(name, "out")) {
+        o->out_png = value;
+        if (!(pvc_has_extension(value, ".png") || pvc_has_extension(value, ".jpg") ||
+              pvc_has_extension(value, ".jpeg") || pvc_has_extension(value, ".bmp") || pvc_has_extension(value, ".tga"))) {
+            pvc_fail("--out %s: the extension names no format written (.png, .jpg, .bmp, .tga)", value);
+            return 0;
+        }
+    } else if (!strcmp(name, "out-float")) {
+        o->out_pfm = value;
+        if (!(pvc_has_extension(value, ".pfm") || pvc_has_extension(value, ".hdr"))) {
+            pvc_fail("--out-float %s: the extension names no format written (.pfm, .hdr; OpenEXR is not)", value);
+            return 0;
+        }
+    }
     else if (!strcmp(name, "log")) o->log_path = value;
     else if (!strcmp(name, "json")) o->json_path = value;
     else return -1;
@@ -417,6 +432,10 @@ static int options_consistent(const render_options *o)
         pvc_fail("--warm fills the cache: give --cache object or --cache screen");
         return 0;
     }
+    if (o->png_alpha && o->out_png && !pvc_has_extension(o->out_png, ".png") && !pvc_has_extension(o->out_png, ".tga")) {
+        pvc_fail("--alpha needs an image format with alpha: --out FILE.png or FILE.tga");
+        return 0;
+    }
     if ((o->have_env_rotate || o->have_env_intensity) && !o->env_path) {
         pvc_fail("--env-rotate and --env-intensity apply to a map: give --env FILE");
         return 0;
@@ -454,6 +473,15 @@ static int resolve_layout(const render_options *o, pvio_layout *layout)
             pvc_fail("%s", err);
             return 0;
         }
+    } else if (pvio_parse_name(o->volume_path, layout, err, sizeof err) != PVIO_OK) {
+        memset(layout, 0, sizeof *layout);   /* a name without a layout: --dims and --type say it all */
+    }
+    /* Rule: --dims that disagree with the file name's (a permutation renders sheared
+       slabs, the same byte count and no error) are refused. */
+    if (o->have_dims && layout->dims[0] && memcmp(layout->dims, o->dims, sizeof o->dims)) {
+        pvc_fail("--dims %u,%u,%u disagree with the file name's %ux%ux%u", o->dims[0], o->dims[1], o->dims[2],
+                 layout->dims[0], layout->dims[1], layout->dims[2]);
+        return 0;
     }
     if (o->have_dims) memcpy(layout->dims, o->dims, sizeof layout->dims);
     if (o->have_type) layout->type = o->type;

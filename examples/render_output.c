@@ -28,12 +28,18 @@ int render_write_png(picvr_context *ctx, const render_options *o)
         return 0;
     }
     int ok = pvc_check(picvr_read_rgba8(ctx, px, size, o->exposure), "picvr_read_rgba8");
-    int comp = o->png_alpha ? 4 : 3;
+    int comp = o->png_alpha ? 4 : 3, w = (int)o->width, h = (int)o->height;
     if (ok && comp == 3) /* drop alpha in place: viewers would hide the background */
         for (size_t i = 0, n = (size_t)o->width * o->height; i < n; i++)
             memmove(px + 3 * i, px + 4 * i, 3);
-    if (ok && !stbi_write_png(o->out_png, (int)o->width, (int)o->height, comp, px,
-                              (int)o->width * comp)) {
+    /* the format the extension names (checked when the options were read) */
+    const char *path = o->out_png;
+    int written = !ok ? 0
+                : pvc_has_extension(path, ".png")   ? stbi_write_png(path, w, h, comp, px, w * comp)
+                : pvc_has_extension(path, ".tga")   ? stbi_write_tga(path, w, h, comp, px)
+                : pvc_has_extension(path, ".bmp")   ? stbi_write_bmp(path, w, h, comp, px)
+                                                    : stbi_write_jpg(path, w, h, comp, px, 95);
+    if (ok && !written) {
         pvc_fail("cannot write %s", o->out_png);
         ok = 0;
     }
@@ -60,7 +66,14 @@ static float *read_float_image(picvr_context *ctx, const render_options *o)
 int render_write_pfm(picvr_context *ctx, const render_options *o)
 {
     float *px = read_float_image(ctx, o);
-    int ok = px && pvc_write_pfm(o->out_pfm, px, o->width, o->height);
+    int ok = px != NULL;
+    if (ok && pvc_has_extension(o->out_pfm, ".hdr")) {   /* Radiance RGBE: RGB, alpha dropped in place */
+        for (size_t i = 0, n = (size_t)o->width * o->height; i < n; i++) memmove(px + 3 * i, px + 4 * i, 3 * sizeof(float));
+        ok = stbi_write_hdr(o->out_pfm, (int)o->width, (int)o->height, 3, px) != 0;
+        if (!ok) pvc_fail("cannot write %s", o->out_pfm);
+    } else if (ok) {
+        ok = pvc_write_pfm(o->out_pfm, px, o->width, o->height);
+    }
     free(px);
     return ok;
 }

@@ -118,6 +118,24 @@ expect 1 "truncated" --volume "$T/short.nrrd" --size 8x8 --iterations 1 --quiet
 expect 0 "mean_luminance" --volume "$T/cube.nrrd" --range auto --size 8x8 --iterations 1 --quiet
 expect 2 "bad value for --range" --volume "$T/cube.nrrd" --range automatic --size 8x8 --iterations 1
 
+# outputs in the format their extension names (magic bytes; TGA is written RLE: type 10),
+# or refused; --dims that disagree with the
+# name refused (a permutation would render sheared slabs without a word)
+expect 2 "names no format written" $RUN --out "$T/x.exr"
+expect 2 "names no format written" $RUN --out "$T/x"
+expect 2 "names no format written" $RUN --out-float "$T/x.exr"
+expect 2 "needs an image format with alpha" $RUN --alpha --out "$T/x.jpg"
+expect 2 "disagree with the file name" --volume "$V" --dims 4,2,8 --size 8x8 --iterations 1
+expect 0 "mean_luminance" $RUN --out "$T/x.jpg" --out-float "$T/x.hdr"
+expect 0 "mean_luminance" $RUN --out "$T/x.TGA" --alpha --out-float "$T/x.pfm"
+expect 0 "mean_luminance" $RUN --out "$T/x.bmp"
+for f in "x.jpg ffd8ff" "x.TGA 00000a" "x.bmp 424d" "x.hdr 233f524144" "x.pfm 50460a"; do
+    set -- $f
+    magic=$(od -An -tx1 -N $(( ${#2} / 2 )) "$T/$1" | tr -d ' \n')
+    if [ "$magic" = "$2" ]; then pass=$((pass + 1)); else
+        fail=$((fail + 1)); echo "check_cli: FAIL: $1 starts with $magic, not $2"; fi
+done
+
 # real-time frames: one sample per pixel at least in every frame, even at a 0 ms budget
 F="--volume $V --size 40x24 --quiet"
 expect 2 "give --frames, --time or --iterations" $F --frames 3 --time 100
