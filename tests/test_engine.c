@@ -197,6 +197,21 @@ void test_step_begin_end(void **state) {
 
 /* ---- the image on the device ---------------------------------------------------------- */
 
+/* A second context, seed `seed`, on the Vulkan device of context a, as an application
+   passes its own (registered for the teardown); *a_config: a's configuration, whose
+   handles the application's side uses. */
+static picvr_context *context_on_device_of(picvr_context *a, uint32_t seed, picvr_config *a_config) {
+    TU_OK(picvr_get_config(a, a_config));
+    picvr_config bc;
+    memset(&bc, 0, sizeof bc);
+    bc.vulkan = a_config->vulkan;
+    bc.seed = seed;
+    picvr_context *b = NULL;
+    TU_OK(picvr_create(&bc, &b));
+    tu_register(b, 1);
+    return b;
+}
+
 /* The application's side: its device (the first context's), a command buffer, a
    host-visible buffer the image is copied into. */
 typedef struct app {
@@ -360,14 +375,7 @@ void test_write_image_formats(void **state) {
     const uint32_t w = 40, h = 30;
     picvr_context *a = tu_create(5);
     picvr_config c;
-    TU_OK(picvr_get_config(a, &c));
-    picvr_config bc;
-    memset(&bc, 0, sizeof bc);
-    bc.vulkan = c.vulkan;
-    bc.seed = 2;
-    picvr_context *b = NULL;
-    TU_OK(picvr_create(&bc, &b));
-    tu_register(b, 1);
+    picvr_context *b = context_on_device_of(a, 2, &c);
     tu_vol vol = tu_vol_ball(16);
     frames_scene(b, &vol, w, h, 0.5);
     tu_sun(b, 1, 1, 1, 1, 0.9f, 0.8f, 3.0f, 0.5f);
@@ -454,13 +462,7 @@ void test_write_image_bad_targets(void **state) {
     const uint32_t w = 16, h = 8;
     picvr_context *a = tu_create(6);
     picvr_config c;
-    TU_OK(picvr_get_config(a, &c));
-    picvr_config bc;
-    memset(&bc, 0, sizeof bc);
-    bc.vulkan = c.vulkan;
-    picvr_context *b = NULL;
-    TU_OK(picvr_create(&bc, &b));
-    tu_register(b, 1);
+    picvr_context *b = context_on_device_of(a, 0, &c);
     app ap = app_open(&c, (VkDeviceSize)w * h * 16);
     app_image im = app_image_new(&ap, VK_FORMAT_R8G8B8A8_UNORM, w, h);
     picvr_image_target ok;
