@@ -75,9 +75,9 @@ lib: $(B)/libpicvr.a
 
 # The command-line helpers the example and bench programs share (examples/cli.h).
 CLI_SRC    := examples/cli.c examples/cli.h
-RENDER_SRC := examples/render.c examples/render_output.c examples/cli.c examples/volume_io.c examples/presets.c \
+RENDER_SRC := examples/render.c examples/render_output.c examples/cli.c io/picvr_io.c examples/presets.c \
               examples/env_io.c
-$(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) examples/volume_io.h examples/presets.h examples/env_io.h $(B)/libpicvr.a
+$(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h examples/presets.h examples/env_io.h $(B)/libpicvr.a
 	$(CC) $(CFLAGS) -o $@ $(RENDER_SRC) $(B)/libpicvr.a $(LDLIBS) -lstb -lz
 
 $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps
@@ -85,15 +85,15 @@ $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.
 
 $(B)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
               shaders/cache_math.glsl shaders/sampling_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a \
-              examples/volume_io.c examples/volume_io.h
-	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a \
+              io/picvr_io.c picvr_io.h
+	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) io/picvr_io.c $(B)/cpu_reference.o $(B)/libpicvr.a \
 	  $(LDLIBS) -lcmocka -lz
 
-$(B)/picvr-bench-speed: bench/bench_speed.c $(CLI_SRC) examples/volume_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/cli.c examples/volume_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
+$(B)/picvr-bench-speed: bench/bench_speed.c $(CLI_SRC) io/picvr_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/cli.c io/picvr_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
 
-$(B)/picvr-bench-sampling: bench/bench_sampling.c $(CLI_SRC) examples/volume_io.c examples/presets.c examples/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Iexamples -o $@ bench/bench_sampling.c examples/cli.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
+$(B)/picvr-bench-sampling: bench/bench_sampling.c $(CLI_SRC) io/picvr_io.c examples/presets.c examples/presets.h $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -Iexamples -o $@ bench/bench_sampling.c examples/cli.c io/picvr_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 # The host's mirrors of the shaders' layouts and constants (tools/check_layout.sh).
 $(B)/layout-host: tools/layout_host.c $(LIB_SRC) | $(B)/.deps
@@ -188,8 +188,8 @@ BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotat
 # made with other library code is never reused (bench/error/runs.c, run_signature).
 BENCH_BUILD = $(shell cat $(LIB_SRC) shaders/*.glsl shaders/*.comp | cksum | cut -d' ' -f1)
 BENCH_ERROR_SRC := $(wildcard bench/error/*.c)
-$(B)/picvr-bench-error: $(BENCH_ERROR_SRC) bench/error/bench_error.h $(CLI_SRC) examples/volume_io.c examples/volume_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ $(BENCH_ERROR_SRC) examples/cli.c examples/volume_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
+$(B)/picvr-bench-error: $(BENCH_ERROR_SRC) bench/error/bench_error.h $(CLI_SRC) io/picvr_io.c picvr_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ $(BENCH_ERROR_SRC) examples/cli.c io/picvr_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 $(B)/picvr-bench-fig9: bench/bench_fig9.c $(CLI_SRC) shaders/cache_math.glsl reference/cache_math_host.h | $(B)/.deps
 	$(CC) $(CFLAGS) -Iexamples -o $@ bench/bench_fig9.c examples/cli.c -lm
@@ -262,10 +262,10 @@ $(BA)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr
 	@mkdir -p $(BA)
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -O2 -fopenmp -c -o $@ $<
 $(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
-              tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a examples/volume_io.c examples/volume_io.h
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) examples/volume_io.c tests/asan_keep_drivers.c \
+              tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a io/picvr_io.c picvr_io.h
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) io/picvr_io.c tests/asan_keep_drivers.c \
 	  $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl -lz
-$(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) examples/volume_io.h examples/presets.h examples/env_io.h \
+$(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h examples/presets.h examples/env_io.h \
               tests/asan_keep_drivers.c $(BA)/libpicvr.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ $(RENDER_SRC) tests/asan_keep_drivers.c $(BA)/libpicvr.a $(LDLIBS) -lstb -lz -ldl
 
@@ -289,12 +289,12 @@ valgrind: deps-robust $(B)/picvr-render
 
 # libFuzzer on the file readers, FUZZ_TIME seconds each from the committed seed corpora
 # (new inputs go to $(BF)/corpus and $(BF)/corpus_env, crashes to $(BF)/): the loaders
-# of examples/volume_io.c, and the Radiance .hdr loader of examples/env_io.c with
+# of io/picvr_io.c, and the Radiance .hdr loader of examples/env_io.c with
 # stb_image's decoder compiled into the harness, instrumented (-timeout: a hang fails).
-$(BF)/fuzz_volume_io: tests/fuzz/fuzz_volume_io.c examples/volume_io.c examples/volume_io.h | $(B)/.deps-robust
+$(BF)/fuzz_volume_io: tests/fuzz/fuzz_volume_io.c io/picvr_io.c picvr_io.h | $(B)/.deps-robust
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
-	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_volume_io.c examples/volume_io.c -lz
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_volume_io.c io/picvr_io.c -lz
 $(BF)/fuzz_env_io: tests/fuzz/fuzz_env_io.c examples/env_io.c examples/env_io.h | $(B)/.deps-robust
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \

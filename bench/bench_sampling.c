@@ -59,7 +59,7 @@
 #include "cli.h"
 #include "picvr.h"
 #include "presets.h"
-#include "volume_io.h"
+#include "picvr_io.h"
 
 #define PROGRAM "picvr-bench-sampling"
 #define MAX_SLICES 4096
@@ -123,7 +123,7 @@ static float *make_thin_volume(uint32_t n)
 }
 
 typedef struct loaded_scene {
-    pvio_volume vol;
+    picvr_io_volume vol;
     float *thin;
     picvr_volume_desc desc;
     pvp_tf tf;
@@ -145,7 +145,7 @@ static int load_scene(const options *o, const scene_def *sd, loaded_scene *ls)
     } else {
         char path[4096], err[256];
         snprintf(path, sizeof path, "%s/%s", o->data, sd->file);
-        if (pvio_load(path, NULL, &ls->vol, err, sizeof err) != PVIO_OK) { pvc_fail("%s: %s", path, err); return 0; }
+        if (picvr_io_load(path, NULL, &ls->vol, err, sizeof err) != PICVR_IO_OK) { pvc_fail("%s: %s", path, err); return 0; }
         memcpy(ls->desc.dims, ls->vol.dims, sizeof ls->desc.dims);
         ls->desc.type = ls->vol.type;
         ls->desc.data = ls->vol.data;
@@ -167,7 +167,7 @@ static int load_scene(const options *o, const scene_def *sd, loaded_scene *ls)
 
 static void free_scene(loaded_scene *ls)
 {
-    pvio_free(&ls->vol);
+    picvr_io_free(&ls->vol);
     free(ls->thin);
 }
 

@@ -28,7 +28,7 @@
 #include "cli.h"
 #include "picvr.h"
 #include "reference/cpu_reference.h"
-#include "volume_io.h"
+#include "picvr_io.h"
 
 #define PROGRAM "picvr-bench-speed"
 #define EXIT_USAGE 2
@@ -351,13 +351,13 @@ int main(int argc, char **argv)
     }
 
     char err[256];
-    pvio_volume vol;
-    if (pvio_load(o.volume_path, NULL, &vol, err, sizeof err) != PVIO_OK) {
+    picvr_io_volume vol;
+    if (picvr_io_load(o.volume_path, NULL, &vol, err, sizeof err) != PICVR_IO_OK) {
         pvc_fail("%s", err);
         return 1;
     }
     picvr_volume_desc desc;
-    pvio_to_desc(&vol, &desc);
+    picvr_io_to_desc(&vol, &desc);
     double hx = 0.5 * vol.dims[0] * vol.spacing[0], hy = 0.5 * vol.dims[1] * vol.spacing[1];
     double hz = 0.5 * vol.dims[2] * vol.spacing[2];
     float R = (float)sqrt(hx * hx + hy * hy + hz * hz);   /* box half-diagonal */
@@ -370,7 +370,7 @@ int main(int argc, char **argv)
 
     int threads = omp_get_max_threads();
     printf(PROGRAM ": %s (%ux%ux%u %s), %ux%u image%s\n", o.volume_path, vol.dims[0],
-           vol.dims[1], vol.dims[2], pvio_type_name(vol.type), o.width, o.height,
+           vol.dims[1], vol.dims[2], picvr_io_type_name(vol.type), o.width, o.height,
            o.quick ? ", quick" : "");
     fflush(stdout);
 
@@ -386,7 +386,7 @@ int main(int argc, char **argv)
         fflush(stdout);
     }
     ok = ok && run_cpu(&o, &desc, &light, &sky, &cam, &c, &m2);
-    pvio_free(&vol);
+    picvr_io_free(&vol);
     if (!ok) { free(m2); return 1; }
     printf("CPU threads: %d\n", threads);
     print_result("CPU", &c, o.width, o.height);

@@ -27,7 +27,7 @@
 #include "picvr.h"
 #include "presets.h"
 #include "render.h"
-#include "volume_io.h"
+#include "picvr_io.h"
 
 #define PROGRAM "picvr-render"
 #define EXIT_USAGE 2
@@ -264,8 +264,8 @@ static int apply_scene_option(void *target, const char *name, const char *value)
         o->volume_path = value;
         return 1;
     }
-    if (!strcmp(name, "dims")) return o->have_dims = pvc_parse_u32s(value, 3, 1, PVIO_MAX_DIM, o->dims);
-    if (!strcmp(name, "type")) return o->have_type = pvio_parse_type(value, &o->type) == PVIO_OK;
+    if (!strcmp(name, "dims")) return o->have_dims = pvc_parse_u32s(value, 3, 1, PICVR_IO_MAX_DIM, o->dims);
+    if (!strcmp(name, "type")) return o->have_type = picvr_io_parse_type(value, &o->type) == PICVR_IO_OK;
     if (!strcmp(name, "spacing"))
         return o->have_spacing = pvc_parse_floats(value, 3, o->spacing) && positive_all(o->spacing, 3);
     if (!strcmp(name, "range") && !strcmp(value, "auto")) {   /* the last --range wins */
@@ -458,10 +458,10 @@ static int parse_options(int argc, char **argv, render_options *o)
 /* ---- volume ---------------------------------------------------------------------------- */
 
 /* Layout from --dims/--type where given, the rest from the file name. */
-static int resolve_layout(const render_options *o, pvio_layout *layout)
+static int resolve_layout(const render_options *o, picvr_io_layout *layout)
 {
     char err[512];
-    if (pvio_is_nrrd(o->volume_path)) {   /* the header gives the layout (render: NULL) */
+    if (picvr_io_is_nrrd(o->volume_path)) {   /* the header gives the layout (render: NULL) */
         if (o->have_dims || o->have_type) {
             pvc_fail("%s: --dims and --type come from the NRRD header", o->volume_path);
             return 0;
@@ -469,11 +469,11 @@ static int resolve_layout(const render_options *o, pvio_layout *layout)
         return 1;
     }
     if (!(o->have_dims && o->have_type)) {
-        if (pvio_parse_name(o->volume_path, layout, err, sizeof err) != PVIO_OK) {
+        if (picvr_io_parse_name(o->volume_path, layout, err, sizeof err) != PICVR_IO_OK) {
             pvc_fail("%s", err);
             return 0;
         }
-    } else if (pvio_parse_name(o->volume_path, layout, err, sizeof err) != PVIO_OK) {
+    } else if (picvr_io_parse_name(o->volume_path, layout, err, sizeof err) != PICVR_IO_OK) {
         memset(layout, 0, sizeof *layout);   /* a name without a layout: --dims and --type say it all */
     }
     /* Rule: --dims that disagree with the file name's (a permutation renders sheared
@@ -485,7 +485,7 @@ static int resolve_layout(const render_options *o, pvio_layout *layout)
     }
     if (o->have_dims) memcpy(layout->dims, o->dims, sizeof layout->dims);
     if (o->have_type) layout->type = o->type;
-    if (pvio_layout_bytes(layout, NULL, err, sizeof err) != PVIO_OK) {
+    if (picvr_io_layout_bytes(layout, NULL, err, sizeof err) != PICVR_IO_OK) {
         pvc_fail("%s", err);
         return 0;
     }
@@ -748,10 +748,10 @@ static int render_frames_loop(render_state *r, const render_options *o, render_f
 /* ---- scene set-up ----------------------------------------------------------------------- */
 
 /* Loads the volume file into host memory, with --spacing applied. */
-static int load_volume(const render_options *o, const pvio_layout *layout, pvio_volume *vol)
+static int load_volume(const render_options *o, const picvr_io_layout *layout, picvr_io_volume *vol)
 {
     char err[512];
-    if (pvio_load(o->volume_path, layout, vol, err, sizeof err) != PVIO_OK) {
+    if (picvr_io_load(o->volume_path, layout, vol, err, sizeof err) != PICVR_IO_OK) {
         pvc_fail("%s", err);
         return 0;
     }
@@ -766,17 +766,17 @@ static int load_volume(const render_options *o, const pvio_layout *layout, pvio_
     return 1;
 }
 
-static int upload_volume(picvr_context *ctx, const render_options *o, const pvio_volume *vol)
+static int upload_volume(picvr_context *ctx, const render_options *o, const picvr_io_volume *vol)
 {
     picvr_volume_desc desc;
-    pvio_to_desc(vol, &desc);
+    picvr_io_to_desc(vol, &desc);
     if (o->have_range) {
         desc.value_min = o->range[0];
         desc.value_max = o->range[1];
     }
     if (o->range_auto) {
         double lo, hi;
-        if (pvio_percentile_range(vol, 0.005, 0.995, &lo, &hi) != PVIO_OK) {
+        if (picvr_io_percentile_range(vol, 0.005, 0.995, &lo, &hi) != PICVR_IO_OK) {
             pvc_fail("--range auto: the volume has no finite value");
             return 0;
         }
@@ -889,7 +889,7 @@ static int write_outputs(picvr_context *ctx, const render_options *o, const picv
     return ok;
 }
 
-static int render(const render_options *o, const pvio_layout *layout)
+static int render(const render_options *o, const picvr_io_layout *layout)
 {
     progress prog = {0};
     prog.enabled = !o->quiet;
@@ -905,14 +905,14 @@ static int render(const render_options *o, const pvio_layout *layout)
     int ok = !o->log_path || open_log(o->log_path, &r.log);
     /* The files first: a bad file should not cost a Vulkan start-up.  The host copies
        are freed right after the upload (picvr keeps its own). */
-    pvio_volume vol;
+    picvr_io_volume vol;
     memset(&vol, 0, sizeof vol);
     env_map env = {NULL, 0, 0};
     ok = ok && (!o->env_path || load_env(o->env_path, &env));
     ok = ok && load_volume(o, layout, &vol);
     ok = ok && pvc_check(picvr_create(&cfg, &r.ctx), "picvr_create");
     ok = ok && upload_volume(r.ctx, o, &vol);
-    pvio_free(&vol);
+    picvr_io_free(&vol);
     ok = ok && set_up_scene(r.ctx, o, &env);
     pvenv_free(env.rgb);  /* picvr keeps its own copy */
     if (ok) {
@@ -941,7 +941,7 @@ int main(int argc, char **argv)
     render_options o;
     int status = parse_options(argc, argv, &o);
     if (status >= 0) return status;
-    pvio_layout layout;
+    picvr_io_layout layout;
     if (!resolve_layout(&o, &layout)) return EXIT_USAGE;
-    return render(&o, pvio_is_nrrd(o.volume_path) ? NULL : &layout);
+    return render(&o, picvr_io_is_nrrd(o.volume_path) ? NULL : &layout);
 }

@@ -50,7 +50,7 @@
 #include "cli.h"
 #include "env_io.h"
 #include "presets.h"
-#include "volume_io.h"
+#include "picvr_io.h"
 
 #define PROGRAM "picvr-viewer"
 #define EXIT_USAGE 2
@@ -177,8 +177,8 @@ static int apply_scene_option(void *target, const char *name, const char *value)
 {
     viewer_options *o = static_cast<viewer_options *>(target);
     if (!strcmp(name, "volume")) return o->volume_path = value, 1;
-    if (!strcmp(name, "dims")) return o->have_dims = pvc_parse_u32s(value, 3, 1, PVIO_MAX_DIM, o->dims);
-    if (!strcmp(name, "type")) return o->have_type = pvio_parse_type(value, &o->type) == PVIO_OK;
+    if (!strcmp(name, "dims")) return o->have_dims = pvc_parse_u32s(value, 3, 1, PICVR_IO_MAX_DIM, o->dims);
+    if (!strcmp(name, "type")) return o->have_type = picvr_io_parse_type(value, &o->type) == PICVR_IO_OK;
     if (!strcmp(name, "spacing"))
         return o->have_spacing = pvc_parse_floats(value, 3, o->spacing) && positive_all(o->spacing, 3);
     if (!strcmp(name, "range"))
@@ -270,7 +270,7 @@ static int parse_options(int argc, char **argv, viewer_options *o)
 struct viewer {
     viewer_options opt;
     /* host copies kept for the life of the program: a new context (key C) uploads again */
-    pvio_volume volume = {};
+    picvr_io_volume volume = {};
     float *env_rgb = nullptr;
     uint32_t env_width = 0, env_height = 0;
 
@@ -712,7 +712,7 @@ static bool create_context(viewer &v, picvr_cache_mode cache)
     if (!check(picvr_create(&cfg, &v.ctx), "picvr_create")) return false;
     v.cache = cache;
     picvr_volume_desc desc;
-    pvio_to_desc(&v.volume, &desc);
+    picvr_io_to_desc(&v.volume, &desc);
     if (v.opt.have_range) {
         desc.value_min = v.opt.range[0];
         desc.value_max = v.opt.range[1];
@@ -1181,20 +1181,20 @@ static bool run(viewer &v)
 static bool load_files(viewer &v)
 {
     char err[8192];
-    pvio_layout layout;
-    const bool nrrd = pvio_is_nrrd(v.opt.volume_path);   /* its header gives the layout */
+    picvr_io_layout layout;
+    const bool nrrd = picvr_io_is_nrrd(v.opt.volume_path);   /* its header gives the layout */
     if (nrrd && (v.opt.have_dims || v.opt.have_type)) {
         pvc_fail("%s: --dims and --type come from the NRRD header", v.opt.volume_path);
         return false;
     }
     if (!nrrd && !(v.opt.have_dims && v.opt.have_type) &&
-        pvio_parse_name(v.opt.volume_path, &layout, err, sizeof err) != PVIO_OK) {
+        picvr_io_parse_name(v.opt.volume_path, &layout, err, sizeof err) != PICVR_IO_OK) {
         pvc_fail("%s", err);
         return false;
     }
     if (v.opt.have_dims) memcpy(layout.dims, v.opt.dims, sizeof layout.dims);
     if (v.opt.have_type) layout.type = v.opt.type;
-    if (pvio_load(v.opt.volume_path, nrrd ? nullptr : &layout, &v.volume, err, sizeof err) != PVIO_OK) {
+    if (picvr_io_load(v.opt.volume_path, nrrd ? nullptr : &layout, &v.volume, err, sizeof err) != PICVR_IO_OK) {
         pvc_fail("%s", err);
         return false;
     }
@@ -1292,7 +1292,7 @@ static void tear_down(viewer &v)
     }
     if (v.window) glfwDestroyWindow(v.window);
     glfwTerminate();
-    pvio_free(&v.volume);
+    picvr_io_free(&v.volume);
     pvenv_free(v.env_rgb);
 }
 

@@ -18,7 +18,7 @@
 #include <time.h>
 
 #include "picvr.h"
-#include "volume_io.h"
+#include "picvr_io.h"
 
 #define PROGRAM "picvr-bench-error"
 #define EXIT_USAGE 2
@@ -128,7 +128,7 @@ typedef struct session {
     float box_min[3], box_max[3];
 } session;
 
-int session_open(const scene *s, const pvio_volume *vol, const condition *c, uint32_t seed,
+int session_open(const scene *s, const picvr_io_volume *vol, const condition *c, uint32_t seed,
                  float create_share, const picvr_cache_config *cache, session *ss);
 void session_close(session *ss);
 
@@ -138,7 +138,7 @@ int orbit(const scene *s, const session *ss, float azimuth, picvr_camera *cam);
 /* Reads the linear image into rgba and reduces it to luminance (rows top to bottom). */
 int read_luminance(picvr_context *ctx, uint32_t w, uint32_t h, float *rgba, float *lum);
 
-int plain_fingerprint(const scene *s, const pvio_volume *vol, uint64_t *out);
+int plain_fingerprint(const scene *s, const picvr_io_volume *vol, uint64_t *out);
 
 /* ---- references (references.c) ------------------------------------------------------- */
 
@@ -155,7 +155,7 @@ typedef struct reference {
 int ref_open(const options *o, const scene *s, reference *r);
 void ref_close(reference *r);
 /* Renders chunks up to `chunks` in all, then loads the reference again. */
-int ref_grow(const options *o, const scene *s, const pvio_volume *vol, reference *r,
+int ref_grow(const options *o, const scene *s, const picvr_io_volume *vol, reference *r,
              uint32_t chunks);
 /* The mean and error of the reference from the per-pixel sums over its chunks. */
 void ref_finish(reference *r, const double *s1, const double *s2);
@@ -224,7 +224,7 @@ void set_run_count(int total);
 void run_times(time_t *first, time_t *last);
 
 /* Runs a scene against its reference, growing or refusing the reference (runs.c). */
-int run_scene(const options *o, const scene *s, const pvio_volume *vol, scene_result *res);
+int run_scene(const options *o, const scene *s, const picvr_io_volume *vol, scene_result *res);
 
 /* ---- tables and figures (tables.c) ---------------------------------------------------- */
 

@@ -54,7 +54,7 @@
 #include "cli.h"
 #include "picvr.h"
 #include "presets.h"
-#include "volume_io.h"
+#include "picvr_io.h"
 
 /* ---- options ---------------------------------------------------------------------------- */
 
@@ -240,11 +240,11 @@ static void device_name(char *out, size_t size)
     picvr_destroy(ctx);
 }
 
-static int load_dataset(const options *o, const dataset_spec *d, pvio_volume *vol)
+static int load_dataset(const options *o, const dataset_spec *d, picvr_io_volume *vol)
 {
     char path[PATH_LEN], err[256];
     snprintf(path, sizeof path, "%s/%s", o->data_dir, d->file);
-    if (pvio_load(path, NULL, vol, err, sizeof err) != PVIO_OK) {
+    if (picvr_io_load(path, NULL, vol, err, sizeof err) != PICVR_IO_OK) {
         pvc_fail("%s: %s", path, err);
         return 0;
     }
@@ -254,7 +254,7 @@ static int load_dataset(const options *o, const dataset_spec *d, pvio_volume *vo
 
 /* Sets up scene s of dataset d and light set-up `lights`, with its reference key. */
 static int scene_open(const options *o, const scene_file *sf, const dataset_spec *d,
-                      const char *lights, const pvio_volume *vol, scene *s)
+                      const char *lights, const picvr_io_volume *vol, scene *s)
 {
     uint64_t fingerprint;
     scene_init(s, d, lights, o, sf->camera);
@@ -268,7 +268,7 @@ static int list_scenes(const options *o, const scene_file *sf)
 {
     for (int d = 0; d < sf->n_datasets; d++) {
         if (!pvc_in_list(o->datasets, sf->datasets[d].name)) continue;
-        pvio_volume vol;
+        picvr_io_volume vol;
         if (!load_dataset(o, &sf->datasets[d], &vol)) return 0;
         int ok = 1;
         for (int l = 0; ok && l < sf->n_lights; l++) {
@@ -277,7 +277,7 @@ static int list_scenes(const options *o, const scene_file *sf)
             ok = scene_open(o, sf, &sf->datasets[d], sf->lights[l], &vol, &s);
             if (ok) printf("%s %s/%s\n", s.id, o->refs_dir, s.hash);
         }
-        pvio_free(&vol);
+        picvr_io_free(&vol);
         if (!ok) return 0;
     }
     return 1;
@@ -319,7 +319,7 @@ static int count_runs(const options *o, const scene_file *sf, int n_conds)
 static int run_dataset(const options *o, const scene_file *sf, int d, const writers *w,
                        scene_result *res, int *refused)
 {
-    pvio_volume vol;
+    picvr_io_volume vol;
     if (!load_dataset(o, &sf->datasets[d], &vol)) return 0;
     int ok = 1, first = 1;
     for (int l = 0; ok && l < sf->n_lights; l++) {
@@ -338,7 +338,7 @@ static int run_dataset(const options *o, const scene_file *sf, int d, const writ
         res->have_rot = 0;
         free_result(res, o->repeats);
     }
-    pvio_free(&vol);
+    picvr_io_free(&vol);
     return ok;
 }
 

@@ -195,7 +195,7 @@ static int write_chunk(const reference *r, uint32_t k, picvr_context *ctx)
 }
 
 /* Renders reference chunk k: plain Monte Carlo for o->ref_chunk_ms, seed 1001 + k. */
-static int ref_render_chunk(const options *o, const scene *s, const pvio_volume *vol,
+static int ref_render_chunk(const options *o, const scene *s, const picvr_io_volume *vol,
                             const reference *r, uint32_t k)
 {
     session ss;
@@ -205,7 +205,7 @@ static int ref_render_chunk(const options *o, const scene *s, const pvio_volume 
     return ok;
 }
 
-int ref_grow(const options *o, const scene *s, const pvio_volume *vol,
+int ref_grow(const options *o, const scene *s, const picvr_io_volume *vol,
                     reference *r, uint32_t chunks)
 {
     for (uint32_t k = r->chunks; k < chunks; k++)

@@ -111,7 +111,7 @@ errors compare(const float *lum, const reference *ref)
 
 typedef struct run_spec {
     const scene *s;
-    const pvio_volume *vol;
+    const picvr_io_volume *vol;
     const reference *ref;
     const condition *c;
     int repeat;
@@ -337,7 +337,7 @@ typedef struct repeat_set {
 } repeat_set;
 
 /* Runs o->repeats repeats into runs[] (NULL: each is dropped once its file is done). */
-static int run_repeats(const options *o, const scene *s, const pvio_volume *vol,
+static int run_repeats(const options *o, const scene *s, const picvr_io_volume *vol,
                        const reference *ref, const repeat_set *set, run *runs)
 {
     for (int k = 0; k < o->repeats; k++) {
@@ -361,7 +361,7 @@ static int run_repeats(const options *o, const scene *s, const pvio_volume *vol,
 
 /* Table 2's matrix: every selected condition; the final images kept for the bias
    split unless it has runs of its own (--bias-time). */
-static int run_all(const options *o, const scene *s, const pvio_volume *vol,
+static int run_all(const options *o, const scene *s, const picvr_io_volume *vol,
                    const reference *ref, scene_result *res)
 {
     int keep_lum = pvc_in_list(o->bias, s->ds->name) && o->bias_ms <= 0;
@@ -373,7 +373,7 @@ static int run_all(const options *o, const scene *s, const pvio_volume *vol,
 }
 
 /* Fig. 10: plain and object-space locking while the camera turns, then stops. */
-static int run_rotations(const options *o, const scene *s, const pvio_volume *vol,
+static int run_rotations(const options *o, const scene *s, const picvr_io_volume *vol,
                          const reference *ref, scene_result *res)
 {
     static const char *names[2] = {"plain", "object"};
@@ -392,7 +392,7 @@ static int run_rotations(const options *o, const scene *s, const pvio_volume *vo
 const char *const BIAS_CONDITIONS[N_BIAS_CONDITIONS] = {"plain", "object", "screen"};
 
 /* The bias runs: suffix "_bias" or, warm, "_warm" (files and bias.md rows). */
-static int run_bias(const options *o, const scene *s, const pvio_volume *vol,
+static int run_bias(const options *o, const scene *s, const picvr_io_volume *vol,
                     const reference *ref, int warm)
 {
     double length = o->bias_ms > 0 ? o->bias_ms : o->run_ms;
@@ -427,7 +427,7 @@ static double reference_shortfall(const reference *ref, scene_result *res, const
 /* Table 2's runs against ref, growing ref (and running again) until it is converged
    enough; res->refused when that would take more than --ref-max-chunks chunks or
    REF_ROUNDS rounds. */
-static int run_converged(const options *o, const scene *s, const pvio_volume *vol,
+static int run_converged(const options *o, const scene *s, const picvr_io_volume *vol,
                          reference *ref, scene_result *res)
 {
     int base_done = count_done;
@@ -450,7 +450,7 @@ static int run_converged(const options *o, const scene *s, const pvio_volume *vo
     return 1;
 }
 
-int run_scene(const options *o, const scene *s, const pvio_volume *vol, scene_result *res)
+int run_scene(const options *o, const scene *s, const picvr_io_volume *vol, scene_result *res)
 {
     reference ref;
     int ok = ref_open(o, s, &ref);

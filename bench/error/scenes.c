@@ -13,7 +13,7 @@
 #include "cli.h"
 #include "picvr.h"
 #include "presets.h"
-#include "volume_io.h"
+#include "picvr_io.h"
 
 static uint64_t fnv1a_bytes(const void *data, size_t size)
 {
@@ -170,7 +170,7 @@ static int set_look(const scene *s, session *ss)
    (t_c,min = t_c,max; the warm-up of --bias-warm); 0: the defaults of Table 1.
    cache: the cache's options (options.cache; NULL: the library's defaults); its mode
    is the condition's. */
-int session_open(const scene *s, const pvio_volume *vol, const condition *c,
+int session_open(const scene *s, const picvr_io_volume *vol, const condition *c,
                         uint32_t seed, float create_share, const picvr_cache_config *cache,
                         session *ss)
 {
@@ -184,7 +184,7 @@ int session_open(const scene *s, const pvio_volume *vol, const condition *c,
     cfg.scheduler.create_min = cfg.scheduler.create_max = create_share;
     if (!pvc_check(picvr_create(&cfg, &ss->ctx), "picvr_create")) return 0;
     picvr_volume_desc desc;
-    pvio_to_desc(vol, &desc);
+    picvr_io_to_desc(vol, &desc);
     int ok = pvc_check(picvr_upload_volume(ss->ctx, &desc), "picvr_upload_volume") &&
              pvc_check(picvr_volume_box(ss->ctx, ss->box_min, ss->box_max), "picvr_volume_box") &&
              orbit(s, ss, s->camera[0], &ss->camera) &&
@@ -216,7 +216,7 @@ int read_luminance(picvr_context *ctx, uint32_t w, uint32_t h, float *rgba, floa
    plain image bit-identical (a refactor) keeps them, while any change of that image, by
    the kernel or by the host side, makes new ones; another device or driver gets its own
    references.  Costs a few iterations per scene. */
-int plain_fingerprint(const scene *s, const pvio_volume *vol, uint64_t *out)
+int plain_fingerprint(const scene *s, const picvr_io_volume *vol, uint64_t *out)
 {
     session ss;
     if (!session_open(s, vol, find_condition("plain"), FINGERPRINT_SEED, 0.0f, NULL, &ss)) return 0;

@@ -15,7 +15,7 @@
 #include "cli.h"
 #include "picvr.h"
 #include "presets.h"
-#include "volume_io.h"
+#include "picvr_io.h"
 
 static int expect(int ok, const char *what)
 {
@@ -150,7 +150,7 @@ static int self_test_fingerprint(void)
                 double r = sqrt((x - 7.5) * (x - 7.5) + (y - 7.5) * (y - 7.5) + (z - 7.5) * (z - 7.5));
                 voxels[(z * N + y) * N + x] = (uint8_t)(r < 6.0 ? 200 - 20 * r : 0);
             }
-    pvio_volume vol = {{N, N, N}, PICVR_VOXEL_UINT8, {1, 1, 1}, voxels, sizeof voxels};
+    picvr_io_volume vol = {{N, N, N}, PICVR_VOXEL_UINT8, {1, 1, 1}, voxels, sizeof voxels};
     dataset_spec ds = {"sphere", "sphere_16x16x16_uint8.raw", "ct-bonsai", 1.0f};
     options o = {0};
     o.width = o.height = 16;

@@ -1,24 +1,24 @@
-/* fuzz_volume_io.c - libFuzzer harness for the loaders in examples/volume_io.c.
+/* fuzz_volume_io.c - libFuzzer harness for the loaders in io/picvr_io.c.
  *
  * Built by `make fuzz` with clang -fsanitize=fuzzer,address,undefined.  One input is
  *
  *     byte 0      flags: bit 0 gzip-compress the contents before writing the file,
  *                 bit 1 load with an explicit layout (bytes 1..4) instead of the name,
- *                 bit 2 also call pvio_parse_name on the raw name bytes with a tiny
+ *                 bit 2 also call picvr_io_parse_name on the raw name bytes with a tiny
  *                 error buffer (truncated messages),
  *                 bit 3 name the file NAME.nrrd, so that the NRRD reader takes it (its
  *                 header and data, attached; a detached one names any file it likes)
  *     bytes 1..4  explicit layout: dims (1 + byte % 8 each, so tiny files can match) and
  *                 type (byte 4 % 10: 0..9, including the invalid 0 and 9)
  *     then        a file name up to the first '\n' (any bytes; '/' and NUL are replaced
- *                 when the file is written, the raw bytes go to pvio_parse_name)
+ *                 when the file is written, the raw bytes go to picvr_io_parse_name)
  *     then        the file contents (raw, or gzip data as is, or compressed by bit 0)
  *
  * Every call must return a status without a sanitizer report; on success the result is
  * checked for consistency (size == product of dims * voxel size) and fed to
- * pvio_value_range and pvio_to_desc.  Files go to a private directory under $TMPDIR.
+ * picvr_io_value_range and picvr_io_to_desc.  Files go to a private directory under $TMPDIR.
  */
-#include "volume_io.h"
+#include "picvr_io.h"
 
 #include <stdint.h>
 #include <stdio.h>
@@ -47,8 +47,8 @@ static void check(int cond, const char *what) {
     }
 }
 
-static void use_volume(pvio_volume *v, const pvio_layout *want) {
-    size_t vs = pvio_voxel_size(v->type);
+static void use_volume(picvr_io_volume *v, const picvr_io_layout *want) {
+    size_t vs = picvr_io_voxel_size(v->type);
     check(vs != 0, "loaded volume has a known type");
     check(v->size == (size_t)v->dims[0] * v->dims[1] * v->dims[2] * vs, "size == dims * voxel");
     if (want) {
@@ -57,11 +57,11 @@ static void use_volume(pvio_volume *v, const pvio_layout *want) {
     }
     double lo = 0, hi = 0;
     size_t bad = 0;
-    check(pvio_value_range(v, &lo, &hi, &bad) == PVIO_OK, "value range of a loaded volume");
+    check(picvr_io_value_range(v, &lo, &hi, &bad) == PICVR_IO_OK, "value range of a loaded volume");
     check(lo <= hi, "min <= max");
     picvr_volume_desc d;
-    check(pvio_to_desc(v, &d) == PVIO_OK && d.data == v->data, "to_desc");
-    pvio_free(v);
+    check(picvr_io_to_desc(v, &d) == PICVR_IO_OK && d.data == v->data, "to_desc");
+    picvr_io_free(v);
     check(v->data == NULL && v->size == 0, "free zeroes the volume");
 }
 
@@ -69,7 +69,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     if (size < 5) return 0;
     make_dir();
     const uint8_t flags = data[0];
-    pvio_layout explicit_layout;
+    picvr_io_layout explicit_layout;
     for (int i = 0; i < 3; i++) explicit_layout.dims[i] = 1u + data[1 + i] % 8u;
     explicit_layout.type = (picvr_voxel_type)(data[4] % 10u);
     data += 5;
@@ -85,22 +85,22 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     if (!raw) return 0;
     memcpy(raw, data, name_len);
     raw[name_len] = 0;
-    pvio_layout lay;
+    picvr_io_layout lay;
     char err[160];
-    pvio_status st = pvio_parse_name(raw, &lay, err, sizeof err);
-    check(st < PVIO_STATUS_COUNT, "parse_name status in range");
-    if (st == PVIO_OK) {
+    picvr_io_status st = picvr_io_parse_name(raw, &lay, err, sizeof err);
+    check(st < PICVR_IO_STATUS_COUNT, "parse_name status in range");
+    if (st == PICVR_IO_OK) {
         size_t bytes = 0;
-        check(pvio_layout_bytes(&lay, &bytes, NULL, 0) == PVIO_OK && bytes > 0,
+        check(picvr_io_layout_bytes(&lay, &bytes, NULL, 0) == PICVR_IO_OK && bytes > 0,
               "a parsed layout is valid");
     } else {
         check(memchr(err, 0, sizeof err) != NULL, "error message terminated");
     }
     if (flags & 4) {
         char tiny[3];
-        (void)pvio_parse_name(raw, &lay, tiny, sizeof tiny);
+        (void)picvr_io_parse_name(raw, &lay, tiny, sizeof tiny);
         picvr_voxel_type ty;
-        (void)pvio_parse_type(raw, &ty);
+        (void)picvr_io_parse_type(raw, &ty);
     }
 
     /* The file: the name's bytes with '/' and NUL replaced, at most 200 of them. */
@@ -132,14 +132,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
         }
     }
     if (written) {
-        pvio_volume v;
-        st = pvio_load(path, NULL, &v, err, sizeof err);
-        check(st < PVIO_STATUS_COUNT, "load status in range");
-        if (st == PVIO_OK) use_volume(&v, NULL);
+        picvr_io_volume v;
+        st = picvr_io_load(path, NULL, &v, err, sizeof err);
+        check(st < PICVR_IO_STATUS_COUNT, "load status in range");
+        if (st == PICVR_IO_OK) use_volume(&v, NULL);
         else check(v.data == NULL && v.size == 0, "failed load leaves a zeroed volume");
         if (flags & 2) {
-            st = pvio_load(path, &explicit_layout, &v, err, sizeof err);
-            if (st == PVIO_OK) use_volume(&v, &explicit_layout);
+            st = picvr_io_load(path, &explicit_layout, &v, err, sizeof err);
+            if (st == PICVR_IO_OK) use_volume(&v, &explicit_layout);
             else check(v.data == NULL, "failed load leaves a zeroed volume");
         }
     }

@@ -1,8 +1,9 @@
-/* volume_io.c - see volume_io.h.  Written to survive hostile names and files (it is
+/* picvr_io.c - see picvr_io.h.  Written to survive hostile names and files (it is
  * fuzzed): no fixed-size copies of the input, every size product checked, and the
  * buffer grows with the data actually read, so a tiny file claiming a huge layout
  * never makes us allocate the huge size up front. */
-#include "volume_io.h"
+#include "picvr_io.h"
+#include "io/internal.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -17,12 +18,6 @@
 
 #include <zlib.h>
 
-#if defined(__GNUC__)
-#define PVIO_PRINTF(f, a) __attribute__((format(printf, f, a)))
-#else
-#define PVIO_PRINTF(f, a)
-#endif
-
 /* Longest piece of a file name quoted in a message, so messages stay readable. */
 #define NAME_QUOTE_MAX 120
 /* First buffer size when reading; doubled as data arrives (up to the layout size). */
@@ -30,8 +25,9 @@
 /* Largest single gzread() request: its length is an unsigned int, its result an int. */
 #define MAX_READ_CHUNK ((size_t)1 << 30)
 
-PVIO_PRINTF(3, 4)
-static void set_error(char *err, size_t err_size, const char *fmt, ...)
+#define set_error picvr_io_set_error
+
+void picvr_io_set_error(char *err, size_t err_size, const char *fmt, ...)
 {
     if (!err || err_size == 0) return;
     va_list ap;
@@ -40,27 +36,28 @@ static void set_error(char *err, size_t err_size, const char *fmt, ...)
     va_end(ap);
 }
 
-const char *pvio_status_string(pvio_status status)
+const char *picvr_io_status_string(picvr_io_status status)
 {
     switch (status) {
-    case PVIO_OK: return "PVIO_OK";
-    case PVIO_ERROR_NULL_POINTER: return "PVIO_ERROR_NULL_POINTER";
-    case PVIO_ERROR_BAD_NAME: return "PVIO_ERROR_BAD_NAME";
-    case PVIO_ERROR_BAD_DIMS: return "PVIO_ERROR_BAD_DIMS";
-    case PVIO_ERROR_BAD_TYPE: return "PVIO_ERROR_BAD_TYPE";
-    case PVIO_ERROR_SIZE_OVERFLOW: return "PVIO_ERROR_SIZE_OVERFLOW";
-    case PVIO_ERROR_OPEN: return "PVIO_ERROR_OPEN";
-    case PVIO_ERROR_READ: return "PVIO_ERROR_READ";
-    case PVIO_ERROR_TRUNCATED: return "PVIO_ERROR_TRUNCATED";
-    case PVIO_ERROR_TOO_LONG: return "PVIO_ERROR_TOO_LONG";
-    case PVIO_ERROR_OUT_OF_MEMORY: return "PVIO_ERROR_OUT_OF_MEMORY";
-    case PVIO_ERROR_BAD_HEADER: return "PVIO_ERROR_BAD_HEADER";
-    case PVIO_STATUS_COUNT: break;
+    case PICVR_IO_OK: return "PICVR_IO_OK";
+    case PICVR_IO_ERROR_NULL_POINTER: return "PICVR_IO_ERROR_NULL_POINTER";
+    case PICVR_IO_ERROR_BAD_NAME: return "PICVR_IO_ERROR_BAD_NAME";
+    case PICVR_IO_ERROR_BAD_DIMS: return "PICVR_IO_ERROR_BAD_DIMS";
+    case PICVR_IO_ERROR_BAD_TYPE: return "PICVR_IO_ERROR_BAD_TYPE";
+    case PICVR_IO_ERROR_SIZE_OVERFLOW: return "PICVR_IO_ERROR_SIZE_OVERFLOW";
+    case PICVR_IO_ERROR_OPEN: return "PICVR_IO_ERROR_OPEN";
+    case PICVR_IO_ERROR_READ: return "PICVR_IO_ERROR_READ";
+    case PICVR_IO_ERROR_TRUNCATED: return "PICVR_IO_ERROR_TRUNCATED";
+    case PICVR_IO_ERROR_TOO_LONG: return "PICVR_IO_ERROR_TOO_LONG";
+    case PICVR_IO_ERROR_OUT_OF_MEMORY: return "PICVR_IO_ERROR_OUT_OF_MEMORY";
+    case PICVR_IO_ERROR_BAD_HEADER: return "PICVR_IO_ERROR_BAD_HEADER";
+    case PICVR_IO_ERROR_UNSUPPORTED: return "PICVR_IO_ERROR_UNSUPPORTED";
+    case PICVR_IO_STATUS_COUNT: break;
     }
-    return "PVIO_ERROR_UNKNOWN_STATUS";
+    return "PICVR_IO_ERROR_UNKNOWN_STATUS";
 }
 
-size_t pvio_voxel_size(picvr_voxel_type type)
+size_t picvr_io_voxel_size(picvr_voxel_type type)
 {
     switch (type) {
     case PICVR_VOXEL_UINT8: case PICVR_VOXEL_INT8: return 1;
@@ -71,7 +68,7 @@ size_t pvio_voxel_size(picvr_voxel_type type)
     return 0;
 }
 
-const char *pvio_type_name(picvr_voxel_type type)
+const char *picvr_io_type_name(picvr_voxel_type type)
 {
     switch (type) {
     case PICVR_VOXEL_UINT8: return "uint8";
@@ -108,7 +105,7 @@ static int piece_ends_with(const char *s, size_t len, const char *suffix)
     return len >= n && piece_equals(s + len - n, n, suffix);
 }
 
-static pvio_status parse_type_piece(const char *s, size_t len, picvr_voxel_type *type)
+static picvr_io_status parse_type_piece(const char *s, size_t len, picvr_voxel_type *type)
 {
     static const struct { const char *name, *abbrev; picvr_voxel_type type; } names[] = {
         {"uint8", "u8", PICVR_VOXEL_UINT8},       {"uint16", "u16", PICVR_VOXEL_UINT16},
@@ -118,94 +115,94 @@ static pvio_status parse_type_piece(const char *s, size_t len, picvr_voxel_type 
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
         if (piece_equals(s, len, names[i].name) || piece_equals(s, len, names[i].abbrev)) {
             *type = names[i].type;
-            return PVIO_OK;
+            return PICVR_IO_OK;
         }
-    return PVIO_ERROR_BAD_TYPE;
+    return PICVR_IO_ERROR_BAD_TYPE;
 }
 
-pvio_status pvio_parse_type(const char *text, picvr_voxel_type *type)
+picvr_io_status picvr_io_parse_type(const char *text, picvr_voxel_type *type)
 {
-    if (!text || !type) return PVIO_ERROR_NULL_POINTER;
+    if (!text || !type) return PICVR_IO_ERROR_NULL_POINTER;
     return parse_type_piece(text, strlen(text), type);
 }
 
-/* Decimal digits only.  Stops accumulating once past PVIO_MAX_DIM, so any number of
+/* Decimal digits only.  Stops accumulating once past PICVR_IO_MAX_DIM, so any number of
    digits is safe: BAD_NAME for a non-digit or an empty piece, BAD_DIMS for 0 or a
    value above the limit. */
-static pvio_status parse_dim_piece(const char *s, size_t len, uint32_t *dim)
+static picvr_io_status parse_dim_piece(const char *s, size_t len, uint32_t *dim)
 {
-    if (len == 0) return PVIO_ERROR_BAD_NAME;
+    if (len == 0) return PICVR_IO_ERROR_BAD_NAME;
     uint32_t v = 0;
     int too_big = 0;
     for (size_t i = 0; i < len; i++) {
-        if (s[i] < '0' || s[i] > '9') return PVIO_ERROR_BAD_NAME;
+        if (s[i] < '0' || s[i] > '9') return PICVR_IO_ERROR_BAD_NAME;
         if (!too_big) {
             v = v * 10u + (uint32_t)(s[i] - '0');
-            if (v > PVIO_MAX_DIM) too_big = 1;
+            if (v > PICVR_IO_MAX_DIM) too_big = 1;
         }
     }
-    if (too_big || v == 0) return PVIO_ERROR_BAD_DIMS;
+    if (too_big || v == 0) return PICVR_IO_ERROR_BAD_DIMS;
     *dim = v;
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
 /* "XxYxZ" -> three dims.  BAD_NAME beats BAD_DIMS so a malformed piece is reported
    as such even when an earlier number is out of range. */
-static pvio_status parse_dims_piece(const char *s, size_t len, uint32_t dims[3])
+static picvr_io_status parse_dims_piece(const char *s, size_t len, uint32_t dims[3])
 {
-    pvio_status worst = PVIO_OK;
+    picvr_io_status worst = PICVR_IO_OK;
     size_t start = 0;
     int axis = 0;
     for (size_t i = 0; i <= len; i++) {
         if (i < len && s[i] != 'x' && s[i] != 'X') continue;
-        if (axis == 3) return PVIO_ERROR_BAD_NAME; /* a fourth number */
-        pvio_status st = parse_dim_piece(s + start, i - start, &dims[axis]);
-        if (st == PVIO_ERROR_BAD_NAME) return st;
-        if (st != PVIO_OK) worst = st;
+        if (axis == 3) return PICVR_IO_ERROR_BAD_NAME; /* a fourth number */
+        picvr_io_status st = parse_dim_piece(s + start, i - start, &dims[axis]);
+        if (st == PICVR_IO_ERROR_BAD_NAME) return st;
+        if (st != PICVR_IO_OK) worst = st;
         axis++;
         start = i + 1;
     }
-    if (axis != 3) return PVIO_ERROR_BAD_NAME;
+    if (axis != 3) return PICVR_IO_ERROR_BAD_NAME;
     return worst;
 }
 
-pvio_status pvio_layout_bytes(const pvio_layout *layout, size_t *bytes,
+picvr_io_status picvr_io_layout_bytes(const picvr_io_layout *layout, size_t *bytes,
                               char *err, size_t err_size)
 {
     if (!layout) {
         set_error(err, err_size, "no layout given");
-        return PVIO_ERROR_NULL_POINTER;
+        return PICVR_IO_ERROR_NULL_POINTER;
     }
-    size_t total = pvio_voxel_size(layout->type);
+    size_t total = picvr_io_voxel_size(layout->type);
     if (total == 0) {
         set_error(err, err_size, "unknown voxel type %d", (int)layout->type);
-        return PVIO_ERROR_BAD_TYPE;
+        return PICVR_IO_ERROR_BAD_TYPE;
     }
     for (int i = 0; i < 3; i++) {
         uint32_t d = layout->dims[i];
-        if (d < 1 || d > PVIO_MAX_DIM) {
+        if (d < 1 || d > PICVR_IO_MAX_DIM) {
             set_error(err, err_size, "dimension %d is %lu, must be 1..%u", i,
-                      (unsigned long)d, PVIO_MAX_DIM);
-            return PVIO_ERROR_BAD_DIMS;
+                      (unsigned long)d, PICVR_IO_MAX_DIM);
+            return PICVR_IO_ERROR_BAD_DIMS;
         }
         if (total > SIZE_MAX / d) {
             set_error(err, err_size, "volume %lux%lux%lu %s does not fit in memory",
                       (unsigned long)layout->dims[0], (unsigned long)layout->dims[1],
-                      (unsigned long)layout->dims[2], pvio_type_name(layout->type));
-            return PVIO_ERROR_SIZE_OVERFLOW;
+                      (unsigned long)layout->dims[2], picvr_io_type_name(layout->type));
+            return PICVR_IO_ERROR_SIZE_OVERFLOW;
         }
         total *= d;
     }
     if (bytes) *bytes = total;
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
-pvio_status pvio_parse_name(const char *path, pvio_layout *layout,
+picvr_io_status picvr_io_parse_name(const char *path, picvr_io_layout *layout,
                             char *err, size_t err_size)
 {
     if (!path || !layout) {
         set_error(err, err_size, "no file name given");
-        return PVIO_ERROR_NULL_POINTER;
+        return PICVR_IO_ERROR_NULL_POINTER;
     }
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
@@ -217,7 +214,7 @@ pvio_status pvio_parse_name(const char *path, pvio_layout *layout,
     if (!piece_ends_with(base, len, ".raw")) {
         set_error(err, err_size, "'%.*s': name must end in .raw or .raw.gz "
                   "(NAME_XxYxZ_TYPE.raw[.gz]); otherwise give --dims and --type", quote, base);
-        return PVIO_ERROR_BAD_NAME;
+        return PICVR_IO_ERROR_BAD_NAME;
     }
     len -= 4;
 
@@ -225,32 +222,32 @@ pvio_status pvio_parse_name(const char *path, pvio_layout *layout,
     while (type_sep > 0 && base[type_sep - 1] != '_') type_sep--;
     if (type_sep == 0) {
         set_error(err, err_size, "'%.*s': no _XxYxZ_TYPE before .raw", quote, base);
-        return PVIO_ERROR_BAD_NAME;
+        return PICVR_IO_ERROR_BAD_NAME;
     }
     size_t dims_start = type_sep - 1;
     while (dims_start > 0 && base[dims_start - 1] != '_') dims_start--;
 
-    pvio_layout parsed = {{0, 0, 0}, PICVR_VOXEL_UINT8};
-    if (parse_type_piece(base + type_sep, len - type_sep, &parsed.type) != PVIO_OK) {
+    picvr_io_layout parsed = {{0, 0, 0}, PICVR_VOXEL_UINT8};
+    if (parse_type_piece(base + type_sep, len - type_sep, &parsed.type) != PICVR_IO_OK) {
         set_error(err, err_size, "'%.*s': unknown voxel type '%.*s' "
                   "(use uint8, uint16, float32, int8, int16, int32, float16, float64 or u8, u16, f32, i8, i16, i32, f16, f64)", quote, base,
                   (int)(len - type_sep > 20 ? 20 : len - type_sep), base + type_sep);
-        return PVIO_ERROR_BAD_TYPE;
+        return PICVR_IO_ERROR_BAD_TYPE;
     }
-    pvio_status st = parse_dims_piece(base + dims_start, type_sep - 1 - dims_start,
+    picvr_io_status st = parse_dims_piece(base + dims_start, type_sep - 1 - dims_start,
                                       parsed.dims);
-    if (st == PVIO_ERROR_BAD_NAME) {
+    if (st == PICVR_IO_ERROR_BAD_NAME) {
         set_error(err, err_size, "'%.*s': expected dimensions XxYxZ (e.g. 256x256x128) "
                   "before _TYPE", quote, base);
         return st;
     }
-    if (st != PVIO_OK) {
+    if (st != PICVR_IO_OK) {
         set_error(err, err_size, "'%.*s': every dimension must be 1..%u", quote, base,
-                  PVIO_MAX_DIM);
+                  PICVR_IO_MAX_DIM);
         return st;
     }
-    st = pvio_layout_bytes(&parsed, NULL, err, err_size);
-    if (st == PVIO_OK) *layout = parsed;
+    st = picvr_io_layout_bytes(&parsed, NULL, err, err_size);
+    if (st == PICVR_IO_OK) *layout = parsed;
     return st;
 }
 
@@ -290,7 +287,7 @@ static const char *gz_message(gzFile gz, const char *path, int *errnum)
 
 /* Reads up to `expected` bytes into a buffer that grows as data arrives.  Returns
    the buffer (caller frees) and how many bytes came in *got. */
-static pvio_status read_up_to(gzFile gz, const char *path, size_t expected,
+static picvr_io_status read_up_to(gzFile gz, const char *path, size_t expected,
                               unsigned char **out, size_t *got, char *err, size_t err_size)
 {
     size_t cap = expected < INITIAL_READ_BYTES ? expected : INITIAL_READ_BYTES;
@@ -312,24 +309,24 @@ static pvio_status read_up_to(gzFile gz, const char *path, size_t expected,
             int errnum;
             set_error(err, err_size, "%s: read error: %s", path, gz_message(gz, path, &errnum));
             free(buf);
-            return PVIO_ERROR_READ;
+            return PICVR_IO_ERROR_READ;
         }
         if (n == 0) break;
         have += (size_t)n;
     }
     *out = buf;
     *got = have;
-    return PVIO_OK;
+    return PICVR_IO_OK;
 
 out_of_memory:
     set_error(err, err_size, "%s: out of memory for %zu bytes", path, expected);
     free(buf);
-    return PVIO_ERROR_OUT_OF_MEMORY;
+    return PICVR_IO_ERROR_OUT_OF_MEMORY;
 }
 
 /* After `have` bytes: the file must end here, and a gzip stream must end cleanly
    (reading on verifies its CRC and length trailer). */
-static pvio_status check_end_of_data(gzFile gz, const char *path, size_t have,
+static picvr_io_status check_end_of_data(gzFile gz, const char *path, size_t have,
                                      size_t expected, char *err, size_t err_size)
 {
     int errnum = Z_OK;
@@ -342,86 +339,86 @@ static pvio_status check_end_of_data(gzFile gz, const char *path, size_t have,
             set_error(err, err_size, "%s: truncated: %zu bytes, the layout needs %zu",
                       path, have, expected);
         }
-        return PVIO_ERROR_TRUNCATED;
+        return PICVR_IO_ERROR_TRUNCATED;
     }
     unsigned char extra;
     int n = gzread(gz, &extra, 1);
     if (n < 0) {
         set_error(err, err_size, "%s: read error: %s", path, gz_message(gz, path, &errnum));
-        return PVIO_ERROR_READ;
+        return PICVR_IO_ERROR_READ;
     }
     if (n > 0) {
         set_error(err, err_size, "%s: too long: more than the %zu bytes the layout needs",
                   path, expected);
-        return PVIO_ERROR_TOO_LONG;
+        return PICVR_IO_ERROR_TOO_LONG;
     }
     const char *msg = gz_message(gz, path, &errnum);
     if (errnum == Z_BUF_ERROR) {
         set_error(err, err_size, "%s: truncated gzip data (%s); check sum not verified",
                   path, msg);
-        return PVIO_ERROR_TRUNCATED;
+        return PICVR_IO_ERROR_TRUNCATED;
     }
     if (errnum != Z_OK) {
         set_error(err, err_size, "%s: read error: %s", path, msg);
-        return PVIO_ERROR_READ;
+        return PICVR_IO_ERROR_READ;
     }
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
 /* For an uncompressed regular file the size is known up front: a precise early error. */
-static pvio_status check_plain_file_size(gzFile gz, const struct stat *st, const char *path,
+static picvr_io_status check_plain_file_size(gzFile gz, const struct stat *st, const char *path,
                                          size_t expected, char *err, size_t err_size)
 {
-    if (!S_ISREG(st->st_mode) || !gzdirect(gz)) return PVIO_OK;
-    if (st->st_size < 0) return PVIO_OK;
+    if (!S_ISREG(st->st_mode) || !gzdirect(gz)) return PICVR_IO_OK;
+    if (st->st_size < 0) return PICVR_IO_OK;
     uintmax_t actual = (uintmax_t)st->st_size;
     if (actual < expected) {
         set_error(err, err_size, "%s: truncated: %ju bytes, the layout needs %zu",
                   path, actual, expected);
-        return PVIO_ERROR_TRUNCATED;
+        return PICVR_IO_ERROR_TRUNCATED;
     }
     if (actual > expected) {
         set_error(err, err_size, "%s: too long: %ju bytes, the layout needs %zu",
                   path, actual, expected);
-        return PVIO_ERROR_TOO_LONG;
+        return PICVR_IO_ERROR_TOO_LONG;
     }
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
-static pvio_status read_volume_file(const char *path, size_t expected, unsigned char **data,
+static picvr_io_status read_volume_file(const char *path, size_t expected, unsigned char **data,
                                     char *err, size_t err_size)
 {
     struct stat st;
     if (stat(path, &st) != 0) {
         set_error(err, err_size, "%s: %s", path, strerror(errno));
-        return PVIO_ERROR_OPEN;
+        return PICVR_IO_ERROR_OPEN;
     }
     if (!S_ISREG(st.st_mode) && !S_ISFIFO(st.st_mode)) {
         set_error(err, err_size, "%s: not a regular file", path);
-        return PVIO_ERROR_OPEN;
+        return PICVR_IO_ERROR_OPEN;
     }
     errno = 0;
     gzFile gz = gzopen(path, "rb");
     if (!gz) {
         set_error(err, err_size, "%s: %s", path, errno ? strerror(errno) : "cannot open");
-        return errno ? PVIO_ERROR_OPEN : PVIO_ERROR_OUT_OF_MEMORY;
+        return errno ? PICVR_IO_ERROR_OPEN : PICVR_IO_ERROR_OUT_OF_MEMORY;
     }
     gzbuffer(gz, 1u << 18); /* fewer system calls than the 8 KiB default */
 
     unsigned char *buf = NULL;
     size_t have = 0;
-    pvio_status status = check_plain_file_size(gz, &st, path, expected, err, err_size);
-    if (status == PVIO_OK)
+    picvr_io_status status = check_plain_file_size(gz, &st, path, expected, err, err_size);
+    if (status == PICVR_IO_OK)
         status = read_up_to(gz, path, expected, &buf, &have, err, err_size);
-    if (status == PVIO_OK)
+    if (status == PICVR_IO_OK)
         status = check_end_of_data(gz, path, have, expected, err, err_size);
     gzclose(gz);
-    if (status != PVIO_OK) {
+    if (status != PICVR_IO_OK) {
         free(buf);
         return status;
     }
     *data = buf;
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
 /* ---- NRRD (.nrrd with the data attached, .nhdr with a detached data file) -------------
@@ -444,6 +441,7 @@ typedef struct nrrd_header {
     picvr_voxel_type type;
     double spacing[3], direction[9], origin[3];
     int have_directions, have_origin;
+    int flip_x, flip_y;        /* the header's "space" is RAS or LAS: negated into LPS */
     long long byte_skip;
     char data_file[1024];
 } nrrd_header;
@@ -502,33 +500,33 @@ static int nrrd_numbers(const char *s, double v[3], int sizes)
         errno = 0;
         v[i] = strtod(s, &end);
         if (end == s || errno == ERANGE || !isfinite(v[i]) || !(v[i] > 0.0)) return 0;
-        if (sizes && (v[i] != floor(v[i]) || v[i] > PVIO_MAX_DIM)) return 0;
+        if (sizes && (v[i] != floor(v[i]) || v[i] > PICVR_IO_MAX_DIM)) return 0;
         s = end;
     }
     while (*s == ' ' || *s == '\t') s++;
     return *s == '\0';
 }
 
-static pvio_status nrrd_field(nrrd_header *h, const char *key, const char *v, const char *path, char *err, size_t err_size)
+static picvr_io_status nrrd_field(nrrd_header *h, const char *key, const char *v, const char *path, char *err, size_t err_size)
 {
     double n[3];
     if (!strcmp(key, "dimension")) {
         if (strcmp(v, "3")) {
             set_error(err, err_size, "%s: NRRD dimension %s: picvr reads 3-dimensional volumes", path, v);
-            return PVIO_ERROR_BAD_DIMS;
+            return PICVR_IO_ERROR_BAD_DIMS;
         }
         h->dimension = 3;
     } else if (!strcmp(key, "sizes")) {
         if (!nrrd_numbers(v, n, 1)) {
-            set_error(err, err_size, "%s: NRRD sizes '%s': three sizes in 1..%u", path, v, PVIO_MAX_DIM);
-            return PVIO_ERROR_BAD_DIMS;
+            set_error(err, err_size, "%s: NRRD sizes '%s': three sizes in 1..%u", path, v, PICVR_IO_MAX_DIM);
+            return PICVR_IO_ERROR_BAD_DIMS;
         }
         for (int i = 0; i < 3; i++) h->dims[i] = (uint32_t)n[i];
         h->have_sizes = 1;
     } else if (!strcmp(key, "type")) {
         if (!nrrd_type(v, &h->type)) {
             set_error(err, err_size, "%s: NRRD type '%s' is not one picvr holds", path, v);
-            return PVIO_ERROR_BAD_TYPE;
+            return PICVR_IO_ERROR_BAD_TYPE;
         }
         h->have_type = 1;
     } else if (!strcmp(key, "encoding")) {
@@ -536,22 +534,29 @@ static pvio_status nrrd_field(nrrd_header *h, const char *key, const char *v, co
         else if (!strcmp(v, "gzip") || !strcmp(v, "gz")) h->gzip = 1;
         else {
             set_error(err, err_size, "%s: NRRD encoding '%s' is not read (raw and gzip are)", path, v);
-            return PVIO_ERROR_BAD_HEADER;
+            return PICVR_IO_ERROR_BAD_HEADER;
         }
         h->have_encoding = 1;
     } else if (!strcmp(key, "endian")) {
         if (strcmp(v, "little") && strcmp(v, "big")) {
             set_error(err, err_size, "%s: NRRD endian '%s'", path, v);
-            return PVIO_ERROR_BAD_HEADER;
+            return PICVR_IO_ERROR_BAD_HEADER;
         }
         h->big_endian = !strcmp(v, "big");
         h->have_endian = 1;
     } else if (!strcmp(key, "spacings")) {
         if (!nrrd_numbers(v, n, 0)) {
             set_error(err, err_size, "%s: NRRD spacings '%s': three positive numbers", path, v);
-            return PVIO_ERROR_BAD_DIMS;
+            return PICVR_IO_ERROR_BAD_DIMS;
         }
         for (int i = 0; i < 3; i++) h->spacing[i] = n[i];
+    } else if (!strcmp(key, "space")) {
+        /* Only the three anatomical spaces have a fixed relation to LPS; any other space
+           (scanner-xyz, 3D-right-handed, ...) is taken as it is. */
+        int ras = !strcmp(v, "right-anterior-superior") || !strcmp(v, "RAS");
+        int las = !strcmp(v, "left-anterior-superior") || !strcmp(v, "LAS");
+        h->flip_x = ras;
+        h->flip_y = ras || las;
     } else if (!strcmp(key, "space directions")) {
         const char *s = v;
         for (int a = 0; a < 3; a++) {
@@ -559,7 +564,7 @@ static pvio_status nrrd_field(nrrd_header *h, const char *key, const char *v, co
             double len = nrrd_vector(&s, d) ? sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) : 0.0;
             if (!(len > 0.0) || !isfinite(len)) {
                 set_error(err, err_size, "%s: NRRD space directions '%s': three non-zero vectors (a,b,c)", path, v);
-                return PVIO_ERROR_BAD_DIMS;
+                return PICVR_IO_ERROR_BAD_DIMS;
             }
             h->spacing[a] = len;
             for (int c = 0; c < 3; c++) h->direction[3 * a + c] = d[c] / len;
@@ -569,7 +574,7 @@ static pvio_status nrrd_field(nrrd_header *h, const char *key, const char *v, co
         const char *s = v;
         if (!nrrd_vector(&s, h->origin)) {
             set_error(err, err_size, "%s: NRRD space origin '%s': (x,y,z)", path, v);
-            return PVIO_ERROR_BAD_DIMS;
+            return PICVR_IO_ERROR_BAD_DIMS;
         }
         h->have_origin = 1;
     } else if (!strcmp(key, "byte skip")) {
@@ -578,26 +583,26 @@ static pvio_status nrrd_field(nrrd_header *h, const char *key, const char *v, co
         h->byte_skip = strtoll(v, &end, 10);
         if (end == v || *end || errno == ERANGE || h->byte_skip < -1) {
             set_error(err, err_size, "%s: NRRD byte skip '%s'", path, v);
-            return PVIO_ERROR_BAD_HEADER;
+            return PICVR_IO_ERROR_BAD_HEADER;
         }
     } else if (!strcmp(key, "line skip") || !strcmp(key, "lineskip")) {
         if (strcmp(v, "0")) {
             set_error(err, err_size, "%s: NRRD line skip %s is not read", path, v);
-            return PVIO_ERROR_BAD_HEADER;
+            return PICVR_IO_ERROR_BAD_HEADER;
         }
     } else if (!strcmp(key, "data file") || !strcmp(key, "datafile")) {
         if (!*v || strlen(v) >= sizeof h->data_file || !strcmp(v, "LIST") || strchr(v, '%')) {
             set_error(err, err_size, "%s: NRRD data file '%s' is not read (one file name is)", path, v);
-            return PVIO_ERROR_BAD_HEADER;
+            return PICVR_IO_ERROR_BAD_HEADER;
         }
         snprintf(h->data_file, sizeof h->data_file, "%s", v);
     }
-    return PVIO_OK;   /* other fields describe what picvr does not use */
+    return PICVR_IO_OK;   /* other fields describe what picvr does not use */
 }
 
 /* Reads the header: fields until the blank line (attached data follows it) or the end
    of the file (.nhdr); *data_at is the offset after the blank line. */
-static pvio_status nrrd_read_header(FILE *f, const char *path, nrrd_header *h, long *data_at, char *err, size_t err_size)
+static picvr_io_status nrrd_read_header(FILE *f, const char *path, nrrd_header *h, long *data_at, char *err, size_t err_size)
 {
     char line[NRRD_MAX_LINE];
     memset(h, 0, sizeof *h);
@@ -606,44 +611,44 @@ static pvio_status nrrd_read_header(FILE *f, const char *path, nrrd_header *h, l
     if (!fgets(line, sizeof line, f) || strncmp(line, "NRRD000", 7) || line[7] < '1' || line[7] > '5' ||
         (line[8] != '\n' && line[8] != '\r')) {
         set_error(err, err_size, "%s: not a NRRD file (no NRRD0001..NRRD0005 magic line)", path);
-        return PVIO_ERROR_BAD_HEADER;
+        return PICVR_IO_ERROR_BAD_HEADER;
     }
     while (fgets(line, sizeof line, f)) {
         long at = ftell(f);
         if (at < 0 || at > NRRD_MAX_HEADER || !strchr(line, '\n')) {
             set_error(err, err_size, "%s: NRRD header line too long, or header over %d bytes", path, NRRD_MAX_HEADER);
-            return PVIO_ERROR_BAD_HEADER;
+            return PICVR_IO_ERROR_BAD_HEADER;
         }
         if (line[0] == '\n' || (line[0] == '\r' && line[1] == '\n')) {
             *data_at = at;
-            return PVIO_OK;
+            return PICVR_IO_OK;
         }
         if (line[0] == '#') continue;
         if (strstr(line, ":=")) continue;   /* key/value pairs */
         char *colon = strstr(line, ": ");
         if (!colon) {
             set_error(err, err_size, "%s: NRRD header line without 'field: value': %.60s", path, trim(line));
-            return PVIO_ERROR_BAD_HEADER;
+            return PICVR_IO_ERROR_BAD_HEADER;
         }
         *colon = '\0';
-        pvio_status st = nrrd_field(h, trim(line), trim(colon + 2), path, err, err_size);
-        if (st != PVIO_OK) return st;
+        picvr_io_status st = nrrd_field(h, trim(line), trim(colon + 2), path, err, err_size);
+        if (st != PICVR_IO_OK) return st;
     }
     if (ferror(f)) {
         set_error(err, err_size, "%s: read error: %s", path, strerror(errno));
-        return PVIO_ERROR_READ;
+        return PICVR_IO_ERROR_READ;
     }
     *data_at = -1;   /* no blank line: a detached header */
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
 /* Exactly `expected` bytes of fd from its position, then the end of the file. */
-static pvio_status read_raw_exact(int fd, const char *path, size_t expected, unsigned char **out, char *err, size_t err_size)
+static picvr_io_status read_raw_exact(int fd, const char *path, size_t expected, unsigned char **out, char *err, size_t err_size)
 {
     unsigned char *buf = malloc(expected ? expected : 1);
     if (!buf) {
         set_error(err, err_size, "%s: out of memory for %zu bytes", path, expected);
-        return PVIO_ERROR_OUT_OF_MEMORY;
+        return PICVR_IO_ERROR_OUT_OF_MEMORY;
     }
     size_t have = 0;
     while (have < expected) {
@@ -653,12 +658,12 @@ static pvio_status read_raw_exact(int fd, const char *path, size_t expected, uns
         if (n < 0) {
             set_error(err, err_size, "%s: read error: %s", path, strerror(errno));
             free(buf);
-            return PVIO_ERROR_READ;
+            return PICVR_IO_ERROR_READ;
         }
         if (n == 0) {
             set_error(err, err_size, "%s: truncated: %zu data bytes, the header needs %zu", path, have, expected);
             free(buf);
-            return PVIO_ERROR_TRUNCATED;
+            return PICVR_IO_ERROR_TRUNCATED;
         }
         have += (size_t)n;
     }
@@ -666,33 +671,33 @@ static pvio_status read_raw_exact(int fd, const char *path, size_t expected, uns
     if (read(fd, &extra, 1) > 0) {
         set_error(err, err_size, "%s: too long: more than the %zu data bytes the header gives", path, expected);
         free(buf);
-        return PVIO_ERROR_TOO_LONG;
+        return PICVR_IO_ERROR_TOO_LONG;
     }
     *out = buf;
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
 /* The data of header h in file `path` from byte `offset`: raw or gzip, byte skip
    applied (to the file for raw, to the decompressed stream for gzip). */
-static pvio_status nrrd_read_data(const char *path, long offset, const nrrd_header *h, size_t expected,
+static picvr_io_status nrrd_read_data(const char *path, long offset, const nrrd_header *h, size_t expected,
                                   unsigned char **out, char *err, size_t err_size)
 {
     int fd = open(path, O_RDONLY);
     if (fd < 0) {
         set_error(err, err_size, "%s: %s", path, strerror(errno));
-        return PVIO_ERROR_OPEN;
+        return PICVR_IO_ERROR_OPEN;
     }
     struct stat st;
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
         set_error(err, err_size, "%s: not a regular file", path);
         close(fd);
-        return PVIO_ERROR_OPEN;
+        return PICVR_IO_ERROR_OPEN;
     }
     long long skip = h->byte_skip;
     if (skip == -1 && h->gzip) {
         set_error(err, err_size, "%s: NRRD byte skip -1 with gzip encoding (the format forbids it)", path);
         close(fd);
-        return PVIO_ERROR_BAD_HEADER;
+        return PICVR_IO_ERROR_BAD_HEADER;
     }
     if (!h->gzip) {   /* raw: the skip is in the file; -1: the data ends it */
         /* Rule: a skip past the file's end (also one that would overflow) is truncation. */
@@ -701,39 +706,39 @@ static pvio_status nrrd_read_data(const char *path, long offset, const nrrd_head
         if (start < offset || lseek(fd, (off_t)start, SEEK_SET) < 0) {
             set_error(err, err_size, "%s: truncated: the file is shorter than its %zu data bytes", path, expected);
             close(fd);
-            return PVIO_ERROR_TRUNCATED;
+            return PICVR_IO_ERROR_TRUNCATED;
         }
-        pvio_status s = read_raw_exact(fd, path, expected, out, err, err_size);
+        picvr_io_status s = read_raw_exact(fd, path, expected, out, err, err_size);
         close(fd);
         return s;
     }
     if (lseek(fd, (off_t)offset, SEEK_SET) < 0) {
         set_error(err, err_size, "%s: %s", path, strerror(errno));
         close(fd);
-        return PVIO_ERROR_READ;
+        return PICVR_IO_ERROR_READ;
     }
     gzFile gz = gzdopen(fd, "rb");
     if (!gz) {
         close(fd);
         set_error(err, err_size, "%s: out of memory", path);
-        return PVIO_ERROR_OUT_OF_MEMORY;
+        return PICVR_IO_ERROR_OUT_OF_MEMORY;
     }
     size_t total = expected + (size_t)skip, have = 0;
     unsigned char *buf = NULL;
-    pvio_status s = total < expected ? PVIO_ERROR_SIZE_OVERFLOW : read_up_to(gz, path, total, &buf, &have, err, err_size);
-    if (s == PVIO_OK && gzdirect(gz)) {
+    picvr_io_status s = total < expected ? PICVR_IO_ERROR_SIZE_OVERFLOW : read_up_to(gz, path, total, &buf, &have, err, err_size);
+    if (s == PICVR_IO_OK && gzdirect(gz)) {
         set_error(err, err_size, "%s: the NRRD data is not gzip although the header says so", path);
-        s = PVIO_ERROR_READ;
+        s = PICVR_IO_ERROR_READ;
     }
-    if (s == PVIO_OK) s = check_end_of_data(gz, path, have, total, err, err_size);
+    if (s == PICVR_IO_OK) s = check_end_of_data(gz, path, have, total, err, err_size);
     gzclose(gz);   /* closes fd */
-    if (s != PVIO_OK) {
+    if (s != PICVR_IO_OK) {
         free(buf);
         return s;
     }
     if (skip > 0) memmove(buf, buf + skip, expected);
     *out = buf;
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
 /* The detached data file's path: relative names are next to the header. */
@@ -754,50 +759,56 @@ static void swap_bytes(unsigned char *data, size_t bytes, size_t voxel_size)
         }
 }
 
-int pvio_is_nrrd(const char *path)
+int picvr_io_has_suffix(const char *path, const char *suffix)
+{
+    size_t n = path ? strlen(path) : 0;
+    return n && suffix && piece_ends_with(path, n, suffix);
+}
+
+int picvr_io_is_nrrd(const char *path)
 {
     size_t n = path ? strlen(path) : 0;
     return n && (piece_ends_with(path, n, ".nrrd") || piece_ends_with(path, n, ".nhdr"));
 }
 
-pvio_status pvio_load_nrrd(const char *path, pvio_volume *volume, char *err, size_t err_size)
+picvr_io_status picvr_io_load_nrrd(const char *path, picvr_io_volume *volume, char *err, size_t err_size)
 {
     if (volume) memset(volume, 0, sizeof *volume);
     if (!path || !volume) {
         set_error(err, err_size, "no file name or output given");
-        return PVIO_ERROR_NULL_POINTER;
+        return PICVR_IO_ERROR_NULL_POINTER;
     }
     FILE *f = fopen(path, "rb");
     if (!f) {
         set_error(err, err_size, "%s: %s", path, strerror(errno));
-        return PVIO_ERROR_OPEN;
+        return PICVR_IO_ERROR_OPEN;
     }
     nrrd_header h;
     long data_at = -1;
-    pvio_status st = nrrd_read_header(f, path, &h, &data_at, err, err_size);
+    picvr_io_status st = nrrd_read_header(f, path, &h, &data_at, err, err_size);
     fclose(f);
-    if (st != PVIO_OK) return st;
+    if (st != PICVR_IO_OK) return st;
     if (!h.dimension || !h.have_sizes || !h.have_type || !h.have_encoding) {
         set_error(err, err_size, "%s: the NRRD header lacks one of dimension, sizes, type, encoding", path);
-        return PVIO_ERROR_BAD_HEADER;
+        return PICVR_IO_ERROR_BAD_HEADER;
     }
-    size_t vs = pvio_voxel_size(h.type);
+    size_t vs = picvr_io_voxel_size(h.type);
     if (vs > 1 && !h.have_endian) {
         set_error(err, err_size, "%s: the NRRD header gives no endian for %zu-byte voxels", path, vs);
-        return PVIO_ERROR_BAD_HEADER;
+        return PICVR_IO_ERROR_BAD_HEADER;
     }
-    pvio_layout layout = {{h.dims[0], h.dims[1], h.dims[2]}, h.type};
+    picvr_io_layout layout = {{h.dims[0], h.dims[1], h.dims[2]}, h.type};
     size_t bytes = 0;
-    if ((st = pvio_layout_bytes(&layout, &bytes, err, err_size)) != PVIO_OK) return st;
+    if ((st = picvr_io_layout_bytes(&layout, &bytes, err, err_size)) != PICVR_IO_OK) return st;
     char data_path[4096];
     if (h.data_file[0]) nrrd_data_path(path, h.data_file, data_path, sizeof data_path);
     else if (data_at < 0) {
         set_error(err, err_size, "%s: a NRRD header without data: no blank line and no data file", path);
-        return PVIO_ERROR_TRUNCATED;
+        return PICVR_IO_ERROR_TRUNCATED;
     }
     unsigned char *data = NULL;
     st = nrrd_read_data(h.data_file[0] ? data_path : path, h.data_file[0] ? 0 : data_at, &h, bytes, &data, err, err_size);
-    if (st != PVIO_OK) return st;
+    if (st != PICVR_IO_OK) return st;
     if (vs > 1 && h.big_endian == host_is_little_endian()) swap_bytes(data, bytes, vs);
     memcpy(volume->dims, h.dims, sizeof volume->dims);
     volume->type = h.type;
@@ -806,51 +817,59 @@ pvio_status pvio_load_nrrd(const char *path, pvio_volume *volume, char *err, siz
         volume->origin[i] = (float)h.origin[i];
     }
     for (int i = 0; i < 9; i++) volume->direction[i] = (float)h.direction[i];
+    for (int a = 0; a < 3; a++) {            /* RAS or LAS into LPS */
+        if (h.flip_x) volume->direction[3 * a + 0] = -volume->direction[3 * a + 0];
+        if (h.flip_y) volume->direction[3 * a + 1] = -volume->direction[3 * a + 1];
+    }
+    if (h.flip_x) volume->origin[0] = -volume->origin[0];
+    if (h.flip_y) volume->origin[1] = -volume->origin[1];
+    volume->value_scale = 1.0;
     volume->data = data;
     volume->size = bytes;
     if (!(volume->spacing[0] > 0.0f && volume->spacing[1] > 0.0f && volume->spacing[2] > 0.0f) ||
         !isfinite(volume->spacing[0] + volume->spacing[1] + volume->spacing[2])) {
         set_error(err, err_size, "%s: a spacing beyond float", path);
-        pvio_free(volume);
-        return PVIO_ERROR_BAD_DIMS;
+        picvr_io_free(volume);
+        return PICVR_IO_ERROR_BAD_DIMS;
     }
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
-pvio_status pvio_load(const char *path, const pvio_layout *layout, pvio_volume *volume,
+picvr_io_status picvr_io_load(const char *path, const picvr_io_layout *layout, picvr_io_volume *volume,
                       char *err, size_t err_size)
 {
     if (volume) memset(volume, 0, sizeof *volume);
     if (!path || !volume) {
         set_error(err, err_size, "no file name or output given");
-        return PVIO_ERROR_NULL_POINTER;
+        return PICVR_IO_ERROR_NULL_POINTER;
     }
-    if (!layout && pvio_is_nrrd(path)) return pvio_load_nrrd(path, volume, err, err_size);
-    pvio_layout from_name;
+    if (!layout && picvr_io_is_nrrd(path)) return picvr_io_load_nrrd(path, volume, err, err_size);
+    picvr_io_layout from_name;
     if (!layout) {
-        pvio_status st = pvio_parse_name(path, &from_name, err, err_size);
-        if (st != PVIO_OK) return st;
+        picvr_io_status st = picvr_io_parse_name(path, &from_name, err, err_size);
+        if (st != PICVR_IO_OK) return st;
         layout = &from_name;
     }
     size_t bytes = 0;
-    pvio_status st = pvio_layout_bytes(layout, &bytes, err, err_size);
-    if (st != PVIO_OK) return st;
+    picvr_io_status st = picvr_io_layout_bytes(layout, &bytes, err, err_size);
+    if (st != PICVR_IO_OK) return st;
 
     unsigned char *data = NULL;
     st = read_volume_file(path, bytes, &data, err, err_size);
-    if (st != PVIO_OK) return st;
-    little_endian_to_host(data, bytes, pvio_voxel_size(layout->type));
+    if (st != PICVR_IO_OK) return st;
+    little_endian_to_host(data, bytes, picvr_io_voxel_size(layout->type));
 
     memcpy(volume->dims, layout->dims, sizeof volume->dims);
     volume->type = layout->type;
     volume->spacing[0] = volume->spacing[1] = volume->spacing[2] = 1.0f;
     volume->direction[0] = volume->direction[4] = volume->direction[8] = 1.0f;
+    volume->value_scale = 1.0;
     volume->data = data;
     volume->size = bytes;
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
-void pvio_free(pvio_volume *volume)
+void picvr_io_free(picvr_io_volume *volume)
 {
     if (!volume) return;
     free(volume->data);
@@ -889,15 +908,15 @@ static int compare_doubles(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-pvio_status pvio_percentile_range(const pvio_volume *volume, double lo_frac, double hi_frac, double *lo, double *hi)
+picvr_io_status picvr_io_percentile_range(const picvr_io_volume *volume, double lo_frac, double hi_frac, double *lo, double *hi)
 {
-    if (!volume || !volume->data || !lo || !hi) return PVIO_ERROR_NULL_POINTER;
-    size_t voxel = pvio_voxel_size(volume->type);
-    if (voxel == 0) return PVIO_ERROR_BAD_TYPE;
-    if (!(lo_frac >= 0.0 && lo_frac < hi_frac && hi_frac <= 1.0)) return PVIO_ERROR_BAD_DIMS;
+    if (!volume || !volume->data || !lo || !hi) return PICVR_IO_ERROR_NULL_POINTER;
+    size_t voxel = picvr_io_voxel_size(volume->type);
+    if (voxel == 0) return PICVR_IO_ERROR_BAD_TYPE;
+    if (!(lo_frac >= 0.0 && lo_frac < hi_frac && hi_frac <= 1.0)) return PICVR_IO_ERROR_BAD_DIMS;
     size_t count = volume->size / voxel, want = count < ((size_t)1 << 20) ? count : ((size_t)1 << 20);
     double *v = (double *)malloc((want ? want : 1) * sizeof(double));
-    if (!v) return PVIO_ERROR_OUT_OF_MEMORY;
+    if (!v) return PICVR_IO_ERROR_OUT_OF_MEMORY;
     size_t n = 0;
     for (size_t k = 0; k < want; k++) {   /* voxel k * count / want: evenly spaced, exact when want == count */
         size_t i = (size_t)(((unsigned long long)k * count) / want);
@@ -906,22 +925,22 @@ pvio_status pvio_percentile_range(const pvio_volume *volume, double lo_frac, dou
     }
     if (n == 0) {
         free(v);
-        return PVIO_ERROR_BAD_TYPE;
+        return PICVR_IO_ERROR_BAD_TYPE;
     }
     qsort(v, n, sizeof *v, compare_doubles);
     *lo = v[(size_t)(lo_frac * (double)(n - 1) + 0.5)];
     *hi = v[(size_t)(hi_frac * (double)(n - 1) + 0.5)];
     if (!(*hi > *lo)) *hi = *lo + 1.0;   /* rule: one value (a constant volume) maps to [v, v + 1] */
     free(v);
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
-pvio_status pvio_value_range(const pvio_volume *volume, double *min, double *max,
+picvr_io_status picvr_io_value_range(const picvr_io_volume *volume, double *min, double *max,
                              size_t *non_finite)
 {
-    if (!volume || !volume->data) return PVIO_ERROR_NULL_POINTER;
-    size_t voxel = pvio_voxel_size(volume->type);
-    if (voxel == 0) return PVIO_ERROR_BAD_TYPE;
+    if (!volume || !volume->data) return PICVR_IO_ERROR_NULL_POINTER;
+    size_t voxel = picvr_io_voxel_size(volume->type);
+    if (voxel == 0) return PICVR_IO_ERROR_BAD_TYPE;
     size_t count = volume->size / voxel, bad = 0;
     double lo = INFINITY, hi = -INFINITY;
     for (size_t i = 0; i < count; i++) {
@@ -937,16 +956,16 @@ pvio_status pvio_value_range(const pvio_volume *volume, double *min, double *max
     if (min) *min = lo;
     if (max) *max = hi;
     if (non_finite) *non_finite = bad;
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
 
-pvio_status pvio_to_desc(const pvio_volume *volume, picvr_volume_desc *desc)
+picvr_io_status picvr_io_to_desc(const picvr_io_volume *volume, picvr_volume_desc *desc)
 {
-    if (!volume || !desc) return PVIO_ERROR_NULL_POINTER;
+    if (!volume || !desc) return PICVR_IO_ERROR_NULL_POINTER;
     memset(desc, 0, sizeof *desc);
     memcpy(desc->dims, volume->dims, sizeof desc->dims);
     desc->type = volume->type;
     memcpy(desc->spacing, volume->spacing, sizeof desc->spacing);
     desc->data = volume->data;
-    return PVIO_OK;
+    return PICVR_IO_OK;
 }
