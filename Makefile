@@ -12,7 +12,7 @@ DATA    ?= ../shared/data
 
 SHADER_SRC  := $(wildcard shaders/*.comp)
 SHADER_INC  := $(wildcard shaders/*.glsl)
-TEST_SRC    := $(wildcard tests/test_*.c)
+TEST_SRC    := $(filter-out tests/test_nifti.c tests/test_dicom.c tests/test_vdb.c,$(wildcard tests/test_*.c))
 LIB_OBJ     := $(B)/picvr_vk.o
 # The implementation: picvr_vk.c includes the parts in host/.
 LIB_SRC     := picvr_vk.c picvr.h picvr_shaders.h $(wildcard host/*.h host/*.c)

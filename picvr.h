@@ -63,13 +63,21 @@
  * ---------------------------------------------------------------------------------
  * CONVENTIONS
  *
- * World space.  The volume's box is centred at the origin; its size along axis i is
- *   dims[i] * spacing[i] world units, so anisotropic spacing renders undistorted.
- *   Voxel (0,0,0) is at the -x,-y,-z corner; x varies fastest in memory.
- *   picvr_volume_box() returns the box.
- * Sampling.  A world point x has voxel coordinates p = (x - box_min) / spacing in
+ * World space.  By default the volume's box is centred at the origin; its size along
+ *   axis i is dims[i] * spacing[i] world units, so anisotropic spacing renders
+ *   undistorted.  Voxel (0,0,0) is at the -x,-y,-z corner; x varies fastest in memory.
+ *   picvr_volume_desc.direction turns the box (a rotation or a reflection, as a scan's
+ *   orientation does) and has_origin places voxel (0,0,0)'s centre at origin, so that
+ *   world space can be the embedding viewer's (a patient's LPS frame in mm, say).  The
+ *   camera, lights, environment map and clip planes are all given in world space.
+ *   picvr_volume_box() returns the box's world bounding box.
+ * Sampling.  In the volume's own frame (world space when direction is the identity and
+ *   has_origin 0) a point x has voxel coordinates p = (x - box_min) / spacing in
  *   [0, dims]; voxel i's centre is at p = i + 0.5; values are interpolated
  *   trilinearly with clamp-to-edge (a 3D texture with a linear sampler).
+ * Clipping.  picvr_set_clip removes the medium outside up to PICVR_MAX_CLIP_PLANES
+ *   half-spaces and a box: the clipped region is empty for every procedure (camera
+ *   rays, shadow rays, paths and the cache alike), as if its voxels had opacity 0.
  * Camera.  f = normalize(target - position), r = normalize(cross(f, up)),
  *   u = cross(r, f), h = tan(fov_y / 2), a = width / height.  Pixel (x, y), y = 0
  *   the top row, shoots from `position` along normalize(f + (2 (x + jx) / width - 1)
@@ -135,6 +143,7 @@ extern "C" {
 
 /* Limits checked by the API (a device may impose smaller ones; they are checked too). */
 #define PICVR_MAX_LIGHTS 32          /* lights per picvr_set_lights() call */
+#define PICVR_MAX_CLIP_PLANES 8      /* planes per picvr_set_clip() call (besides its box) */
 #define PICVR_MAX_TF_POINTS 256      /* transfer-function control points */
 #define PICVR_MAX_IMAGE_SIZE 16384   /* pixels per side */
 
@@ -420,6 +429,17 @@ typedef struct picvr_volume_desc {
                                  (Use 0..4095 for 12-bit data stored in uint16, or a
                                  Hounsfield window such as -1000..2000 for CT in int16.)
                                  Values outside clamp. */
+    float direction[9];       /* world unit vectors of the voxel x, y and z axes, three
+                                 floats each (direction[3a + c]: component c of axis a).
+                                 All 0: the identity.  Otherwise orthonormal within 1e-3
+                                 (a rotation, or a reflection such as a scan's LPS axes):
+                                 PICVR_ERROR_INVALID_ARGUMENT for a singular or sheared
+                                 matrix (resample a gantry-tilted scan first),
+                                 PICVR_ERROR_NON_FINITE for NaN or infinity here or in
+                                 origin */
+    int has_origin;           /* 0: the box is centred at the world origin (origin is
+                                 ignored); 1: voxel (0,0,0)'s centre is at origin */
+    float origin[3];          /* world position of voxel (0,0,0)'s centre; finite */
 } picvr_volume_desc;
 
 /* Copies the voxels to a 3D image on the device and builds the majorant grid.
@@ -428,7 +448,8 @@ typedef struct picvr_volume_desc {
    previous volume, if any, is kept.  Resets accumulation. */
 picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *desc);
 
-/* The world-space box of the current volume (centred at the origin). */
+/* The world-space bounding box of the current volume's box (centred at the origin unless
+   the volume has an origin; turned boxes give the box around their eight corners). */
 picvr_status picvr_volume_box(const picvr_context *ctx, float box_min[3], float box_max[3]);
 
 /* ---- transfer function --------------------------------------------------------- */
@@ -502,6 +523,28 @@ typedef struct picvr_background {
    previous lights are kept.  Resets accumulation. */
 picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uint32_t count,
                               const picvr_background *background);
+
+/* ---- clipping ------------------------------------------------------------------ */
+
+typedef struct picvr_clip {
+    uint32_t plane_count;     /* 0..PICVR_MAX_CLIP_PLANES */
+    float planes[PICVR_MAX_CLIP_PLANES][4]; /* world space: plane i keeps the points x with
+                                 n . x + d >= 0, n = planes[i][0..2] (non-zero, any
+                                 length), d = planes[i][3] */
+    int use_box;              /* 1: also keep only box_min <= x <= box_max (world axes) */
+    float box_min[3], box_max[3];
+} picvr_clip;
+
+/* Sets the clipping: only the medium inside every plane's half-space and the box is
+   rendered (see CONVENTIONS).  clip NULL or all zero: no clipping (the default; a scene
+   without clipping compiles none of it).  PICVR_ERROR_INVALID_ARGUMENT for more than
+   PICVR_MAX_CLIP_PLANES planes, a value that is not finite, a plane whose normal is 0,
+   or box_min > box_max on some axis (an empty box).  A change resets
+   accumulation and empties the cache (the removed medium changes the light everywhere);
+   setting the same clipping again changes nothing.  The planes follow the volume: they
+   are kept in world space and hold for a volume uploaded later.  On error nothing
+   changes. */
+picvr_status picvr_set_clip(picvr_context *ctx, const picvr_clip *clip);
 
 /* ---- scattering ------------------------------------------------------------------ */
 

@@ -29,6 +29,7 @@
 #include "host/volume.c"
 #include "host/environment.c"
 #include "host/lights.c"
+#include "host/clip.c"
 #include "host/rounds.c"
 #include "host/step.c"
 #include "host/readback.c"

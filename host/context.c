@@ -56,6 +56,7 @@ static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *c
     if (!(ctx->scene.tf_rmin = (picvr_range_table *)picvr_host_alloc(&ctx->config.allocator, sizeof *ctx->scene.tf_rmin))) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     if ((s = picvr_buffer_create(ctx, &ctx->scene.tf_range_max, sizeof *ctx->scene.tf_rm,
                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
+    ctx->scene.rot[0] = ctx->scene.rot[4] = ctx->scene.rot[8] = 1.0f;   /* the volume's frame is the world's */
     picvr_env_info no_env;
     memset(&no_env, 0, sizeof no_env);
     picvr_buffer env;

@@ -143,6 +143,20 @@ static picvr_status picvr_env_build(picvr_context *ctx, const picvr_background *
     return PICVR_OK;
 }
 
+/* The map's frame from the volume's (shaders/common.glsl env_texel): the volume's
+   orientation into world space, then the map's rotation about world +y turned back,
+   e = R_y(-rotation) rot w. */
+static void picvr_pack_env_basis(picvr_context *ctx) {
+    double c = cos(ctx->scene.env_rotation), s = sin(ctx->scene.env_rotation);
+    const double ry[3][3] = {{c, 0.0, -s}, {0.0, 1.0, 0.0}, {s, 0.0, c}};
+    for (int r = 0; r < 3; r++) {
+        for (int k = 0; k < 3; k++)
+            ctx->scene.gpu.env_basis[r][k] = (float)(ry[r][0] * ctx->scene.rot[k] + ry[r][1] * ctx->scene.rot[3 + k] +
+                                                     ry[r][2] * ctx->scene.rot[6 + k]);
+        ctx->scene.gpu.env_basis[r][3] = 0.0f;
+    }
+}
+
 /* Installs a built background: the buffer, the uniform block's fields. */
 static void picvr_env_install(picvr_context *ctx, const picvr_background *bg, const picvr_env_info *info, picvr_buffer *b) {
     picvr_buffer_destroy(ctx, &ctx->scene.env);
@@ -150,9 +164,8 @@ static void picvr_env_install(picvr_context *ctx, const picvr_background *bg, co
     ctx->scene.use_env = info->is_map;
     ctx->scene.gpu.env_w = info->is_map ? bg->env_width : 1;
     ctx->scene.gpu.env_h = info->is_map ? bg->env_height : 1;
-    double rot = info->is_map ? bg->env_rotation : 0.0;
-    ctx->scene.gpu.env_cos = (float)cos(rot);
-    ctx->scene.gpu.env_sin = (float)sin(rot);
+    ctx->scene.env_rotation = info->is_map ? bg->env_rotation : 0.0f;
+    picvr_pack_env_basis(ctx);
     memcpy(ctx->scene.gpu.background, info->constant, sizeof info->constant);
     ctx->pipes.descriptors_dirty = 1;
 }

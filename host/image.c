@@ -182,6 +182,29 @@ static picvr_status picvr_validate_camera(const picvr_camera *c, picvr_camera *o
 static int picvr_can_reproject(const picvr_context *ctx, uint32_t width, uint32_t height);
 static picvr_status picvr_reproject(picvr_context *ctx, const picvr_gpu_scene *old);
 
+/* The camera's uniform-block fields from ctx->scene.camera (world space), in the volume's
+   frame.  The basis f, r, u is built in world space and each vector mapped: built in a
+   reflected volume's frame it would show the mirror image of the world's view. */
+static void picvr_pack_camera(picvr_context *ctx) {
+    const picvr_camera *c = &ctx->scene.camera;
+    float f[3] = {c->target[0] - c->position[0], c->target[1] - c->position[1], c->target[2] - c->position[2]}, r[3], u[3];
+    picvr_normalize3(f);
+    picvr_cross3(f, c->up, r);
+    picvr_normalize3(r);
+    picvr_cross3(r, f, u);
+    picvr_gpu_scene *g = &ctx->scene.gpu;
+    picvr_point_to_local(&ctx->scene, c->position, g->cam_pos);
+    picvr_dir_to_local(&ctx->scene, f, g->cam_fwd);
+    picvr_dir_to_local(&ctx->scene, r, r);
+    picvr_dir_to_local(&ctx->scene, u, u);
+    g->tan_half_fov = (float)tan(0.5 * c->fov_y_degrees * PICVR_PI / 180.0);
+    g->aspect = (float)c->width / (float)c->height;
+    picvr_pack4(g->cam_right, r, 0.0f);
+    picvr_pack4(g->cam_up, u, 0.0f);
+    g->image[0] = c->width;
+    g->image[1] = c->height;
+}
+
 picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     PICVR_REFUSE_IF_BUSY(ctx);
@@ -193,21 +216,8 @@ picvr_status picvr_set_camera(picvr_context *ctx, const picvr_camera *camera) {
     picvr_gpu_scene old = ctx->scene.gpu;   /* the view the accumulation was made from */
     if (!ctx->scene.has_camera || c.width != ctx->scene.camera.width || c.height != ctx->scene.camera.height)
         if ((s = picvr_create_image_buffers(ctx, c.width, c.height))) return s;
-    float f[3] = {c.target[0] - c.position[0], c.target[1] - c.position[1], c.target[2] - c.position[2]}, r[3], u[3];
-    picvr_normalize3(f);
-    picvr_cross3(f, c.up, r);
-    picvr_normalize3(r);
-    picvr_cross3(r, f, u);
-    picvr_gpu_scene *g = &ctx->scene.gpu;
-    memcpy(g->cam_pos, c.position, sizeof g->cam_pos);
-    g->tan_half_fov = (float)tan(0.5 * c.fov_y_degrees * PICVR_PI / 180.0);
-    memcpy(g->cam_fwd, f, sizeof g->cam_fwd);
-    g->aspect = (float)c.width / (float)c.height;
-    picvr_pack4(g->cam_right, r, 0.0f);
-    picvr_pack4(g->cam_up, u, 0.0f);
-    g->image[0] = c.width;
-    g->image[1] = c.height;
     ctx->scene.camera = c;
+    picvr_pack_camera(ctx);
     ctx->scene.has_camera = 1;
     if (ctx->cache.on) {
         picvr_cache_scene_params(ctx);   /* the request cap and superpixels follow the image size */

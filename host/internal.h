@@ -83,7 +83,10 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_HG 512u           /* constant 11 USE_HG */
 #define PICVR_KEY_ENV_MAP 1024u     /* constant 12 USE_ENV_MAP */
 #define PICVR_KEY_REUSE 2048u       /* constant 13 USE_REUSE */
-#define PICVR_SPEC_CONSTANTS 14u
+#define PICVR_KEY_CLIP 4096u        /* constant 14 USE_CLIP */
+#define PICVR_SPEC_CONSTANTS 15u
+/* Clip planes the kernels test: the user's and the six faces of the clip box. */
+#define PICVR_GPU_CLIP_PLANES (PICVR_MAX_CLIP_PLANES + 6)
 
 /* The kernels of one variant: creation and update have one (KERNEL_MAIN); rendering
    has its tracking kernel there, then its shading kernel and, cached, the lookup
@@ -132,8 +135,11 @@ typedef struct picvr_gpu_scene {
     float back_g, back_weight;
     uint32_t vertex_cost;
     uint32_t env_w, env_h;
-    float env_cos, env_sin;
+    float env_unused[2];
     picvr_gpu_light lights[PICVR_MAX_LIGHTS];
+    float env_basis[3][4];
+    float clip[PICVR_GPU_CLIP_PLANES][4];
+    uint32_t clip_count, clip_unused[3];
 } picvr_gpu_scene;
 
 /* Sparse table of the opacity column: level k holds the max (tf_rm) or the min (tf_rmin)
@@ -250,7 +256,17 @@ typedef struct picvr_scene {
     picvr_buffer env;                /* the environment map's texels and CDFs (binding 19),
                                         or a placeholder (host/environment.c) */
     int use_env;                     /* the background is a map of more than one texel */
-    picvr_camera camera;
+    float env_rotation;              /* picvr_background.rotation (radians about world +y) */
+    picvr_camera camera;             /* as set, in world space */
+    /* The volume's placement: world = rot * local + shift, rot orthonormal (rows: world
+       axes in the volume's frame as columns of picvr_volume_desc.direction).  The
+       kernels work in the volume's own frame (box centred at 0, axis-aligned); every
+       world-space input is mapped into it when packed (host/volume.c). */
+    float rot[9], shift[3];
+    int reflected;                   /* det(rot) = -1 */
+    picvr_light lights[PICVR_MAX_LIGHTS];   /* as set, in world space */
+    uint32_t light_count;
+    picvr_clip clip;                 /* as set, in world space */
 } picvr_scene;
 
 /* The image: accumulation planes, the rendering procedure's queues, block order

@@ -67,6 +67,32 @@ static void picvr_pack_light(const picvr_light *l, picvr_gpu_light *g) {
     }
 }
 
+/* A packed light's geometry (world space, as picvr_pack_light leaves it) in the volume's
+   frame.  A reflection reverses cross(edge_u, edge_v), the side a rect light emits to,
+   so its edges swap then (a centred rect is the same set of points either way). */
+static void picvr_light_to_local(const picvr_scene *sc, picvr_gpu_light *g) {
+    if (g->type == PICVR_LIGHT_DIRECTIONAL) picvr_dir_to_local(sc, g->pos, g->pos);
+    else picvr_point_to_local(sc, g->pos, g->pos);
+    if (g->type != PICVR_LIGHT_RECT) return;
+    float u[3], v[3];
+    picvr_dir_to_local(sc, g->edge_u, u);
+    picvr_dir_to_local(sc, g->edge_v, v);
+    memcpy(g->edge_u, sc->reflected ? v : u, sizeof u);
+    memcpy(g->edge_v, sc->reflected ? u : v, sizeof v);
+}
+
+/* Every light's geometry again from the world-space lights as set (a new placement). */
+static void picvr_place_lights(picvr_context *ctx) {
+    for (uint32_t i = 0; i < ctx->scene.light_count; i++) {
+        picvr_gpu_light w, *g = &ctx->scene.gpu.lights[i];
+        picvr_pack_light(&ctx->scene.lights[i], &w);
+        picvr_light_to_local(&ctx->scene, &w);
+        memcpy(g->pos, w.pos, sizeof g->pos);
+        memcpy(g->edge_u, w.edge_u, sizeof g->edge_u);
+        memcpy(g->edge_v, w.edge_v, sizeof g->edge_v);
+    }
+}
+
 static int picvr_light_is_delta(const picvr_gpu_light *g) {
     return g->type == PICVR_LIGHT_POINT || (g->type == PICVR_LIGHT_DIRECTIONAL && g->size == 0.0f);
 }
@@ -136,6 +162,7 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
     for (uint32_t i = 0; i < count; i++) {
         picvr_gpu_light *g = &ctx->scene.gpu.lights[i];
         picvr_pack_light(&lights[i], g);
+        picvr_light_to_local(&ctx->scene, g);
         /* Rule: with zero total power every probability is 0 and nothing is sampled. */
         double pmf = total > 0.0 ? power[i] / total : 0.0;
         cdf += pmf;
@@ -158,6 +185,8 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
         ctx->scene.gpu.mono_channel = 3.0f;
     }
     ctx->scene.gpu.light_count = count;
+    if (count) memcpy(ctx->scene.lights, lights, count * sizeof *lights);
+    ctx->scene.light_count = count;
     ctx->scene.use_phase_mis = mis;
     picvr_update_equiangular(ctx);
     s = picvr_cache_clear(ctx);

@@ -125,10 +125,11 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
     uint32_t paths = (ctx->scene.scattering.max_bounces > 0 ? PICVR_KEY_BOUNCES : 0u) |
                      (picvr_use_hg(ctx) ? PICVR_KEY_HG : 0u) |
                      (ctx->sched.cfg.temporal_reuse == PICVR_SWITCH_ON ? PICVR_KEY_REUSE : 0u);
-    if (proc == PICVR_PROC_CREATE) return mis | fine | env;
-    if (proc == PICVR_PROC_UPDATE) return fine | mono | qmc;
-    if (!ctx->cache.on) return mis | fine | residual | equi | qmc | env | paths;
-    return mis | fine | mono | residual | equi | qmc | env | paths | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
+    uint32_t clip = ctx->scene.gpu.clip_count ? PICVR_KEY_CLIP : 0u;   /* every procedure tracks rays */
+    if (proc == PICVR_PROC_CREATE) return mis | fine | env | clip;
+    if (proc == PICVR_PROC_UPDATE) return fine | mono | qmc | clip;
+    if (!ctx->cache.on) return mis | fine | residual | equi | qmc | env | paths | clip;
+    return mis | fine | mono | residual | equi | qmc | env | paths | clip | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
 }
 
 /* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
@@ -136,7 +137,7 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
    for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
    creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
    MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR, 8 USE_RESIDUAL, 9 USE_QMC, 10
-   USE_BOUNCES, 11 USE_HG, 12 USE_ENV_MAP and 13 USE_REUSE from the key. */
+   USE_BOUNCES, 11 USE_HG, 12 USE_ENV_MAP, 13 USE_REUSE and 14 USE_CLIP from the key. */
 static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
@@ -153,7 +154,7 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
                          (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0,
                          (key & PICVR_KEY_QMC) != 0, (key & PICVR_KEY_BOUNCES) != 0,
                          (key & PICVR_KEY_HG) != 0, (key & PICVR_KEY_ENV_MAP) != 0,
-                         (key & PICVR_KEY_REUSE) != 0};
+                         (key & PICVR_KEY_REUSE) != 0, (key & PICVR_KEY_CLIP) != 0};
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;

@@ -75,6 +75,24 @@ static void picvr_pack4(float d[4], const float s[3], float w) { d[0] = s[0]; d[
 
 static double picvr_luminance(const float c[3]) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
 
+/* ---- the volume's placement: world = rot * local + shift (picvr_scene) ---- */
+
+/* A world direction in the volume's frame: rot^T w (rot is orthonormal). */
+static void picvr_dir_to_local(const picvr_scene *sc, const float w[3], float out[3]) {
+    double r[3];
+    for (int i = 0; i < 3; i++)
+        r[i] = (double)sc->rot[i] * w[0] + (double)sc->rot[3 + i] * w[1] + (double)sc->rot[6 + i] * w[2];
+    for (int i = 0; i < 3; i++) out[i] = (float)r[i];
+}
+
+/* A world point in the volume's frame: rot^T (w - shift). */
+static void picvr_point_to_local(const picvr_scene *sc, const float w[3], float out[3]) {
+    double d[3], r[3];
+    for (int i = 0; i < 3; i++) d[i] = (double)w[i] - sc->shift[i];
+    for (int i = 0; i < 3; i++) r[i] = sc->rot[i] * d[0] + sc->rot[3 + i] * d[1] + sc->rot[6 + i] * d[2];
+    for (int i = 0; i < 3; i++) out[i] = (float)r[i];
+}
+
 /* The rule of every float in a config struct: zero means its default def[i], anything
    else must be finite (PICVR_ERROR_NON_FINITE) and >= 0 (PICVR_ERROR_INVALID_ARGUMENT). */
 static picvr_status picvr_resolve_floats(float *const *f, const float *def, int n) {

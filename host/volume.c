@@ -52,6 +52,66 @@ static double picvr_normalize_value(picvr_value_map m, double v) {
     return x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
 }
 
+/* host/clip.c (after the lights: it packs every world-space input again). */
+static void picvr_pack_world(picvr_context *ctx);
+
+/* desc's placement (picvr_volume_desc.direction, has_origin, origin) as rot and shift
+   (picvr_scene), for a box of size `size` centred in the volume's frame.  Rules: all-zero
+   direction is the identity; a non-finite value is NON_FINITE; axes must be unit and
+   pairwise orthogonal within 1e-3 (INVALID_ARGUMENT: a singular or sheared matrix has
+   no rigid inverse), and are then made exactly orthonormal (Gram-Schmidt in double, the
+   third axis the cross product with the given handedness) so that mapping a direction
+   and back keeps its length. */
+static picvr_status picvr_volume_placement(const picvr_volume_desc *d, const double size[3], float rot[9],
+                                           float shift[3], int *reflected) {
+    double a[3][3];
+    int zero = 1;
+    for (int i = 0; i < 9; i++) {
+        if (!isfinite(d->direction[i])) return PICVR_ERROR_NON_FINITE;
+        if (d->direction[i] != 0.0f) zero = 0;
+        a[i / 3][i % 3] = d->direction[i];
+    }
+    if (d->has_origin && !picvr_finite3(d->origin)) return PICVR_ERROR_NON_FINITE;
+    if (zero) for (int i = 0; i < 3; i++) for (int c = 0; c < 3; c++) a[i][c] = i == c;
+    for (int i = 0; i < 3; i++) {
+        double len = sqrt(a[i][0] * a[i][0] + a[i][1] * a[i][1] + a[i][2] * a[i][2]);
+        if (!(fabs(len - 1.0) <= 1e-3)) return PICVR_ERROR_INVALID_ARGUMENT;
+        for (int j = 0; j < i; j++)
+            if (!(fabs(a[i][0] * a[j][0] + a[i][1] * a[j][1] + a[i][2] * a[j][2]) <= 1e-3)) return PICVR_ERROR_INVALID_ARGUMENT;
+    }
+    double x[3], y[3], z[3], dxy = 0.0;
+    double lx = sqrt(a[0][0] * a[0][0] + a[0][1] * a[0][1] + a[0][2] * a[0][2]);
+    for (int c = 0; c < 3; c++) { x[c] = a[0][c] / lx; dxy += x[c] * a[1][c]; }
+    for (int c = 0; c < 3; c++) y[c] = a[1][c] - dxy * x[c];
+    double ly = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+    for (int c = 0; c < 3; c++) y[c] /= ly;
+    z[0] = x[1] * y[2] - x[2] * y[1];
+    z[1] = x[2] * y[0] - x[0] * y[2];
+    z[2] = x[0] * y[1] - x[1] * y[0];
+    double hand = z[0] * a[2][0] + z[1] * a[2][1] + z[2] * a[2][2];
+    *reflected = hand < 0.0;
+    for (int c = 0; c < 3; c++) {
+        if (*reflected) z[c] = -z[c];
+        rot[3 * c + 0] = (float)x[c];   /* column a of rot is axis a in world space */
+        rot[3 * c + 1] = (float)y[c];
+        rot[3 * c + 2] = (float)z[c];
+    }
+    for (int r = 0; r < 3; r++) {
+        /* voxel (0,0,0)'s centre is at -size/2 + spacing/2 in the volume's frame */
+        double t = 0.0;
+        if (d->has_origin) {
+            t = d->origin[r];
+            for (int c = 0; c < 3; c++) {
+                double sp = d->spacing[c] > 0.0f ? d->spacing[c] : 1.0;
+                t -= rot[3 * r + c] * (-0.5 * size[c] + 0.5 * sp);
+            }
+        }
+        if (!(fabs(t) < FLT_MAX)) return PICVR_ERROR_INVALID_ARGUMENT;
+        shift[r] = (float)t;
+    }
+    return PICVR_OK;
+}
+
 static picvr_status picvr_validate_volume(picvr_context *ctx, const picvr_volume_desc *d, size_t *bytes) {
     if (!d || !d->data) return PICVR_ERROR_NULL_POINTER;
     if (d->dims[0] == 0 || d->dims[1] == 0 || d->dims[2] == 0) return PICVR_ERROR_INVALID_DIMENSIONS;
@@ -212,13 +272,16 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     size_t bytes;
     picvr_status s = picvr_validate_volume(ctx, desc, &bytes);
     if (s) return s;
+    float rot[9], shift[3];
+    int reflected;
     {   /* the world box (dims * spacing, and its diagonal) must fit a float */
-        double diag2 = 0.0;
+        double diag2 = 0.0, size[3];
         for (int i = 0; i < 3; i++) {
-            double size = (double)desc->dims[i] * (desc->spacing[i] > 0.0f ? desc->spacing[i] : 1.0f);
-            diag2 += size * size;
+            size[i] = (double)desc->dims[i] * (desc->spacing[i] > 0.0f ? desc->spacing[i] : 1.0f);
+            diag2 += size[i] * size[i];
         }
         if (!(sqrt(diag2) < FLT_MAX)) return PICVR_ERROR_INVALID_ARGUMENT;
+        if ((s = picvr_volume_placement(desc, size, rot, shift, &reflected))) return s;
     }
     {   /* a volume larger than the device can allocate (picvr_volume_alloc_limit) is
            refused before anything is allocated */
@@ -278,6 +341,10 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     }
     ctx->scene.gpu.min_spacing = min_spacing;
     ctx->scene.gpu.bound_radius = 0.5f * (float)picvr_len3(ctx->scene.gpu.box_size);
+    memcpy(ctx->scene.rot, rot, sizeof rot);
+    memcpy(ctx->scene.shift, shift, sizeof shift);
+    ctx->scene.reflected = reflected;
+    picvr_pack_world(ctx);
     picvr_update_equiangular(ctx);
     picvr_shader_value_map(ctx, desc, fmt, m);
     ctx->scene.has_volume = 1;
@@ -292,9 +359,12 @@ picvr_status picvr_volume_box(const picvr_context *ctx, float box_min[3], float 
     if (!ctx || !box_min || !box_max) return PICVR_ERROR_NULL_POINTER;
     PICVR_REFUSE_IF_BUSY(ctx);
     if (!ctx->scene.has_volume) return PICVR_ERROR_NOT_READY;
-    for (int i = 0; i < 3; i++) {
-        box_min[i] = ctx->scene.gpu.box_min[i];
-        box_max[i] = ctx->scene.gpu.box_min[i] + ctx->scene.gpu.box_size[i];
+    /* the world box around the eight corners: centre shift, half extent sum |rot| h */
+    for (int r = 0; r < 3; r++) {
+        double e = 0.0;
+        for (int c = 0; c < 3; c++) e += fabs((double)ctx->scene.rot[3 * r + c]) * 0.5 * ctx->scene.gpu.box_size[c];
+        box_min[r] = (float)(ctx->scene.shift[r] - e);
+        box_max[r] = (float)(ctx->scene.shift[r] + e);
     }
     return PICVR_OK;
 }

@@ -17,6 +17,7 @@
 #endif
 #define TF_SIZE 4096.0
 #define MAX_LIGHTS 32
+#define GPU_CLIP_PLANES 14   // PICVR_GPU_CLIP_PLANES: PICVR_MAX_CLIP_PLANES + the clip box's 6
 #define PDF_CAP 1e18   // a light whose solid-angle pdf exceeds this acts as a delta light
 
 // Specialization: scenes whose lights are all delta lights (point, zero-size sun) and
@@ -75,9 +76,13 @@ layout(set = 0, binding = 0, std140) uniform Scene {
     uint max_bounces; float back_g; float back_weight; uint vertex_cost;
                                               // picvr_scattering (0xffffffff: unlimited);
                                               // path-pool charge per path vertex (path.glsl)
-    uint env_w; uint env_h; float env_cos; float env_sin; // environment map texels;
-                                              // cos, sin of its rotation about +y
+    uint env_w; uint env_h; float env_unused0; float env_unused1; // environment map texels
     Light lights[MAX_LIGHTS];
+    vec4 env_basis[3];                        // rows (xyz) of the map's frame from the
+                                              // volume's: the volume's orientation, then
+                                              // the map's rotation about world +y
+    vec4 clip[GPU_CLIP_PLANES];               // the volume's frame: keep dot(xyz, x) + w >= 0
+    uint clip_count; uint clip_unused0; uint clip_unused1; uint clip_unused2;
 } scene;
 
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;   // normalized data value
@@ -173,7 +178,22 @@ vec3 safe_inverse(vec3 d) {
     return 1.0 / (s * max(abs(d), vec3(1e-30)));
 }
 
-// Ray / volume box: [t0, t1] clipped to t >= 0; false when missed.
+// Specialization: clip planes (picvr_set_clip; false: none, nothing of them compiled).
+layout(constant_id = 14) const bool USE_CLIP = false;
+
+// Ray / clip plane: narrows [t0, t1] to where dot(n, x) + w >= 0.  A ray parallel to the
+// plane (dot(n, rd) = 0) keeps all or nothing by its origin's side; the division is by a
+// non-zero number only.
+void clip_interval(vec4 plane, vec3 ro, vec3 rd, inout float t0, inout float t1) {
+    float s = dot(plane.xyz, ro) + plane.w, c = dot(plane.xyz, rd);
+    if (c > 0.0) t0 = max(t0, -s / c);
+    else if (c < 0.0) t1 = min(t1, -s / c);
+    else if (s < 0.0) t1 = t0;
+}
+
+// Ray / volume box (and the clip planes, whose region with the box is convex, so one
+// interval): [t0, t1] clipped to t >= 0; false when missed.  Every tracking loop starts
+// here, so a clipped region is empty for all of them.
 bool box_interval(vec3 ro, vec3 rd, out float t0, out float t1) {
     vec3 inv = safe_inverse(rd);
     vec3 a = (scene.box_min - ro) * inv;
@@ -181,7 +201,17 @@ bool box_interval(vec3 ro, vec3 rd, out float t0, out float t1) {
     vec3 lo = min(a, b), hi = max(a, b);
     t0 = max(max(lo.x, lo.y), max(lo.z, 0.0));
     t1 = min(min(hi.x, hi.y), hi.z);
+    if (USE_CLIP)
+        for (uint i = 0u; i < scene.clip_count; i++) clip_interval(scene.clip[i], ro, rd, t0, t1);
     return t1 > t0;
+}
+
+// x is inside every clip plane (always true without USE_CLIP).
+bool inside_clip(vec3 x) {
+    if (USE_CLIP)
+        for (uint i = 0u; i < scene.clip_count; i++)
+            if (dot(scene.clip[i].xyz, x) + scene.clip[i].w < 0.0) return false;
+    return true;
 }
 
 // picvr_debug_view (picvr.h): what the rendering procedure writes.
@@ -217,7 +247,7 @@ float sigma_t(vec3 x) { return scene.density * transfer(data_value(x)).a; }
 // use this one.
 float sigma_t_in_box(vec3 x) {
     vec3 hi = scene.box_min + scene.box_size;
-    return all(greaterThanEqual(x, scene.box_min)) && all(lessThanEqual(x, hi)) ? sigma_t(x) : 0.0;
+    return all(greaterThanEqual(x, scene.box_min)) && all(lessThanEqual(x, hi)) && inside_clip(x) ? sigma_t(x) : 0.0;
 }
 
 vec3 albedo_at(vec3 x) { return transfer(data_value(x)).rgb; }
@@ -650,13 +680,13 @@ layout(constant_id = 13) const bool USE_REUSE = false;
 // columns (env_w + 1 values each).  A 4-float placeholder without USE_ENV_MAP.
 layout(set = 0, binding = 19, std430) readonly buffer Environment { float env[]; };
 
-// The texel that holds direction w: w' = w turned by -rotation about +y, column from
-// atan2(w'.x, -w'.z), row from acos(w'.y) (row 0 the zenith).  Edges clamp.
+// The texel that holds direction w (the volume's frame): w' = env_basis w (into world
+// space, then turned by -rotation about +y), column from atan2(w'.x, -w'.z), row from
+// acos(w'.y) (row 0 the zenith).  Edges clamp.
 uint env_texel(vec3 w) {
-    float x = scene.env_cos * w.x - scene.env_sin * w.z;
-    float z = scene.env_sin * w.x + scene.env_cos * w.z;
-    float u = 0.5 + atan(x, -z) * (0.5 / PI);
-    float v = acos(clamp(w.y, -1.0, 1.0)) * (1.0 / PI);
+    vec3 e = vec3(dot(scene.env_basis[0].xyz, w), dot(scene.env_basis[1].xyz, w), dot(scene.env_basis[2].xyz, w));
+    float u = 0.5 + atan(e.x, -e.z) * (0.5 / PI);
+    float v = acos(clamp(e.y, -1.0, 1.0)) * (1.0 / PI);
     uint col = min(uint(max(u, 0.0) * float(scene.env_w)), scene.env_w - 1u);
     uint row = min(uint(max(v, 0.0) * float(scene.env_h)), scene.env_h - 1u);
     return row * scene.env_w + col;
@@ -710,8 +740,8 @@ vec3 background_sample(float u1, float u2, out float pdf, out vec3 radiance) {
     float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
     float phi = 2.0 * PI * ((float(col) + b) / float(W) - 0.5);
     vec3 wr = vec3(sin_t * sin(phi), cos_t, -sin_t * cos(phi));        // w'
-    vec3 w = vec3(scene.env_cos * wr.x + scene.env_sin * wr.z, wr.y,
-                  -scene.env_sin * wr.x + scene.env_cos * wr.z);
+    // back into the volume's frame: env_basis is orthonormal, its inverse its transpose
+    vec3 w = wr.x * scene.env_basis[0].xyz + wr.y * scene.env_basis[1].xyz + wr.z * scene.env_basis[2].xyz;
     uint i = row * W + col;            // the texel's own values, whatever w rounds to
     pdf = env[4u * i + 3u];
     radiance = vec3(env[4u * i], env[4u * i + 1u], env[4u * i + 2u]);

@@ -202,7 +202,11 @@
     /* test_nrrd.c */                                               \
     X(test_nrrd_reads_layout_values_and_geometry)                   \
     X(test_nrrd_refuses_bad_headers)                                \
-    X(test_volume_io_percentile_range)
+    X(test_volume_io_percentile_range)                              \
+    /* test_clip.c: placement and clipping */                      \
+    X(test_clip_cube_under_sun_closed_form)                         \
+    X(test_placed_volume_under_sun_closed_form)                     \
+    X(test_bad_placement_and_clip)
 
 #define TU_DECLARE(name) void name(void **state);
 TU_ALL_TESTS(TU_DECLARE)

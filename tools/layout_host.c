@@ -49,8 +49,9 @@ int main(void)
     PICVR_SCENE(vertex_cost);
     PICVR_SCENE(env_w);
     PICVR_SCENE(env_h);
-    PICVR_SCENE(env_cos);
-    PICVR_SCENE(env_sin);
+    PICVR_SCENE(env_basis);
+    PICVR_SCENE(clip);
+    PICVR_SCENE(clip_count);
 #define PICVR_LIGHT(m) \
     printf("Scene.lights.%s %u\n", #m, (unsigned)(offsetof(picvr_gpu_scene, lights) + offsetof(picvr_gpu_light, m)))
     PICVR_LIGHT(pos);
