@@ -5,10 +5,10 @@
  * image (no Rows/Columns) are skipped, and the rest are grouped by SeriesInstanceUID.
  * The chosen series is then checked (one layout and one orientation for all slices),
  * sorted along the slice normal, and its geometry computed from the positions.  Only
- * after the volume's byte size is validated is it allocated, and the second pass
- * decodes each slice's pixels with gdcm::ImageReader (which handles the compressed
- * transfer syntaxes GDCM has codecs for), each checked against its header before being
- * copied.
+ * after the volume's byte size is validated is it allocated, and the second pass reads
+ * each slice whole (gdcm::Reader) and decodes its pixels with GDCM's codecs (every
+ * transfer syntax GDCM has a codec for), from an image described by the attributes
+ * checked here (see decode_slice).
  *
  * Attribute values are parsed here from their bytes (strings with a locale-independent
  * number parser, US as binary), not through gdcm::Attribute, so that a malformed value
@@ -41,7 +41,7 @@
 
 #include <gdcmDataSet.h>
 #include <gdcmImage.h>
-#include <gdcmImageReader.h>
+#include <gdcmPhotometricInterpretation.h>
 #include <gdcmReader.h>
 #include <gdcmTag.h>
 #include <gdcmTrace.h>
@@ -63,7 +63,7 @@ struct Slice {
     std::string path;
     std::string series;             /* SeriesInstanceUID ("" when absent) */
     std::string photometric, modality;
-    unsigned rows = 0, cols = 0, samples = 1, bits = 0, pixrep = 0;
+    unsigned rows = 0, cols = 0, samples = 1, bits = 0, bits_stored = 0, high_bit = 0, pixrep = 0;
     long frames = 1;
     bool has_ipp = false, has_iop = false, has_spacing = false;
     double ipp[3] = {0, 0, 0};
@@ -141,7 +141,9 @@ int get_us(const gdcm::DataSet &ds, uint16_t g, uint16_t e, unsigned &out) {
 int read_header(const std::string &path, Slice &s, std::string &why) {
     gdcm::Reader r;
     r.SetFileName(path.c_str());
-    if (!r.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010))) {
+    /* Pixel Data in the skipped tags: its value is neither read nor kept. */
+    const std::set<gdcm::Tag> skip = {gdcm::Tag(0x7fe0, 0x0010)};
+    if (!r.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010), skip)) {
         why = "not a DICOM file GDCM can parse";
         return 0;
     }
@@ -158,6 +160,10 @@ int read_header(const std::string &path, Slice &s, std::string &why) {
     if (get_us(ds, 0x0028, 0x0002, s.samples) < 0) return why = "malformed SamplesPerPixel", -1;
     if (get_us(ds, 0x0028, 0x0100, s.bits) != 1) return why = "no valid BitsAllocated", -1;
     if (get_us(ds, 0x0028, 0x0103, s.pixrep) < 0) return why = "malformed PixelRepresentation", -1;
+    s.bits_stored = s.bits;
+    if (get_us(ds, 0x0028, 0x0101, s.bits_stored) < 0) return why = "malformed BitsStored", -1;
+    s.high_bit = s.bits_stored - 1;   /* the usual layout: stored bits at the bottom */
+    if (get_us(ds, 0x0028, 0x0102, s.high_bit) < 0) return why = "malformed HighBit", -1;
     if (get_string(ds, 0x0028, 0x0008, v) && !v.empty()) {   /* NumberOfFrames (IS) */
         double f = 0;
         if (!parse_numbers(v, &f, 1) || f < 0 || f > 2147483647.0) return why = "malformed NumberOfFrames '" + v.substr(0, 32) + "'", -1;
@@ -310,40 +316,52 @@ bool native_pixel_data_complete(const char *path, uint32_t length) {
     return true;
 }
 
-/* Decodes one slice into dst (slice_bytes bytes) with gdcm::ImageReader, after checking
-   that what GDCM decoded is what the header announced. */
+/* Decodes one slice into dst (slice_bytes bytes).  The file is read with gdcm::Reader
+   and the image built here from the attributes this reader parsed and checked, then
+   decoded by GDCM's codecs (gdcm::Bitmap::GetBuffer): gdcm::ImageReader is not used
+   because its geometry helpers (gdcm::ImageHelper) assert on malformed attributes
+   (e.g. a Frame Increment Pointer without Number of Frames aborts the process in
+   Debian's build, whose assertions are on), and this reader needs none of them. */
 picvr_io_status decode_slice(const Slice &s, unsigned char *dst, size_t slice_bytes, char *err, size_t err_size) {
     const char *p = s.path.c_str();
-    gdcm::ImageReader ir;
-    ir.SetFileName(p);
-    if (!ir.Read()) FAIL(PICVR_IO_ERROR_READ, "%s: GDCM cannot read the image (truncated or corrupt file?)", p);
-    const gdcm::Image &img = ir.GetImage();
-    const unsigned nd = img.GetNumberOfDimensions();
-    const unsigned *dims = img.GetDimensions();
-    const gdcm::PixelFormat &pf = img.GetPixelFormat();
-    if (!dims || nd < 2 || nd > 3 || dims[0] != s.cols || dims[1] != s.rows || (nd == 3 && dims[2] != 1))
-        FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: the decoded image is not one %ux%u frame", p, s.cols, s.rows);
-    if (pf.GetSamplesPerPixel() != 1 || pf.GetBitsAllocated() != s.bits || pf.GetPixelRepresentation() != s.pixrep)
-        FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: the decoded pixel format (%u samples, %u bits, representation %u) "
-             "differs from the header's", p, (unsigned)pf.GetSamplesPerPixel(), (unsigned)pf.GetBitsAllocated(),
-             (unsigned)pf.GetPixelRepresentation());
-    if (img.GetBufferLength() != slice_bytes)
-        FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: GDCM's buffer is %lu bytes, the slice %zu", p, img.GetBufferLength(), slice_bytes);
-    const gdcm::DataElement &pd = img.GetDataElement();
-    if (pd.IsEmpty()) FAIL(PICVR_IO_ERROR_TRUNCATED, "%s: no pixel data", p);
-    const gdcm::TransferSyntax &ts = img.GetTransferSyntax();
-    if (!ts.IsEncapsulated()) {
+    gdcm::Reader r;
+    r.SetFileName(p);
+    if (!r.Read()) FAIL(PICVR_IO_ERROR_READ, "%s: GDCM cannot read the file (truncated or corrupt?)", p);
+    const gdcm::File &file = r.GetFile();
+    const gdcm::DataSet &ds = file.GetDataSet();
+    const gdcm::Tag pixel_tag(0x7fe0, 0x0010);
+    if (!ds.FindDataElement(pixel_tag) || ds.GetDataElement(pixel_tag).IsEmpty())
+        FAIL(PICVR_IO_ERROR_TRUNCATED, "%s: no pixel data", p);
+    const gdcm::DataElement &pd = ds.GetDataElement(pixel_tag);
+    const gdcm::TransferSyntax ts = file.GetHeader().GetDataSetTransferSyntax();
+    if (!ts.IsValid()) FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: unknown transfer syntax", p);
+    if (ts.IsEncapsulated()) {
+        if (!pd.GetSequenceOfFragments())
+            FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: transfer syntax %s without encapsulated pixel data", p, gdcm::TransferSyntax::GetTSString(ts));
+    } else {
         /* Native pixel data: its length is known, a short one is a truncated file. */
         const gdcm::ByteValue *bv = pd.GetByteValue();
-        if (!bv || bv->GetLength() < slice_bytes)
+        if (!bv) FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: encapsulated pixel data in native transfer syntax %s", p, gdcm::TransferSyntax::GetTSString(ts));
+        if (bv->GetLength() < slice_bytes)
             FAIL(PICVR_IO_ERROR_TRUNCATED, "%s: truncated pixel data: %lu bytes, the slice needs %zu", p,
-                 bv ? (unsigned long)bv->GetLength() : 0ul, slice_bytes);
+                 (unsigned long)bv->GetLength(), slice_bytes);
         if (ts != gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian && !native_pixel_data_complete(p, bv->GetLength()))
             FAIL(PICVR_IO_ERROR_TRUNCATED, "%s: truncated: the file ends inside its pixel data", p);
     }
+    gdcm::Image img;
+    img.SetNumberOfDimensions(2);
+    img.SetDimension(0, s.cols);
+    img.SetDimension(1, s.rows);
+    img.SetPixelFormat(gdcm::PixelFormat(1, (unsigned short)s.bits, (unsigned short)s.bits_stored,
+                                         (unsigned short)s.high_bit, (unsigned short)s.pixrep));
+    img.SetPhotometricInterpretation(s.photometric == "MONOCHROME1" ? gdcm::PhotometricInterpretation::MONOCHROME1
+                                                                   : gdcm::PhotometricInterpretation::MONOCHROME2);
+    img.SetTransferSyntax(ts);
+    img.SetDataElement(pd);
+    if (img.GetBufferLength() != slice_bytes)
+        FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: GDCM's buffer is %lu bytes, the slice %zu", p, img.GetBufferLength(), slice_bytes);
     if (!img.GetBuffer(reinterpret_cast<char *>(dst)))
-        FAIL(PICVR_IO_ERROR_READ, "%s: GDCM cannot decode the pixel data (transfer syntax %s)", p,
-             gdcm::TransferSyntax::GetTSString(img.GetTransferSyntax()));
+        FAIL(PICVR_IO_ERROR_READ, "%s: GDCM cannot decode the pixel data (transfer syntax %s)", p, gdcm::TransferSyntax::GetTSString(ts));
     return PICVR_IO_OK;
 }
 
@@ -421,6 +439,8 @@ picvr_io_status load(const char *path, picvr_io_volume *volume, char *err, size_
             FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: PhotometricInterpretation '%.32s': only MONOCHROME1/2 are read", p, s.photometric.c_str());
         if (s.bits != 8 && s.bits != 16 && s.bits != 32)
             FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: BitsAllocated %u: 8, 16 or 32 are read", p, s.bits);
+        if (s.bits_stored < 1 || s.bits_stored > s.bits || s.high_bit + 1 < s.bits_stored || s.high_bit >= s.bits)
+            FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: BitsStored %u HighBit %u do not fit BitsAllocated %u", p, s.bits_stored, s.high_bit, s.bits);
         if (s.pixrep > 1) FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: PixelRepresentation %u (0 or 1)", p, s.pixrep);
         if (s.rows < 1 || s.cols < 1 || s.rows > PICVR_IO_MAX_DIM || s.cols > PICVR_IO_MAX_DIM)
             FAIL(PICVR_IO_ERROR_BAD_DIMS, "%s: %u rows x %u columns: each must be 1..%u", p, s.rows, s.cols, PICVR_IO_MAX_DIM);

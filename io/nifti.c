@@ -436,8 +436,18 @@ static picvr_io_status read_header(gzFile gz, const char *path, unsigned char ra
             set_error(err, err_size, "%s: pixdim[%d] is not a finite number", path, i);
             return PICVR_IO_ERROR_BAD_HEADER;
         }
-    if (!(h->vox_offset >= 0.0) || h->vox_offset > 9007199254740992.0 || h->vox_offset != floor(h->vox_offset)) {
-        set_error(err, err_size, "%s: vox_offset %g is not a byte offset (a whole number >= 0)", path, h->vox_offset);
+    /* NIfTI-1's float offset must also fit niftilib's int conversion. */
+    double max_offset = h->header_bytes == NII1_HEADER ? (double)INT_MAX : 9007199254740992.0;
+    if (!(h->vox_offset >= 0.0) || h->vox_offset > max_offset || h->vox_offset != floor(h->vox_offset)) {
+        set_error(err, err_size, "%s: vox_offset %g is not a byte offset (a whole number, 0..%.0f)", path,
+                  h->vox_offset, max_offset);
+        return PICVR_IO_ERROR_BAD_HEADER;
+    }
+    /* The specification asks a one-file dataset for 352 (NIfTI-1) or 544 (NIfTI-2) at
+       least; an offset inside the header is refused, not guessed (niftilib reads from 348). */
+    if (h->onefile && h->vox_offset < (double)h->header_bytes) {
+        set_error(err, err_size, "%s: vox_offset %.0f is inside the %zu-byte header", path, h->vox_offset,
+                  h->header_bytes);
         return PICVR_IO_ERROR_BAD_HEADER;
     }
     return PICVR_IO_OK;
@@ -624,16 +634,7 @@ picvr_io_status picvr_io_load_nifti(const char *path, picvr_io_volume *volume, c
 
     /* Where the voxels are: after the header (n+1, n+2), or in the .img beside the .hdr. */
     double offset = h.vox_offset;
-    if (h.onefile) {
-        /* The specification asks for 352 (NIfTI-1) or 544 (NIfTI-2) at least; an offset
-           inside the header is refused rather than guessed (niftilib would read from 348). */
-        if (offset < (double)h.header_bytes) {
-            set_error(err, err_size, "%s: vox_offset %.0f is inside the %zu-byte header", path, offset,
-                      h.header_bytes);
-            st = PICVR_IO_ERROR_BAD_HEADER;
-            goto done;
-        }
-    } else {
+    if (!h.onefile) {
         img = image_names(path, &img_alt);
         if (!img) {
             set_error(err, err_size, "%s: the header says its voxels are in a separate .img file (magic %s), "

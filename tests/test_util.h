@@ -189,6 +189,7 @@
     X(test_sweep_float32_huge_range_and_uint16_12bit)               \
     X(test_sweep_cameras_and_image_sizes)                           \
     X(test_sweep_long_run_precision_1e6)                            \
+    X(test_sweep_clip_and_placement)                                \
     /* test_engine.c */                                             \
     X(test_frames_leave_no_hole)                                    \
     X(test_frames_turned_on_later)                                  \
