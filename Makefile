@@ -12,7 +12,7 @@ DATA    ?= ../shared/data
 
 SHADER_SRC  := $(wildcard shaders/*.comp)
 SHADER_INC  := $(wildcard shaders/*.glsl)
-TEST_SRC    := $(filter-out tests/test_nifti.c tests/test_dicom.c tests/test_vdb.c,$(wildcard tests/test_*.c))
+TEST_SRC    := $(wildcard tests/test_*.c)
 LIB_OBJ     := $(B)/picvr_vk.o
 # The implementation: picvr_vk.c includes the parts in host/.
 LIB_SRC     := picvr_vk.c picvr.h picvr_shaders.h $(wildcard host/*.h host/*.c)
@@ -73,27 +73,59 @@ $(B)/libpicvr.a: $(LIB_OBJ)
 	ar rcs $@ $^
 lib: $(B)/libpicvr.a
 
+# ---- picvr_io: the file readers (picvr_io.h, io/), a library of their own ------------
+# The core library links none of this.  NIfTI through niftilib, DICOM through GDCM,
+# OpenVDB through OpenVDB (C++, inside the module only).  The bench tools read raw files
+# alone and build io/picvr_io.c with PICVR_IO_RAW_NRRD_ONLY instead.
+CXX         ?= g++
+IO_CFLAGS   := -I/usr/include/nifti
+IO_CXXFLAGS := -O2 -g -std=c++17 -Wall -Wextra -I. -I/usr/include/gdcm-3.0
+IO_LIBS     := -lgdcmMSFF -lgdcmDSED -lgdcmDICT -lgdcmIOD -lgdcmCommon -lopenvdb -ltbb -lImath-3_1 -lblosc \
+               -lnifti2 -lznz -lz -lm -lstdc++
+IO_HDR      := picvr_io.h io/internal.h
+IO_OBJ      := $(B)/io/picvr_io.o $(B)/io/nifti.o $(B)/io/dicom.o $(B)/io/vdb.o
+$(B)/io/%.o: io/%.c $(IO_HDR) | $(B)/.deps
+	@mkdir -p $(B)/io
+	$(CC) $(CFLAGS) $(IO_CFLAGS) -c -o $@ $<
+$(B)/io/%.o: io/%.cpp $(IO_HDR) | $(B)/.deps
+	@mkdir -p $(B)/io
+	$(CXX) $(IO_CXXFLAGS) -c -o $@ $<
+$(B)/libpicvr_io.a: $(IO_OBJ)
+	ar rcs $@ $^
+# Test-only writers of DICOM series and OpenVDB grids (tests/*_writer.cpp).
+$(B)/tests/%.o: tests/%.cpp tests/%.h | $(B)/.deps
+	@mkdir -p $(B)/tests
+	$(CXX) $(IO_CXXFLAGS) -c -o $@ $<
+TEST_CXX_OBJ := $(B)/tests/dicom_writer.o $(B)/tests/vdb_writer.o
+# picvr-render's OpenEXR writer (--out-float FILE.exr).
+EXR_CXXFLAGS := -I/usr/include/OpenEXR -I/usr/include/Imath
+EXR_LIBS    := -lOpenEXR-3_1 -lIex-3_1 -lImath-3_1
+$(B)/exr_write.o: examples/exr_write.cpp examples/render.h | $(B)/.deps
+	$(CXX) $(IO_CXXFLAGS) $(EXR_CXXFLAGS) -Iexamples -c -o $@ $<
+
 # The command-line helpers the example and bench programs share (examples/cli.h).
 CLI_SRC    := examples/cli.c examples/cli.h
-RENDER_SRC := examples/render.c examples/render_output.c examples/cli.c io/picvr_io.c examples/presets.c \
+RENDER_SRC := examples/render.c examples/render_output.c examples/cli.c examples/presets.c \
               examples/env_io.c
-$(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h examples/presets.h examples/env_io.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -o $@ $(RENDER_SRC) $(B)/libpicvr.a $(LDLIBS) -lstb -lz
+$(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h examples/presets.h examples/env_io.h $(B)/libpicvr.a \
+                   $(B)/libpicvr_io.a $(B)/exr_write.o
+	$(CC) $(CFLAGS) -o $@ $(RENDER_SRC) $(B)/exr_write.o $(B)/libpicvr_io.a $(B)/libpicvr.a $(LDLIBS) -lstb \
+	  $(EXR_LIBS) $(IO_LIBS)
 
 $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps
 	$(CC) $(CFLAGS) -O3 -fopenmp -c -o $@ $<
 
 $(B)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
               shaders/cache_math.glsl shaders/sampling_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a \
-              io/picvr_io.c picvr_io.h
-	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) io/picvr_io.c $(B)/cpu_reference.o $(B)/libpicvr.a \
-	  $(LDLIBS) -lcmocka -lz
+              $(B)/libpicvr_io.a $(TEST_CXX_OBJ) tests/dicom_writer.h tests/vdb_writer.h
+	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) $(TEST_CXX_OBJ) $(B)/libpicvr_io.a $(B)/cpu_reference.o \
+	  $(B)/libpicvr.a $(LDLIBS) -lcmocka $(IO_LIBS)
 
 $(B)/picvr-bench-speed: bench/bench_speed.c $(CLI_SRC) io/picvr_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ bench/bench_speed.c examples/cli.c io/picvr_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
+	$(CC) $(CFLAGS) -fopenmp -Iexamples -DPICVR_IO_RAW_NRRD_ONLY -o $@ bench/bench_speed.c examples/cli.c io/picvr_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
 
 $(B)/picvr-bench-sampling: bench/bench_sampling.c $(CLI_SRC) io/picvr_io.c examples/presets.c examples/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Iexamples -o $@ bench/bench_sampling.c examples/cli.c io/picvr_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
+	$(CC) $(CFLAGS) -Iexamples -DPICVR_IO_RAW_NRRD_ONLY -o $@ bench/bench_sampling.c examples/cli.c io/picvr_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 # The host's mirrors of the shaders' layouts and constants (tools/check_layout.sh).
 $(B)/layout-host: tools/layout_host.c $(LIB_SRC) | $(B)/.deps
@@ -189,7 +221,7 @@ BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotat
 BENCH_BUILD = $(shell cat $(LIB_SRC) shaders/*.glsl shaders/*.comp | cksum | cut -d' ' -f1)
 BENCH_ERROR_SRC := $(wildcard bench/error/*.c)
 $(B)/picvr-bench-error: $(BENCH_ERROR_SRC) bench/error/bench_error.h $(CLI_SRC) io/picvr_io.c picvr_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ $(BENCH_ERROR_SRC) examples/cli.c io/picvr_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
+	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_IO_RAW_NRRD_ONLY -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ $(BENCH_ERROR_SRC) examples/cli.c io/picvr_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 $(B)/picvr-bench-fig9: bench/bench_fig9.c $(CLI_SRC) shaders/cache_math.glsl reference/cache_math_host.h | $(B)/.deps
 	$(CC) $(CFLAGS) -Iexamples -o $@ bench/bench_fig9.c examples/cli.c -lm
@@ -261,13 +293,23 @@ $(BA)/libpicvr.a: $(BA)/picvr_vk.o
 $(BA)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps
 	@mkdir -p $(BA)
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -O2 -fopenmp -c -o $@ $<
+# The readers instrumented too; the test-only writers are not (they only make files).
+$(BA)/io/%.o: io/%.c $(IO_HDR) | $(B)/.deps
+	@mkdir -p $(BA)/io
+	$(CC) $(CFLAGS) $(IO_CFLAGS) $(ASAN_FLAGS) -c -o $@ $<
+$(BA)/io/%.o: io/%.cpp $(IO_HDR) | $(B)/.deps
+	@mkdir -p $(BA)/io
+	$(CXX) $(IO_CXXFLAGS) $(ASAN_FLAGS) -c -o $@ $<
+$(BA)/libpicvr_io.a: $(patsubst $(B)/%,$(BA)/%,$(IO_OBJ))
+	ar rcs $@ $^
 $(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
-              tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a io/picvr_io.c picvr_io.h
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) io/picvr_io.c tests/asan_keep_drivers.c \
-	  $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl -lz
+              tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a $(BA)/libpicvr_io.a $(TEST_CXX_OBJ)
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) tests/asan_keep_drivers.c $(TEST_CXX_OBJ) \
+	  $(BA)/libpicvr_io.a $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl $(IO_LIBS)
 $(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h examples/presets.h examples/env_io.h \
-              tests/asan_keep_drivers.c $(BA)/libpicvr.a
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ $(RENDER_SRC) tests/asan_keep_drivers.c $(BA)/libpicvr.a $(LDLIBS) -lstb -lz -ldl
+              tests/asan_keep_drivers.c $(BA)/libpicvr.a $(BA)/libpicvr_io.a $(B)/exr_write.o
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ $(RENDER_SRC) tests/asan_keep_drivers.c $(B)/exr_write.o $(BA)/libpicvr_io.a \
+	  $(BA)/libpicvr.a $(LDLIBS) -lstb -ldl $(EXR_LIBS) $(IO_LIBS)
 
 # The whole suite under ASan + UBSan (host code: the library, the tests, the reference),
 # with the validation layer on, then one picvr-render run (loader + CLI).  The 1e6-sample
@@ -294,18 +336,45 @@ valgrind: deps-robust $(B)/picvr-render
 $(BF)/fuzz_volume_io: tests/fuzz/fuzz_volume_io.c io/picvr_io.c picvr_io.h | $(B)/.deps-robust
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
-	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_volume_io.c io/picvr_io.c -lz
+	  -fno-sanitize-recover=undefined -DPICVR_IO_RAW_NRRD_ONLY -o $@ tests/fuzz/fuzz_volume_io.c io/picvr_io.c -lz
 $(BF)/fuzz_env_io: tests/fuzz/fuzz_env_io.c examples/env_io.c examples/env_io.h | $(B)/.deps-robust
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
 	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_env_io.c examples/env_io.c -lm
-fuzz: deps-robust $(BF)/fuzz_volume_io $(BF)/fuzz_env_io
-	@mkdir -p $(BF)/corpus $(BF)/corpus_env
+$(BF)/fuzz_nifti: tests/fuzz/fuzz_nifti.c io/nifti.c io/picvr_io.c $(IO_HDR) | $(B)/.deps-robust
+	@mkdir -p $(BF)
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. $(IO_CFLAGS) -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=undefined -DPICVR_IO_RAW_NRRD_ONLY -o $@ tests/fuzz/fuzz_nifti.c io/nifti.c io/picvr_io.c \
+	  -lnifti2 -lznz -lz -lm
+# OpenVDB's own code is not instrumented; io/vdb.cpp checks every byte it will read first.
+$(BF)/fuzz_vdb: tests/fuzz/fuzz_vdb.cpp io/vdb.cpp io/picvr_io.c $(IO_HDR) | $(B)/.deps-robust
+	@mkdir -p $(BF)
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -DPICVR_IO_RAW_NRRD_ONLY -I. -fsanitize=fuzzer-no-link,address,undefined \
+	  -fno-sanitize-recover=undefined -c -o $(BF)/picvr_io_vdb.o io/picvr_io.c
+	clang++ -g -O1 -std=c++17 -I. '-DPICVR_IO_VDB_MAX_BYTES=((uint64_t)64<<20)' -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_vdb.cpp io/vdb.cpp $(BF)/picvr_io_vdb.o \
+	  -lopenvdb -ltbb -lImath-3_1 -lblosc -lz
+# GDCM's code is not instrumented either; io/dicom.cpp checks each file's structure first.
+$(BF)/fuzz_dicom: tests/fuzz/fuzz_dicom.cpp io/dicom.cpp io/picvr_io.c $(IO_HDR) | $(B)/.deps-robust
+	@mkdir -p $(BF)
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -fsanitize=fuzzer-no-link,address,undefined \
+	  -fno-sanitize-recover=undefined -DPICVR_IO_RAW_NRRD_ONLY -c -o $(BF)/picvr_io_dicom.o io/picvr_io.c
+	clang++ -g -O1 -std=c++17 -I. -isystem /usr/include/gdcm-3.0 -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_dicom.cpp io/dicom.cpp $(BF)/picvr_io_dicom.o \
+	  -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
+fuzz: deps-robust $(BF)/fuzz_volume_io $(BF)/fuzz_env_io $(BF)/fuzz_nifti $(BF)/fuzz_vdb $(BF)/fuzz_dicom
+	@mkdir -p $(BF)/corpus $(BF)/corpus_env $(BF)/corpus_nifti $(BF)/corpus_vdb $(BF)/corpus_dicom
 	cd $(BF) && ./fuzz_volume_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
 	  -max_len=8192 -print_final_stats=1 -dict=$(abspath tests/fuzz/volume_io.dict) corpus $(abspath tests/fuzz/corpus)
 	cd $(BF) && ./fuzz_env_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
 	  -max_len=8192 -print_final_stats=1 -dict=$(abspath tests/fuzz/env_io.dict) \
 	  corpus_env $(abspath tests/fuzz/corpus_env)
+	cd $(BF) && ./fuzz_nifti -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
+	  -max_len=8192 -print_final_stats=1 corpus_nifti $(abspath tests/fuzz/corpus_nifti)
+	cd $(BF) && ./fuzz_vdb -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
+	  -max_len=32768 -print_final_stats=1 corpus_vdb $(abspath tests/fuzz/corpus_vdb)
+	cd $(BF) && LSAN_OPTIONS=suppressions=$(abspath tests/lsan.supp) ./fuzz_dicom -max_total_time=$(FUZZ_TIME) \
+	  -rss_limit_mb=2048 -timeout=10 -max_len=16384 -print_final_stats=1 corpus_dicom $(abspath tests/fuzz/corpus_dicom)
 
 # SOAK_SECONDS of picvr_step with random camera, TF and light changes and image reads;
 # fails unless host RSS and live device memory are flat (tolerances in tests/soak.c).

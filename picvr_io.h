@@ -54,7 +54,8 @@ typedef struct picvr_io_layout {
 typedef struct picvr_io_volume {
     uint32_t dims[3];
     picvr_voxel_type type;
-    float spacing[3];          /* the file's (NRRD), else 1,1,1; the caller may change it */
+    float spacing[3];          /* the file's (NRRD, NIfTI and DICOM: mm), else 1,1,1; the
+                                  caller may change it */
     void *data;                /* dims[0]*dims[1]*dims[2] voxels, x fastest, host order */
     size_t size;               /* bytes in data */
     float origin[3];           /* world position of voxel 0's centre (NRRD space origin; 0) */
@@ -67,6 +68,9 @@ typedef struct picvr_io_volume {
     double value_offset;       /* (NIfTI scl_slope/scl_inter, DICOM rescale to Hounsfield
                                   units); 1 and 0 when the file has none */
     char modality[8];          /* "CT", "MR", ... where the file says (DICOM), else "" */
+    int patient_frame;         /* 1: world space is the patient's LPS frame (DICOM, NIfTI,
+                                  NRRD in an anatomical space), so views such as anterior
+                                  mean something; 0: the file's own axes */
     char warning[256];         /* what the reader noticed and accepted (gantry tilt, uneven
                                   slice spacing, a dropped time axis), else "" */
 } picvr_io_volume;
@@ -95,7 +99,9 @@ picvr_io_status picvr_io_layout_bytes(const picvr_io_layout *layout, size_t *byt
 picvr_io_status picvr_io_parse_name(const char *path, picvr_io_layout *layout,
                             char *err, size_t err_size);
 
-/* Loads a volume.  layout NULL: taken from the file name.  The file (after gzip
+/* Loads a volume.  layout NULL: by the file's extension a NRRD, NIfTI, OpenVDB (its
+   default grid) or DICOM (a folder or .dcm) file through its reader below, else a raw
+   file whose layout is taken from the file name.  The file (after gzip
    decompression, if compressed) must hold exactly the layout's byte count; the gzip
    check sum is verified.  On failure *volume is zeroed and nothing leaks. */
 picvr_io_status picvr_io_load(const char *path, const picvr_io_layout *layout, picvr_io_volume *volume,
@@ -108,16 +114,23 @@ picvr_io_status picvr_io_load(const char *path, const picvr_io_layout *layout, p
    lists) are refused with a message.  On failure *volume is zeroed and nothing leaks. */
 picvr_io_status picvr_io_load_nrrd(const char *path, picvr_io_volume *volume, char *err, size_t err_size);
 
-/* Loads a NIfTI-1 or NIfTI-2 volume (.nii, .nii.gz, or a .hdr/.img pair) through niftilib:
-   the first 3D volume (a 4D file's later volumes are dropped, said in volume->warning);
-   spacing from pixdim; orientation and origin from the sform when its code is set, else
-   the qform, else the pixdim-scaled identity (ANALYZE), converted from RAS to LPS;
-   scl_slope/scl_inter into value_scale/value_offset (slope 0 means none).  Headers that
-   lie about their size are refused before any allocation.  On failure *volume is zeroed
-   and nothing leaks. */
+/* Loads a NIfTI-1 or NIfTI-2 volume (.nii, .nii.gz, or a .hdr/.img pair, either also
+   gzip-compressed), the header read and checked here before niftilib converts it: the
+   first 3D volume (a 4D file's later volumes are dropped, said in volume->warning);
+   spacing, axes and origin from the sform (sform_code > 0), else the qform, else
+   diag(pixdim) (the specification's method 1, also ANALYZE 7.5, said in warning):
+   spacing = the matrix's column lengths, axes = its unit columns, origin = its
+   translation; metres and micrometres (xyzt_units) converted to mm; RAS converted to
+   LPS; patient_frame 1; a pixdim differing from the matrix by more than 1e-3 relative is
+   said in warning.  scl_slope/scl_inter into value_scale/value_offset (slope 0 or not
+   finite: none).  Refused: dim[0] outside 3..7, a dimension beyond the time axis other
+   than 1, other datatypes (BAD_TYPE), non-finite pixdim or matrix, a zero-length or
+   nearly parallel axis, a vox_offset inside the header, the ASCII .nia form.  Headers
+   that lie about their size are refused before any allocation.  On failure *volume is
+   zeroed and nothing leaks. */
 picvr_io_status picvr_io_load_nifti(const char *path, picvr_io_volume *volume, char *err, size_t err_size);
 
-/* 1 when path ends in .nii, .nii.gz or .hdr (ASCII case-insensitive). */
+/* 1 when path ends in .nii, .nii.gz, .hdr or .hdr.gz (ASCII case-insensitive). */
 int picvr_io_is_nifti(const char *path);
 
 /* Loads a DICOM series through GDCM.  path: a folder (the series with the most slices in
@@ -164,7 +177,15 @@ picvr_io_status picvr_io_value_range(const picvr_io_volume *volume, double *min,
 picvr_io_status picvr_io_percentile_range(const picvr_io_volume *volume, double lo_frac, double hi_frac, double *lo, double *hi);
 
 /* Fills a picvr_volume_desc that points at volume's data (value range left 0:
-   picvr's default for the type). */
+   picvr's default for the type), with its placement: direction and origin (has_origin
+   1).  picvr takes only orthonormal axes: a sheared z axis (a gantry-tilted series) is
+   replaced by the normal of the x and y axes, on the side of the given one, and
+   *shear_degrees (may be NULL) receives the angle between them (0 otherwise); the
+   rendering is then without tilt correction. */
+picvr_io_status picvr_io_to_desc_sheared(const picvr_io_volume *volume, picvr_volume_desc *desc,
+                                         double *shear_degrees);
+
+/* picvr_io_to_desc_sheared without the angle. */
 picvr_io_status picvr_io_to_desc(const picvr_io_volume *volume, picvr_volume_desc *desc);
 
 #ifdef __cplusplus

@@ -12,6 +12,7 @@
 #include "presets.h"
 
 #include <float.h>
+#include <stdio.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -54,13 +55,74 @@ typedef struct tf_entry {
     uint32_t count;
     picvr_tf_point points[PVP_MAX_TF_POINTS];  /* value, albedo, opacity, HG g (0 if left out) */
     uint32_t max_bounces;                      /* 0 (single scattering) if left out */
+    pvp_window_kind window_kind;               /* PVP_WINDOW_RANGE if left out */
+    float window[2];
 } tf_entry;
+
+/* Hounsfield-unit presets: values written in HU, normalized over the preset's window
+   [lo, hi] (HU(v, lo, hi)).  Density 1 per mm: opacity 1 is a mean free path of 1 mm
+   (bone is opaque within a millimetre), 0.02 one of 50 mm (soft tissue a translucent
+   fog through a head).  Thresholds after the tissue ranges viewers' CT presets use: air
+   -1000, lung -900..-500, fat -100..-50, soft tissue 20..80, contrast-filled vessels
+   150..500, bone 300..1900. */
+#define HU_(v, lo, hi) (((float)(v) - (float)(lo)) / ((float)(hi) - (float)(lo)))
+#define HU(v, window) HU_(v, window)
+#define BONE_W -1000, 2000
+#define SOFT_W -1000, 1000
+#define LUNG_W -1000, 200
+#define ANGIO_W -1000, 1500
+#define BONE_W_F -1000.0f, 2000.0f
+#define SOFT_W_F -1000.0f, 1000.0f
+#define LUNG_W_F -1000.0f, 200.0f
+#define ANGIO_W_F -1000.0f, 1500.0f
 
 #define GREY(g) {g, g, g}
 
 /* Normalized data values; the thresholds follow the histograms of the data sets in
    ../shared/data (e.g. bonsai: air below 0.15, foliage and trunk above 0.25). */
 static const tf_entry tf_table[] = {
+    {"ct-bone", "CT in HU: bone white and opaque, soft tissue clear", 1.0f, 5,
+     {{HU(-1000, BONE_W), {0.95f, 0.90f, 0.80f}, 0.00f},
+      {HU(150, BONE_W), {0.95f, 0.90f, 0.80f}, 0.00f},
+      {HU(300, BONE_W), {0.95f, 0.88f, 0.75f}, 0.50f},
+      {HU(700, BONE_W), {1.00f, 0.97f, 0.92f}, 1.00f},
+      {HU(2000, BONE_W), GREY(1.00f), 1.00f}},
+     0, PVP_WINDOW_VALUE, {BONE_W_F}},
+    {"ct-soft-tissue", "CT in HU: skin and fat faint, muscle and organs red, bone white", 1.0f, 7,
+     {{HU(-1000, SOFT_W), {0.90f, 0.80f, 0.60f}, 0.00f},
+      {HU(-500, SOFT_W), {0.90f, 0.80f, 0.60f}, 0.00f},
+      {HU(-100, SOFT_W), {0.90f, 0.80f, 0.55f}, 0.005f},
+      {HU(20, SOFT_W), {0.85f, 0.40f, 0.32f}, 0.03f},
+      {HU(80, SOFT_W), {0.90f, 0.45f, 0.38f}, 0.06f},
+      {HU(250, SOFT_W), {0.95f, 0.92f, 0.85f}, 1.00f},
+      {HU(1000, SOFT_W), GREY(1.00f), 1.00f}},
+     0, PVP_WINDOW_VALUE, {SOFT_W_F}},
+    {"ct-lung", "CT in HU: the lungs' tissue and airways, the rest clear", 1.0f, 6,
+     {{HU(-1000, LUNG_W), {0.95f, 0.70f, 0.65f}, 0.00f},
+      {HU(-920, LUNG_W), {0.95f, 0.70f, 0.65f}, 0.00f},
+      {HU(-800, LUNG_W), {0.95f, 0.72f, 0.66f}, 0.10f},
+      {HU(-450, LUNG_W), {0.95f, 0.80f, 0.75f}, 0.60f},
+      {HU(-300, LUNG_W), {0.95f, 0.80f, 0.75f}, 0.00f},
+      {HU(200, LUNG_W), {0.95f, 0.80f, 0.75f}, 0.00f}},
+     0, PVP_WINDOW_VALUE, {LUNG_W_F}},
+    {"ct-angio", "CT angiography in HU: contrast-filled vessels red, bone ivory", 1.0f, 6,
+     {{HU(-1000, ANGIO_W), {0.90f, 0.25f, 0.20f}, 0.00f},
+      {HU(120, ANGIO_W), {0.90f, 0.25f, 0.20f}, 0.00f},
+      {HU(200, ANGIO_W), {0.90f, 0.25f, 0.20f}, 0.40f},
+      {HU(400, ANGIO_W), {0.95f, 0.35f, 0.30f}, 1.00f},
+      {HU(700, ANGIO_W), {0.95f, 0.92f, 0.82f}, 1.00f},
+      {HU(1500, ANGIO_W), GREY(1.00f), 1.00f}},
+     0, PVP_WINDOW_VALUE, {ANGIO_W_F}},
+    /* MR intensities have no physical unit: the window is the data's 1st to 99.5th
+       percentile, background noise below a quarter of it clear, tissue a translucent
+       cream that grows denser with the signal.  Density 0.5 per world unit (mm). */
+    {"mr", "MR (or any scan without units): the data's 1st-99.5th percentiles, tissue cream", 0.5f, 5,
+     {{0.00f, {0.92f, 0.82f, 0.72f}, 0.00f},
+      {0.18f, {0.92f, 0.82f, 0.72f}, 0.00f},
+      {0.30f, {0.92f, 0.80f, 0.70f}, 0.04f},
+      {0.60f, {0.96f, 0.90f, 0.84f}, 0.30f},
+      {1.00f, GREY(1.00f), 1.00f}},
+     0, PVP_WINDOW_PERCENTILE, {0.01f, 0.995f}},
     {"ct-bonsai", "bonsai CT: air clear, green foliage, brown trunk, terracotta pot",
      1.0f, 8,
      {{0.00f, {0.45f, 0.68f, 0.25f}, 0.00f},
@@ -71,7 +133,7 @@ static const tf_entry tf_table[] = {
       {0.70f, {0.62f, 0.45f, 0.28f}, 1.00f},
       {0.78f, {0.85f, 0.52f, 0.36f}, 1.00f},
       {1.00f, {0.85f, 0.52f, 0.36f}, 1.00f}}},
-    {"ct-bone", "generic CT: faint reddish soft tissue, dense white bone", 1.0f, 6,
+    {"ct-dense", "CT without units (0..1 of its range): faint reddish soft tissue, dense white bone", 1.0f, 6,
      {{0.00f, {0.90f, 0.50f, 0.40f}, 0.00f},
       {0.20f, {0.90f, 0.50f, 0.40f}, 0.00f},
       {0.28f, {0.92f, 0.45f, 0.35f}, 0.04f},
@@ -127,6 +189,9 @@ pvp_status pvp_tf_preset(const char *name, pvp_tf *tf)
         tf->count = tf_table[i].count;
         tf->density = tf_table[i].density;
         tf->max_bounces = tf_table[i].max_bounces;
+        tf->window_kind = tf_table[i].window_kind;
+        memcpy(tf->window, tf_table[i].window, sizeof tf->window);
+        tf->needs_hu = tf_table[i].window_kind == PVP_WINDOW_VALUE;
         return PVP_OK;
     }
     return PVP_ERROR_UNKNOWN_NAME;
@@ -587,13 +652,28 @@ pvp_status pvp_orbit_camera(const float box_min[3], const float box_max[3],
                             float distance_factor, float fov_y_degrees,
                             uint32_t width, uint32_t height, picvr_camera *camera)
 {
-    if (!box_min || !box_max || !camera) return PVP_ERROR_NULL_POINTER;
+    static const float front[3] = {0.0f, 0.0f, 1.0f}, up[3] = {0.0f, 1.0f, 0.0f};
+    return pvp_orbit_camera_frame(box_min, box_max, front, up, azimuth_degrees, elevation_degrees,
+                                  distance_factor, fov_y_degrees, width, height, camera);
+}
+
+pvp_status pvp_orbit_camera_frame(const float box_min[3], const float box_max[3], const float front[3],
+                                  const float up_axis[3], float azimuth_degrees, float elevation_degrees,
+                                  float distance_factor, float fov_y_degrees, uint32_t width,
+                                  uint32_t height, picvr_camera *camera)
+{
+    if (!box_min || !box_max || !front || !up_axis || !camera) return PVP_ERROR_NULL_POINTER;
     if (!box_is_valid(box_min, box_max)) return PVP_ERROR_BAD_BOX;
     if (!isfinite(azimuth_degrees) || !isfinite(elevation_degrees) ||
         !(distance_factor > 0.0f) || !isfinite(distance_factor) ||
         !(fov_y_degrees > 0.0f && fov_y_degrees <= 179.0f) || width < 1 || height < 1 ||
         width > PICVR_MAX_IMAGE_SIZE || height > PICVR_MAX_IMAGE_SIZE)
         return PVP_ERROR_BAD_ARGUMENT;
+    vec3 zf = load(front), yf = load(up_axis);
+    if (!vec_is_finite(zf) || !vec_is_finite(yf) || fabsf(length(zf) - 1.0f) > 1e-3f ||
+        fabsf(length(yf) - 1.0f) > 1e-3f || fabsf(dot(zf, yf)) > 1e-3f)
+        return PVP_ERROR_BAD_ARGUMENT;
+    vec3 xf = cross(yf, zf);   /* the canonical frame's x = y x z, into the given one */
 
     /* The narrower of the vertical and horizontal half-angles decides the fit. */
     float half_v = 0.5f * fov_y_degrees * PI_F / 180.0f;
@@ -603,8 +683,10 @@ pvp_status pvp_orbit_camera(const float box_min[3], const float box_max[3],
     vec3 centre, eye, up;
     float radius;
     box_sphere(box_min, box_max, &centre, &radius);
-    orbit(centre, azimuth_degrees, elevation_degrees,
+    orbit(v3(0.0f, 0.0f, 0.0f), azimuth_degrees, elevation_degrees,
           distance_factor * radius / sinf(half), &eye, &up);
+    eye = add(centre, add(add(scale(xf, eye.x), scale(yf, eye.y)), scale(zf, eye.z)));
+    up = add(add(scale(xf, up.x), scale(yf, up.y)), scale(zf, up.z));
 
     memset(camera, 0, sizeof *camera);
     store(camera->position, eye);
@@ -613,6 +695,136 @@ pvp_status pvp_orbit_camera(const float box_min[3], const float box_max[3],
     camera->fov_y_degrees = fov_y_degrees;
     camera->width = width;
     camera->height = height;
+    return PVP_OK;
+}
+
+pvp_status pvp_patient_view(const char *name, float front[3], float up[3])
+{
+    static const struct { const char *name; float front[3], up[3]; } views[] = {
+        {"anterior", {0, -1, 0}, {0, 0, 1}}, {"posterior", {0, 1, 0}, {0, 0, 1}},
+        {"left", {1, 0, 0}, {0, 0, 1}},      {"right", {-1, 0, 0}, {0, 0, 1}},
+        {"superior", {0, 0, 1}, {0, -1, 0}}, {"inferior", {0, 0, -1}, {0, -1, 0}},
+    };
+    if (!name || !front || !up) return PVP_ERROR_NULL_POINTER;
+    for (size_t i = 0; i < sizeof views / sizeof views[0]; i++)
+        if (!strcmp(name, views[i].name)) {
+            memcpy(front, views[i].front, sizeof views[i].front);
+            memcpy(up, views[i].up, sizeof views[i].up);
+            return PVP_OK;
+        }
+    return PVP_ERROR_UNKNOWN_NAME;
+}
+
+/* ---- transfer-function files ----------------------------------------------------------- */
+
+#define TF_FILE_MAX_LINE 1024
+#define TF_FILE_MAX_BYTES (1u << 20)   /* a table of 64 points is a few kB */
+
+/* Parses exactly n finite floats separated by blanks from s (nothing else but blanks
+   after them); returns how many were read, up to max. */
+static int tf_floats(const char *s, float *v, int max)
+{
+    int n = 0;
+    for (;;) {
+        while (*s == ' ' || *s == '\t') s++;
+        if (!*s || *s == '\n' || *s == '\r') return n;
+        if (n == max) return max + 1;
+        char *end;
+        double x = strtod(s, &end);
+        if (end == s || !isfinite(x) || fabs(x) > FLT_MAX) return -1;
+        if (*end && *end != ' ' && *end != '\t' && *end != '\n' && *end != '\r') return -1;
+        v[n++] = (float)x;
+        s = end;
+    }
+}
+
+#define TF_FAIL(...) do { if (err && err_size) snprintf(err, err_size, __VA_ARGS__); ok = 0; goto done; } while (0)
+
+pvp_status pvp_tf_load(const char *path, pvp_tf *tf, char *err, size_t err_size)
+{
+    if (!path || !tf) return PVP_ERROR_NULL_POINTER;
+    memset(tf, 0, sizeof *tf);
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        if (err && err_size) snprintf(err, err_size, "%s: cannot open", path);
+        return PVP_ERROR_UNKNOWN_NAME;
+    }
+    char line[TF_FILE_MAX_LINE + 2];
+    int ok = 1, units_value = 0, lineno = 0;
+    size_t total = 0;
+    pvp_tf t;
+    memset(&t, 0, sizeof t);
+    t.density = 1.0f;
+    while (fgets(line, sizeof line, f)) {
+        lineno++;
+        size_t len = strlen(line);
+        total += len;
+        if (total > TF_FILE_MAX_BYTES) TF_FAIL("%s: larger than %u bytes", path, TF_FILE_MAX_BYTES);
+        if (len == sizeof line - 1 && line[len - 1] != '\n') TF_FAIL("%s:%d: line longer than %d bytes", path, lineno, TF_FILE_MAX_LINE);
+        if (memchr(line, '\0', len) != NULL && strlen(line) != len) TF_FAIL("%s:%d: a NUL byte", path, lineno);
+        char *hash = strchr(line, '#');
+        if (hash) *hash = '\0';
+        char *s = line;
+        while (*s == ' ' || *s == '\t') s++;
+        if (!*s || *s == '\n' || *s == '\r') continue;
+        if (!strncmp(s, "units", 5) && (s[5] == ' ' || s[5] == '\t')) {
+            if (t.count) TF_FAIL("%s:%d: 'units' after the first point", path, lineno);
+            char word[32];
+            if (sscanf(s + 5, " %31s", word) != 1 || (strcmp(word, "normalized") && strcmp(word, "value")))
+                TF_FAIL("%s:%d: units normalized or units value", path, lineno);
+            units_value = !strcmp(word, "value");
+            continue;
+        }
+        if (!strncmp(s, "density", 7) && (s[7] == ' ' || s[7] == '\t')) {
+            float d;
+            if (tf_floats(s + 7, &d, 1) != 1 || !(d >= 0.0f)) TF_FAIL("%s:%d: density D, D >= 0", path, lineno);
+            t.density = d;
+            continue;
+        }
+        if (!strncmp(s, "bounces", 7) && (s[7] == ' ' || s[7] == '\t')) {
+            char word[32];
+            char *endp;
+            if (sscanf(s + 7, " %31s", word) != 1) TF_FAIL("%s:%d: bounces N or bounces unlimited", path, lineno);
+            if (!strcmp(word, "unlimited")) t.max_bounces = PICVR_BOUNCES_UNLIMITED;
+            else {
+                unsigned long b = strtoul(word, &endp, 10);
+                if (*endp || word[0] == '-' || b > 1000000ul) TF_FAIL("%s:%d: bounces N (0..1000000) or unlimited", path, lineno);
+                t.max_bounces = (uint32_t)b;
+            }
+            continue;
+        }
+        float v[6] = {0, 0, 0, 0, 0, 0};
+        int n = tf_floats(s, v, 6);
+        if (n != 5 && n != 6) TF_FAIL("%s:%d: a point is 'value r g b opacity [g]'", path, lineno);
+        if (t.count == PVP_MAX_TF_POINTS) TF_FAIL("%s:%d: more than %d points", path, lineno, PVP_MAX_TF_POINTS);
+        if (t.count && v[0] < t.points[t.count - 1].value) TF_FAIL("%s:%d: values must not decrease", path, lineno);
+        for (int c = 1; c <= 3; c++)
+            if (!(v[c] >= 0.0f && v[c] <= 1.0f)) TF_FAIL("%s:%d: albedo r g b in [0, 1]", path, lineno);
+        if (!(v[4] >= 0.0f)) TF_FAIL("%s:%d: opacity >= 0", path, lineno);
+        if (!(v[5] > -1.0f && v[5] < 1.0f)) TF_FAIL("%s:%d: g in (-1, 1)", path, lineno);
+        if (!units_value && !(v[0] >= 0.0f && v[0] <= 1.0f)) TF_FAIL("%s:%d: normalized values are in [0, 1] (or say 'units value')", path, lineno);
+        picvr_tf_point *p = &t.points[t.count++];
+        p->value = v[0];
+        p->albedo[0] = v[1]; p->albedo[1] = v[2]; p->albedo[2] = v[3];
+        p->opacity = v[4];
+        p->g = v[5];
+    }
+    if (ferror(f)) TF_FAIL("%s: read error", path);
+    if (t.count < 2) TF_FAIL("%s: at least two points", path);
+    if (units_value) {   /* the window is the points' span; the points become 0..1 of it */
+        float lo = t.points[0].value, hi = t.points[t.count - 1].value;
+        double span = (double)hi - (double)lo;
+        if (!(span > 0.0) || !isfinite(span)) TF_FAIL("%s: the points span no values (first = last)", path);
+        for (uint32_t i = 0; i < t.count; i++)
+            t.points[i].value = (float)fmin(1.0, fmax(0.0, ((double)t.points[i].value - lo) / span));
+        t.window_kind = PVP_WINDOW_VALUE;
+        t.window[0] = lo;
+        t.window[1] = hi;
+    }
+done:
+    fclose(f);
+    if (!ok) return PVP_ERROR_BAD_ARGUMENT;
+    *tf = t;
     return PVP_OK;
 }
 

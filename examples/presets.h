@@ -19,7 +19,7 @@
 extern "C" {
 #endif
 
-#define PVP_MAX_TF_POINTS 16
+#define PVP_MAX_TF_POINTS 64
 #define PVP_MAX_LIGHTS 8
 
 /* Creation's share of device time while the cache fills first (picvr-render --warm,
@@ -46,14 +46,27 @@ typedef enum pvp_status {
     PVP_ERROR_BAD_ARGUMENT    /* camera parameters out of range */
 } pvp_status;
 
+/* What a transfer function's normalized values 0..1 span (its window). */
+typedef enum pvp_window_kind {
+    PVP_WINDOW_RANGE = 0,     /* the volume's value range (picvr_volume_desc.value_min/max,
+                                 --range): the data's own units, whatever they are */
+    PVP_WINDOW_VALUE,         /* window[0]..window[1] in the data's physical units (stored *
+                                 scale + offset: Hounsfield units for CT) */
+    PVP_WINDOW_PERCENTILE     /* the data's window[0] and window[1] quantiles (fractions) */
+} pvp_window_kind;
+
 /* A transfer function ready for picvr_set_transfer_function(points, count, density),
-   with the scattering it is meant for. */
+   with the scattering it is meant for and the window its values are normalized over. */
 typedef struct pvp_tf {
     picvr_tf_point points[PVP_MAX_TF_POINTS];
     uint32_t count;
     float density;            /* D, per world unit */
     uint32_t max_bounces;     /* picvr_scattering.max_bounces the preset is made for: 0
                                  (single scattering) but for cloud */
+    pvp_window_kind window_kind;
+    float window[2];          /* VALUE: physical values; PERCENTILE: fractions in [0, 1] */
+    int needs_hu;             /* made for Hounsfield units (CT): applied to data that are
+                                 not, it would show nothing useful */
 } pvp_tf;
 
 /* Lights ready for picvr_set_lights(lights, count, &background). */
@@ -66,8 +79,9 @@ typedef struct pvp_lights {
 /* A static English name for the status; never NULL. */
 const char *pvp_status_string(pvp_status status);
 
-/* Transfer-function presets: ct-bonsai, ct-bone, ct-engine, sim, cloud, cloud-iso,
-   thin, ramp.  cloud: HG g 0.8 per point and unlimited bounces (multiple scattering);
+/* Transfer-function presets: ct-bone, ct-soft-tissue, ct-lung, ct-angio (Hounsfield
+   units, PVP_WINDOW_VALUE, needs_hu), mr (the data's 1st to 99.5th percentiles),
+   ct-bonsai, ct-dense, ct-engine, sim, cloud, cloud-iso, thin, ramp (the volume's range).  cloud: HG g 0.8 per point and unlimited bounces (multiple scattering);
    cloud-iso: the same medium isotropic, for single scattering (the benchmarks' cloud of
    earlier versions, which the irradiance cache can serve). */
 pvp_status pvp_tf_preset(const char *name, pvp_tf *tf);
@@ -88,6 +102,20 @@ pvp_status pvp_lights_preset(const char *name, const float box_min[3],
                              const float box_max[3], const picvr_camera *camera,
                              pvp_lights *lights);
 
+/* Reads a transfer-function file into *tf: a text table, '#' to the end of a line a
+   comment, blank lines ignored; first any of
+       units normalized|value   point values are 0..1 of the volume's range (default) or
+                                the data's physical values (Hounsfield units for CT):
+                                the window is then the first to the last point's value
+       density D                picvr's density factor, per world unit (default 1)
+       bounces N|unlimited      scatter events after the first (default 0)
+   then 2..PVP_MAX_TF_POINTS lines "value r g b opacity [g]": values non-decreasing,
+   albedo in [0, 1], opacity >= 0, g in (-1, 1) (default 0); all finite.  On failure
+   err (err_size bytes) says which line and why, and *tf is zeroed.
+   PVP_ERROR_BAD_ARGUMENT for a malformed file, PVP_ERROR_UNKNOWN_NAME when it cannot be
+   read. */
+pvp_status pvp_tf_load(const char *path, pvp_tf *tf, char *err, size_t err_size);
+
 /* Preset names and one-line descriptions for --help: index 0, 1, ... until NULL. */
 const char *pvp_tf_name(size_t index);
 const char *pvp_tf_description(size_t index);
@@ -103,6 +131,21 @@ pvp_status pvp_orbit_camera(const float box_min[3], const float box_max[3],
                             float azimuth_degrees, float elevation_degrees,
                             float distance_factor, float fov_y_degrees,
                             uint32_t width, uint32_t height, picvr_camera *camera);
+
+/* The same orbit in another frame: azimuth 0, elevation 0 looks from `front` (a unit
+   vector from the box centre toward the eye) with `up` up; azimuth turns about up,
+   elevation toward it.  front (0,0,1) and up (0,1,0) are pvp_orbit_camera.  front and
+   up must be orthogonal unit vectors (PVP_ERROR_BAD_ARGUMENT). */
+pvp_status pvp_orbit_camera_frame(const float box_min[3], const float box_max[3], const float front[3],
+                                  const float up[3], float azimuth_degrees, float elevation_degrees,
+                                  float distance_factor, float fov_y_degrees, uint32_t width,
+                                  uint32_t height, picvr_camera *camera);
+
+/* Views of a scan in the patient's LPS frame (+x left, +y posterior, +z superior):
+   anterior, posterior, left, right, superior, inferior; front and up as
+   pvp_orbit_camera_frame takes them (superior and inferior: anterior at the top).
+   PVP_ERROR_UNKNOWN_NAME for another name. */
+pvp_status pvp_patient_view(const char *name, float front[3], float up[3]);
 
 /* The numbers of picvr_cache_config by field name (gamma, epsilon, delta_voxels,
    radius_min_voxels, radius_max_voxels, update_threshold), for --cache-param

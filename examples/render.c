@@ -67,7 +67,11 @@ static void print_help(FILE *f)
         "usage: " PROGRAM " --volume FILE [options]\n"
         "Progressive Monte-Carlo volume rendering with picvr.\n\n"
         "input\n"
-        "  --volume FILE          raw volume NAME_XxYxZ_TYPE.raw[.gz] (required)\n"
+        "  --volume FILE          the volume (required): NIfTI .nii[.gz], NRRD .nrrd/.nhdr,\n"
+        "                         a DICOM folder (or one of its .dcm files), OpenVDB .vdb,\n"
+        "                         or raw NAME_XxYxZ_TYPE.raw[.gz]; the file's geometry\n"
+        "                         (spacing, orientation, origin) is applied\n"
+        "  --grid NAME            the .vdb grid (default density, else the first float grid)\n"
         "  --dims X,Y,Z           voxel counts, if not in the file name\n"
         "  --type u8|u16|f32      voxel type, if not in the file name\n"
         "  --spacing X,Y,Z        world size of a voxel (default 1,1,1)\n"
@@ -76,7 +80,15 @@ static void print_help(FILE *f)
         "  --range auto           from the data: its 0.5th and 99.5th percentiles (a CT's\n"
         "                         air and its densest tissue, whatever their units)\n"
         "look\n"
-        "  --tf PRESET            transfer function (default ramp)\n"
+        "  --tf PRESET|FILE       transfer function: a preset below or a table file (see\n"
+        "                         docs/medical.md); default from the file: ct-bone for CT\n"
+        "                         in Hounsfield units, mr for other scans, cloud for .vdb,\n"
+        "                         ramp for raw\n"
+        "  --wl WIDTH,LEVEL       window and level in the data's units (HU for CT): the\n"
+        "                         transfer function spans LEVEL -+ WIDTH/2\n"
+        "  --clip-plane NX,NY,NZ,D  keep only where NX x + NY y + NZ z + D >= 0 (world;\n"
+        "                         repeatable, up to 8)\n"
+        "  --clip-box X0,Y0,Z0,X1,Y1,Z1  keep only that world box\n"
         "  --density D            override the preset's density factor D (per world unit)\n"
         "  --lights PRESET        light set-up (default studio)\n"
         "  --env FILE.hdr         a Radiance .hdr (RGBE) equirectangular map as the\n"
@@ -97,6 +109,10 @@ static void print_help(FILE *f)
         "                         degrees, distance as a factor of the distance at which\n"
         "                         the box just fills the view (default %g,%g,%g)\n"
         "  --fov DEG              vertical field of view (default %g)\n"
+        "  --view NAME            a scan's view: anterior, posterior, left, right,\n"
+        "                         superior, inferior (the patient's LPS frame; default\n"
+        "                         anterior, then --camera's orbit, for a file with one)\n"
+        "  --up +x|-x|+y|-y|+z|-z the world axis shown up (default +y; +z in a scan)\n"
         "  --exposure E           tone-mapping exposure for the PNG (default 1)\n"
         "rendering\n"
         "  --size WxH             image size (default 512x512)\n"
@@ -159,8 +175,8 @@ static void print_help(FILE *f)
         "                         .png, .jpg (quality 95), .bmp or .tga\n"
         "  --alpha                keep the coverage (1 - transmittance) as alpha, .png and\n"
         "                         .tga (default: opaque RGB, the background included)\n"
-        "  --out-float FILE       linear radiance: .pfm (RGB float) or .hdr (Radiance RGBE);\n"
-        "                         OpenEXR is not written\n"
+        "  --out-float FILE       linear radiance: .exr (OpenEXR RGBA float), .pfm (RGB\n"
+        "                         float) or .hdr (Radiance RGBE)\n"
         "  --log FILE.csv         statistics after every round\n"
         "  --json FILE            final statistics as JSON\n"
         "  --quiet                no progress on stderr (the summary still goes to stdout)\n"
@@ -187,7 +203,8 @@ static const pvc_option OPTIONS[] = {
     {"turns", 1}, {"debug-view", 1}, {"device", 1}, {"exposure", 1}, {"camera", 1},
     {"fov", 1}, {"out", 1}, {"out-float", 1}, {"log", 1}, {"json", 1}, {"bounces", 1},
     {"g", 1}, {"phase-back", 1}, {"env", 1}, {"env-rotate", 1}, {"env-intensity", 1},
-    {"frames", 1}, {"frame-ms", 1}, {"orbit", 1}, {"reuse", 1}, {NULL, 0}};
+    {"frames", 1}, {"frame-ms", 1}, {"orbit", 1}, {"reuse", 1}, {"wl", 1}, {"view", 1},
+    {"up", 1}, {"clip-plane", 1}, {"clip-box", 1}, {"grid", 1}, {NULL, 0}};
 
 static int positive_all(const float *v, int n)
 {
@@ -254,6 +271,40 @@ static int parse_phase_back(const char *value, float back[2])
     return 1;
 }
 
+/* --up: a signed world axis. */
+static int parse_axis(const char *value, float axis[3])
+{
+    if (!value || (value[0] != '+' && value[0] != '-') || !value[1] || value[2] || value[1] < 'x' || value[1] > 'z')
+        return 0;
+    memset(axis, 0, 3 * sizeof *axis);
+    axis[value[1] - 'x'] = value[0] == '+' ? 1.0f : -1.0f;
+    return 1;
+}
+
+/* --clip-plane NX,NY,NZ,D (a normal that is not 0), appended. */
+static int parse_clip_plane(const char *value, picvr_clip *clip)
+{
+    float p[4];
+    if (clip->plane_count >= PICVR_MAX_CLIP_PLANES) {
+        pvc_fail("at most %d --clip-plane", PICVR_MAX_CLIP_PLANES);
+        return 0;
+    }
+    if (!pvc_parse_floats(value, 4, p) || (p[0] == 0.0f && p[1] == 0.0f && p[2] == 0.0f)) return 0;
+    memcpy(clip->planes[clip->plane_count++], p, sizeof p);
+    return 1;
+}
+
+/* --clip-box X0,Y0,Z0,X1,Y1,Z1 with X0 <= X1, ... */
+static int parse_clip_box(const char *value, picvr_clip *clip)
+{
+    float b[6];
+    if (!pvc_parse_floats(value, 6, b) || !(b[0] <= b[3] && b[1] <= b[4] && b[2] <= b[5])) return 0;
+    clip->use_box = 1;
+    memcpy(clip->box_min, b, 3 * sizeof *b);
+    memcpy(clip->box_max, b + 3, 3 * sizeof *b);
+    return 1;
+}
+
 /* Each apply_*_option: 1 applied, 0 a bad value, -1 not an option of its group. */
 
 /* The input and the look: volume layout, density, camera. */
@@ -279,6 +330,22 @@ static int apply_scene_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "density"))
         return o->have_density = pvc_parse_float(value, &o->density) && o->density >= 0.0f;
     if (!strcmp(name, "camera")) return parse_camera(value, o);
+    if (!strcmp(name, "grid")) {
+        o->grid = value;
+        return 1;
+    }
+    if (!strcmp(name, "wl"))
+        return o->have_wl = pvc_parse_floats(value, 2, o->wl) && o->wl[0] > 0.0f;
+    if (!strcmp(name, "view")) {
+        float f[3], u[3];
+        o->view = value;
+        if (pvp_patient_view(value, f, u) == PVP_OK) return 1;
+        pvc_fail("unknown --view '%s': anterior, posterior, left, right, superior, inferior", value);
+        return 0;
+    }
+    if (!strcmp(name, "up")) return o->have_up = parse_axis(value, o->up);
+    if (!strcmp(name, "clip-plane")) return parse_clip_plane(value, &o->clip);
+    if (!strcmp(name, "clip-box")) return parse_clip_box(value, &o->clip);
     if (!strcmp(name, "fov")) return pvc_parse_float(value, &o->fov) && o->fov > 0.0f && o->fov <= 179.0f;
     return -1;
 }
@@ -324,7 +391,11 @@ static int apply_cache_option(void *target, const char *name, const char *value)
 static int apply_run_option(void *target, const char *name, const char *value)
 {
     render_options *o = target;
-    if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height);
+    if (!strcmp(name, "size")) {
+        if (pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height)) return 1;
+        pvc_fail("--size %s: WIDTHxHEIGHT, each 1..%u (picvr's largest image)", value, (unsigned)PICVR_MAX_IMAGE_SIZE);
+        return 0;
+    }
     if (!strcmp(name, "time")) return o->have_time = pvc_parse_double(value, &o->time_ms) && o->time_ms > 0.0;
     if (!strcmp(name, "iterations")) return pvc_parse_u32(value, 1, UINT32_MAX, &o->iterations);
     if (!strcmp(name, "round")) return pvc_parse_double(value, &o->round_ms) && o->round_ms > 0.0;
@@ -363,8 +434,8 @@ static int apply_output_option(void *target, const char *name, const char *value
         }
     } else if (!strcmp(name, "out-float")) {
         o->out_pfm = value;
-        if (!(pvc_has_extension(value, ".pfm") || pvc_has_extension(value, ".hdr"))) {
-            pvc_fail("--out-float %s: the extension names no format written (.pfm, .hdr; OpenEXR is not)", value);
+        if (!(pvc_has_extension(value, ".pfm") || pvc_has_extension(value, ".hdr") || pvc_has_extension(value, ".exr"))) {
+            pvc_fail("--out-float %s: the extension names no format written (.exr, .pfm, .hdr)", value);
             return 0;
         }
     }
@@ -378,8 +449,11 @@ static int apply_output_option(void *target, const char *name, const char *value
 static int apply_option(void *target, const char *name, const char *value)
 {
     render_options *o = target;
-    if (!strcmp(name, "tf")) {
+    if (!strcmp(name, "tf")) {   /* a preset, else a file */
         o->tf_name = value;
+        o->have_tf = 1;
+        pvp_tf tf;
+        if (pvp_tf_preset(value, &tf) == PVP_OK || access(value, R_OK) == 0) return 1;
         return known_preset(name, value, pvp_tf_name);
     }
     if (!strcmp(name, "lights")) {
@@ -436,6 +510,14 @@ static int options_consistent(const render_options *o)
         pvc_fail("--alpha needs an image format with alpha: --out FILE.png or FILE.tga");
         return 0;
     }
+    if (o->view && o->have_up) {
+        pvc_fail("--view sets the up axis: give --view or --up");
+        return 0;
+    }
+    if (o->have_wl && (o->have_range || o->range_auto)) {
+        pvc_fail("give --wl (physical units) or --range (stored values), not both");
+        return 0;
+    }
     if ((o->have_env_rotate || o->have_env_intensity) && !o->env_path) {
         pvc_fail("--env-rotate and --env-intensity apply to a map: give --env FILE");
         return 0;
@@ -449,21 +531,24 @@ static int parse_options(int argc, char **argv, render_options *o)
     set_defaults(o);
     int status = pvc_parse_options(argc, argv, OPTIONS, apply_option, o, print_help);
     if (status < 0 && !options_consistent(o)) return EXIT_USAGE;
-    pvp_tf tf;  /* the preset's bounces unless --bounces; --tf was checked */
-    if (status < 0 && !o->have_bounces && pvp_tf_preset(o->tf_name, &tf) == PVP_OK)
-        o->bounces = tf.max_bounces;
-    return status;
+    return status;   /* the transfer function, its bounces and window come with the volume */
 }
 
 /* ---- volume ---------------------------------------------------------------------------- */
+
+/* The file names a format whose header (or series) gives the layout. */
+static int layout_in_header(const char *path)
+{
+    return picvr_io_is_nrrd(path) || picvr_io_is_nifti(path) || picvr_io_is_vdb(path) || picvr_io_is_dicom(path);
+}
 
 /* Layout from --dims/--type where given, the rest from the file name. */
 static int resolve_layout(const render_options *o, picvr_io_layout *layout)
 {
     char err[512];
-    if (picvr_io_is_nrrd(o->volume_path)) {   /* the header gives the layout (render: NULL) */
+    if (layout_in_header(o->volume_path)) {   /* the header gives the layout (render: NULL) */
         if (o->have_dims || o->have_type) {
-            pvc_fail("%s: --dims and --type come from the NRRD header", o->volume_path);
+            pvc_fail("%s: --dims and --type come from the file's header", o->volume_path);
             return 0;
         }
         return 1;
@@ -747,56 +832,179 @@ static int render_frames_loop(render_state *r, const render_options *o, render_f
 
 /* ---- scene set-up ----------------------------------------------------------------------- */
 
-/* Loads the volume file into host memory, with --spacing applied. */
+/* Loads the volume file into host memory, with --spacing applied; says what the reader
+   noticed (tilt, dropped volumes, ...). */
 static int load_volume(const render_options *o, const picvr_io_layout *layout, picvr_io_volume *vol)
 {
     char err[512];
-    if (picvr_io_load(o->volume_path, layout, vol, err, sizeof err) != PICVR_IO_OK) {
+    picvr_io_status st = o->grid || picvr_io_is_vdb(o->volume_path)
+                       ? picvr_io_load_vdb(o->volume_path, o->grid, vol, err, sizeof err)
+                       : picvr_io_load(o->volume_path, layout, vol, err, sizeof err);
+    if (st != PICVR_IO_OK) {
         pvc_fail("%s", err);
         return 0;
     }
     if (o->have_spacing) memcpy(vol->spacing, o->spacing, sizeof vol->spacing);
-    static const float identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-    for (int i = 0; i < 9; i++)
-        if (fabsf(vol->direction[i] - identity[i]) > 1e-6f) {
-            fprintf(stderr, "picvr-render: %s: the volume's axes are not the world's; it is rendered axis-aligned "
-                            "(picvr does not apply an orientation yet)\n", o->volume_path);
-            break;
-        }
+    if (vol->warning[0] && !o->quiet) fprintf(stderr, PROGRAM ": %s: %s\n", o->volume_path, vol->warning);
     return 1;
 }
 
-static int upload_volume(picvr_context *ctx, const render_options *o, const picvr_io_volume *vol)
+/* The data's physical values (stored * value_scale + value_offset) at the lo and hi
+   quantiles; 0 when the volume has no finite value. */
+static int physical_percentiles(const picvr_io_volume *vol, double lo_frac, double hi_frac, double *lo, double *hi)
 {
-    picvr_volume_desc desc;
-    picvr_io_to_desc(vol, &desc);
-    if (o->have_range) {
-        desc.value_min = o->range[0];
-        desc.value_max = o->range[1];
+    double a, b;
+    if (picvr_io_percentile_range(vol, lo_frac, hi_frac, &a, &b) != PICVR_IO_OK) return 0;
+    a = a * vol->value_scale + vol->value_offset;
+    b = b * vol->value_scale + vol->value_offset;
+    *lo = a < b ? a : b;
+    *hi = a < b ? b : a;
+    return 1;
+}
+
+/* Whether the volume is a CT in Hounsfield units: a DICOM CT (its rescale gives HU by
+   the standard), or values whose 0.5th percentile is air (-3100..-800: air is -1000,
+   scanners pad outside the field of view with down to -3024) and whose 99.5th is tissue
+   or bone (0..4000).  An MR's values are not negative. */
+static int is_hounsfield(const picvr_io_volume *vol, const char **why)
+{
+    if (!strcmp(vol->modality, "CT")) {
+        *why = "a CT";
+        return 1;
     }
-    if (o->range_auto) {
-        double lo, hi;
-        if (picvr_io_percentile_range(vol, 0.005, 0.995, &lo, &hi) != PICVR_IO_OK) {
-            pvc_fail("--range auto: the volume has no finite value");
+    double lo, hi;
+    if (physical_percentiles(vol, 0.005, 0.995, &lo, &hi) && lo >= -3100.0 && lo <= -800.0 && hi >= 0.0 && hi <= 4000.0) {
+        *why = "values like Hounsfield units: air at the 0.5th percentile";
+        return 1;
+    }
+    *why = vol->modality[0] ? vol->modality : "no Hounsfield units";
+    return 0;
+}
+
+/* The transfer function: --tf's preset or file, else one chosen from the file (a CT in
+   HU: ct-bone; another scan: mr; a .vdb cloud: cloud; raw: ramp).  --g and --bounces
+   apply on top.  0 after saying why not. */
+static int choose_tf(render_options *o, const picvr_io_volume *vol, pvp_tf *tf)
+{
+    const char *why = NULL;
+    int hu = is_hounsfield(vol, &why);
+    if (!o->have_tf) {
+        o->tf_name = hu ? "ct-bone" : vol->patient_frame || vol->modality[0] ? "mr"
+                   : picvr_io_is_vdb(o->volume_path) ? "cloud" : "ramp";
+        if (!o->quiet && strcmp(o->tf_name, "ramp"))
+            fprintf(stderr, PROGRAM ": --tf %s (%s)\n", o->tf_name, hu ? why : vol->patient_frame || vol->modality[0] ? "a scan" : "a cloud");
+    }
+    char err[512];
+    pvp_status ps = pvp_tf_preset(o->tf_name, tf);
+    if (ps == PVP_ERROR_UNKNOWN_NAME && (ps = pvp_tf_load(o->tf_name, tf, err, sizeof err)) != PVP_OK) {
+        pvc_fail("--tf %s", err);
+        return 0;
+    }
+    if (ps != PVP_OK) {
+        pvc_fail("--tf %s: %s", o->tf_name, pvp_status_string(ps));
+        return 0;
+    }
+    if (tf->needs_hu && !hu && !o->have_wl && !o->have_range && !o->range_auto) {
+        pvc_fail("--tf %s is made for CT in Hounsfield units and %s has %s; give --wl WIDTH,LEVEL or "
+                 "--range MIN,MAX, or another --tf", o->tf_name, o->volume_path, why);
+        return 0;
+    }
+    if (!o->have_bounces) o->bounces = tf->max_bounces;
+    for (uint32_t i = 0; o->have_g && i < tf->count; i++) tf->points[i].g = o->g;
+    return 1;
+}
+
+/* picvr's value_min/max, stored values, from the physical window [lo, hi]: stored =
+   (physical - offset) / scale.  0 for a scale that is 0, negative or not finite. */
+static int window_to_stored(const picvr_io_volume *vol, double lo, double hi, picvr_volume_desc *desc)
+{
+    double s = vol->value_scale, a = (lo - vol->value_offset) / s, b = (hi - vol->value_offset) / s;
+    if (!(s > 0.0) || !isfinite(a) || !isfinite(b) || !(a < b) || fabs(a) > 3e38 || fabs(b) > 3e38) return 0;
+    desc->value_min = (float)a;
+    desc->value_max = (float)b;
+    return 1;
+}
+
+/* The data values the transfer function spans: --range, --range auto, --wl, else the
+   transfer function's own window (physical values, the data's percentiles, or the
+   type's range). */
+static int value_window(const render_options *o, const picvr_io_volume *vol, const pvp_tf *tf, picvr_volume_desc *desc)
+{
+    double lo, hi;
+    const char *what = NULL;
+    if (o->have_range) {
+        desc->value_min = o->range[0];
+        desc->value_max = o->range[1];
+        return 1;
+    }
+    if (o->range_auto || tf->window_kind == PVP_WINDOW_PERCENTILE) {
+        double f0 = o->range_auto ? 0.005 : tf->window[0], f1 = o->range_auto ? 0.995 : tf->window[1];
+        if (picvr_io_percentile_range(vol, f0, f1, &lo, &hi) != PICVR_IO_OK) {
+            pvc_fail("%s: the volume has no finite value", o->range_auto ? "--range auto" : o->tf_name);
             return 0;
         }
-        desc.value_min = (float)lo;
-        desc.value_max = (float)hi;
-        if (!o->quiet) fprintf(stderr, "picvr-render: --range auto: %g,%g\n", lo, hi);
+        desc->value_min = (float)lo;
+        desc->value_max = (float)hi;
+        if (!o->quiet) fprintf(stderr, PROGRAM ": value range %g,%g (the data's %g and %g quantiles)\n", lo, hi, f0, f1);
+        return 1;
     }
+    if (o->have_wl) {
+        lo = (double)o->wl[1] - 0.5 * o->wl[0];
+        hi = (double)o->wl[1] + 0.5 * o->wl[0];
+        what = "--wl";
+    } else if (tf->window_kind == PVP_WINDOW_VALUE) {
+        lo = tf->window[0];
+        hi = tf->window[1];
+        what = o->tf_name;
+    } else {
+        return 1;   /* the type's range (picvr's default) */
+    }
+    if (!window_to_stored(vol, lo, hi, desc)) {
+        pvc_fail("%s: the window %g..%g cannot be mapped through the file's rescale (slope %g)", what, lo, hi, vol->value_scale);
+        return 0;
+    }
+    return 1;
+}
+
+static int upload_volume(picvr_context *ctx, const render_options *o, const picvr_io_volume *vol, const pvp_tf *tf)
+{
+    picvr_volume_desc desc;
+    double shear = 0.0;
+    picvr_io_to_desc_sheared(vol, &desc, &shear);
+    if (shear > 0.0 && !o->quiet)
+        fprintf(stderr, PROGRAM ": %s: slices sheared by %.2f degrees (gantry tilt): rendered without tilt correction\n",
+                o->volume_path, shear);
+    if (!value_window(o, vol, tf, &desc)) return 0;
     return pvc_check(picvr_upload_volume(ctx, &desc), "picvr_upload_volume");
+}
+
+/* The camera's frame: --view (the patient's), else --up with a front across it, else a
+   scan's anterior view, else +z front and +y up. */
+static void view_frame(const render_options *o, const picvr_io_volume *vol, float front[3], float up[3])
+{
+    static const float y_up[3] = {0, 1, 0}, z_front[3] = {0, 0, 1}, minus_y[3] = {0, -1, 0};
+    if (o->view && pvp_patient_view(o->view, front, up) == PVP_OK) return;
+    if (o->have_up) {
+        memcpy(up, o->up, sizeof o->up);
+        memcpy(front, o->up[2] != 0.0f ? minus_y : z_front, sizeof z_front);   /* across up */
+        return;
+    }
+    if (vol->patient_frame && pvp_patient_view("anterior", front, up) == PVP_OK) return;
+    memcpy(front, z_front, sizeof z_front);
+    memcpy(up, y_up, sizeof y_up);
 }
 
 /* Camera from the orbit parameters, then the presets built around the volume's box,
    the scattering, and env (if any) as the background. */
-static int set_up_scene(picvr_context *ctx, const render_options *o, const env_map *env)
+static int set_up_scene(picvr_context *ctx, const render_options *o, const env_map *env, const float front[3],
+                        const float up[3], const pvp_tf *tf)
 {
     float box_min[3], box_max[3];
     if (!pvc_check(picvr_volume_box(ctx, box_min, box_max), "picvr_volume_box")) return 0;
 
     picvr_camera cam;
-    pvp_status ps = pvp_orbit_camera(box_min, box_max, o->azimuth, o->elevation,
-                                     o->distance, o->fov, o->width, o->height, &cam);
+    pvp_status ps = pvp_orbit_camera_frame(box_min, box_max, front, up, o->azimuth, o->elevation,
+                                           o->distance, o->fov, o->width, o->height, &cam);
     if (ps != PVP_OK) {
         pvc_fail("camera: %s", pvp_status_string(ps));
         return 0;
@@ -807,15 +1015,11 @@ static int set_up_scene(picvr_context *ctx, const render_options *o, const env_m
     if (o->debug_view && !strcmp(o->debug_view, "error") &&
         !pvc_check(picvr_set_view(ctx, PICVR_VIEW_CACHE_ERROR), "picvr_set_view")) return 0;
 
-    pvp_tf tf;
-    if ((ps = pvp_tf_preset(o->tf_name, &tf)) != PVP_OK) {
-        pvc_fail("--tf %s: %s", o->tf_name, pvp_status_string(ps));
-        return 0;
-    }
-    float density = o->have_density ? o->density : tf.density;
-    for (uint32_t i = 0; o->have_g && i < tf.count; i++) tf.points[i].g = o->g;
-    if (!pvc_check(picvr_set_transfer_function(ctx, tf.points, tf.count, density),
+    float density = o->have_density ? o->density : tf->density;
+    if (!pvc_check(picvr_set_transfer_function(ctx, tf->points, tf->count, density),
                "picvr_set_transfer_function"))
+        return 0;
+    if ((o->clip.plane_count || o->clip.use_box) && !pvc_check(picvr_set_clip(ctx, &o->clip), "picvr_set_clip"))
         return 0;
     picvr_scattering scattering = {o->bounces, o->phase_back[0], o->phase_back[1]};
     if (!pvc_check(picvr_set_scattering(ctx, &scattering), "picvr_set_scattering")) return 0;
@@ -889,7 +1093,7 @@ static int write_outputs(picvr_context *ctx, const render_options *o, const picv
     return ok;
 }
 
-static int render(const render_options *o, const picvr_io_layout *layout)
+static int render(render_options *o, const picvr_io_layout *layout)
 {
     progress prog = {0};
     prog.enabled = !o->quiet;
@@ -910,10 +1114,14 @@ static int render(const render_options *o, const picvr_io_layout *layout)
     env_map env = {NULL, 0, 0};
     ok = ok && (!o->env_path || load_env(o->env_path, &env));
     ok = ok && load_volume(o, layout, &vol);
+    pvp_tf tf;
+    float front[3], up[3];
+    ok = ok && choose_tf(o, &vol, &tf);
+    if (ok) view_frame(o, &vol, front, up);
     ok = ok && pvc_check(picvr_create(&cfg, &r.ctx), "picvr_create");
-    ok = ok && upload_volume(r.ctx, o, &vol);
+    ok = ok && upload_volume(r.ctx, o, &vol, &tf);
     picvr_io_free(&vol);
-    ok = ok && set_up_scene(r.ctx, o, &env);
+    ok = ok && set_up_scene(r.ctx, o, &env, front, up, &tf);
     pvenv_free(env.rgb);  /* picvr keeps its own copy */
     if (ok) {
         install_interrupt_handler();
@@ -943,5 +1151,5 @@ int main(int argc, char **argv)
     if (status >= 0) return status;
     picvr_io_layout layout;
     if (!resolve_layout(&o, &layout)) return EXIT_USAGE;
-    return render(&o, picvr_io_is_nrrd(o.volume_path) ? NULL : &layout);
+    return render(&o, layout_in_header(o.volume_path) ? NULL : &layout);
 }

@@ -5,6 +5,7 @@
 #ifndef PICVR_RENDER_H
 #define PICVR_RENDER_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "picvr.h"
@@ -19,6 +20,14 @@ typedef struct render_options {
     float range[2];
     int range_auto;            /* --range auto: the data's 0.5th and 99.5th percentiles */
     const char *tf_name, *lights_name;
+    int have_tf;               /* --tf given; else a default from the file (render.c, choose_tf) */
+    float wl[2];               /* --wl WIDTH,LEVEL in the data's physical units */
+    int have_wl;
+    const char *view;          /* --view anterior|...: the patient frame's views */
+    float up[3];               /* --up +x|-x|+y|-y|+z|-z */
+    int have_up;
+    picvr_clip clip;           /* --clip-plane (repeatable), --clip-box; world space */
+    const char *grid;          /* --grid NAME: the OpenVDB grid */
     float density;
     int have_bounces, have_g;
     uint32_t bounces;          /* --bounces, else the --tf preset's (resolved after parsing) */
@@ -81,5 +90,13 @@ int render_write_json(picvr_context *ctx, const render_options *o,         /* --
 
 /* The one-line summary on stdout; interrupted: the run was stopped by Ctrl-C. */
 void render_print_summary(const render_options *o, const picvr_stats *stats, int interrupted);
+
+/* Writes RGBA float pixels (row 0 the top) as OpenEXR (examples/exr_write.cpp); 0 with
+   err filled on failure. */
+#ifdef __cplusplus
+extern "C"
+#endif
+int render_write_exr(const char *path, const float *rgba, uint32_t width, uint32_t height,
+                     char *err, size_t err_size);
 
 #endif /* PICVR_RENDER_H */

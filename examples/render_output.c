@@ -67,7 +67,11 @@ int render_write_pfm(picvr_context *ctx, const render_options *o)
 {
     float *px = read_float_image(ctx, o);
     int ok = px != NULL;
-    if (ok && pvc_has_extension(o->out_pfm, ".hdr")) {   /* Radiance RGBE: RGB, alpha dropped in place */
+    if (ok && pvc_has_extension(o->out_pfm, ".exr")) {
+        char err[256] = "";
+        ok = render_write_exr(o->out_pfm, px, o->width, o->height, err, sizeof err);
+        if (!ok) pvc_fail("cannot write %s: %s", o->out_pfm, err);
+    } else if (ok && pvc_has_extension(o->out_pfm, ".hdr")) {   /* Radiance RGBE: RGB, alpha dropped in place */
         for (size_t i = 0, n = (size_t)o->width * o->height; i < n; i++) memmove(px + 3 * i, px + 4 * i, 3 * sizeof(float));
         ok = stbi_write_hdr(o->out_pfm, (int)o->width, (int)o->height, 3, px) != 0;
         if (!ok) pvc_fail("cannot write %s", o->out_pfm);

@@ -636,11 +636,23 @@ static bool create_swapchain(viewer &v)
 
 static bool check(picvr_status s, const char *what) { return pvc_check(s, what) != 0; }
 
+/* The orbit's frame: a scan in the patient's frame is seen from anterior, superior up
+   (pvp_patient_view); anything else from +z, +y up. */
+static void view_frame(const viewer &v, float front[3], float up[3])
+{
+    static const float z_front[3] = {0, 0, 1}, y_up[3] = {0, 1, 0};
+    if (v.volume.patient_frame && pvp_patient_view("anterior", front, up) == PVP_OK) return;
+    memcpy(front, z_front, sizeof z_front);
+    memcpy(up, y_up, sizeof y_up);
+}
+
 static bool set_camera(viewer &v)
 {
     picvr_camera cam;
-    pvp_status ps = pvp_orbit_camera(v.box_min, v.box_max, v.azimuth, v.elevation, v.distance, v.opt.fov,
-                                     v.extent.width, v.extent.height, &cam);
+    float front[3], up[3];
+    view_frame(v, front, up);
+    pvp_status ps = pvp_orbit_camera_frame(v.box_min, v.box_max, front, up, v.azimuth, v.elevation, v.distance,
+                                           v.opt.fov, v.extent.width, v.extent.height, &cam);
     if (ps != PVP_OK) {
         pvc_fail("camera: %s", pvp_status_string(ps));
         return false;
@@ -668,8 +680,10 @@ static bool set_transfer_function(viewer &v)
 static bool build_lights(viewer &v)
 {
     picvr_camera cam;
-    if (pvp_orbit_camera(v.box_min, v.box_max, v.azimuth, v.elevation, v.distance, v.opt.fov,
-                         std::max(v.extent.width, 1u), std::max(v.extent.height, 1u), &cam) != PVP_OK)
+    float front[3], up[3];
+    view_frame(v, front, up);
+    if (pvp_orbit_camera_frame(v.box_min, v.box_max, front, up, v.azimuth, v.elevation, v.distance, v.opt.fov,
+                               std::max(v.extent.width, 1u), std::max(v.extent.height, 1u), &cam) != PVP_OK)
         return false;
     pvp_status ps = pvp_lights_preset(pvp_lights_name(v.lights_index), v.box_min, v.box_max, &cam, &v.lights);
     if (ps != PVP_OK) {
@@ -1182,9 +1196,10 @@ static bool load_files(viewer &v)
 {
     char err[8192];
     picvr_io_layout layout;
-    const bool nrrd = picvr_io_is_nrrd(v.opt.volume_path);   /* its header gives the layout */
+    const char *path = v.opt.volume_path;   /* NRRD, NIfTI, VDB, DICOM: the header gives the layout */
+    const bool nrrd = picvr_io_is_nrrd(path) || picvr_io_is_nifti(path) || picvr_io_is_vdb(path) || picvr_io_is_dicom(path);
     if (nrrd && (v.opt.have_dims || v.opt.have_type)) {
-        pvc_fail("%s: --dims and --type come from the NRRD header", v.opt.volume_path);
+        pvc_fail("%s: --dims and --type come from the file's header", v.opt.volume_path);
         return false;
     }
     if (!nrrd && !(v.opt.have_dims && v.opt.have_type) &&

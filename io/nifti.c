@@ -1,26 +1,34 @@
 /* nifti.c - the NIfTI-1 / NIfTI-2 reader of picvr_io.h (picvr_io_load_nifti).
  *
- * Written to survive hostile files (it is fuzzed), in three steps:
+ * Written to survive hostile files (it is fuzzed: tests/fuzz/fuzz_nifti.c), in three steps:
  *   1. The header (348 bytes for NIfTI-1 and ANALYZE 7.5, 540 for NIfTI-2) is read here,
  *      through zlib (plain and gzip files alike), decoded field by field at the offsets of
  *      the specifications in the file's byte order, and checked: magic, dim[0] 3..7,
  *      dims 1..PICVR_IO_MAX_DIM, only a time axis beyond the third, a datatype picvr holds,
- *      finite voxel sizes, a whole non-negative vox_offset, every size product checked.
+ *      finite voxel sizes, a whole vox_offset past the header, every size product checked.
  *   2. niftilib (nifti2_io: nifti_convert_n1hdr2nim / nifti_convert_n2hdr2nim) turns the
  *      checked header into its nifti_image: byte swapping, the qform quaternion's matrix,
- *      the sform, the scaling and the units.  Only after step 1, because niftilib trusts
- *      the header: it indexes dim[1..dim[0]] without a bound, converts vox_offset with an
- *      unchecked cast and prints on stderr (whatever its debug level) for some errors that
- *      step 1 rules out.  Given no file name, it opens no file.
+ *      the sform, the units code.  Only after step 1, because niftilib trusts the header:
+ *      it indexes dim[1..dim[0]] without a bound, converts vox_offset with an unchecked
+ *      cast and prints on stderr (whatever its debug level) for some errors that step 1
+ *      rules out.  Given no file name, it opens no file.
  *   3. The voxels of the first 3D volume are read here, not by nifti_image_read /
  *      nifti_image_load: those resolve names by trying other files (x.nii missing: x.hdr),
  *      read header extensions into buffers sized by the header, and allocate the whole
  *      claimed image before reading it, which a lying .nii.gz would turn into gigabytes.
  *      Here a plain file's size is checked before any allocation, and a compressed file's
- *      buffer grows only with the data that actually decompresses.  niftilib swaps the
+ *      buffer grows only with the data that actually decompress.  niftilib swaps the
  *      bytes (nifti_swap_Nbytes) when the file's order is not the host's.
  * niftilib's global debug level is left as the application set it: at its default (1)
- * the calls made here print nothing. */
+ * the calls made here print nothing.  The ASCII variant (.nia) is not read.
+ *
+ * Geometry: the voxel-to-world matrix M is the sform when sform_code > 0, else the qform
+ * when qform_code > 0, else diag(pixdim[1..3]) (NIfTI-1's "method 1", also for ANALYZE
+ * 7.5).  spacing[a] = |column a|, axis a = column a / |column a|, origin = the translation
+ * (the centre of voxel (0,0,0)); metres and micrometres (xyzt_units) become mm; RAS becomes
+ * LPS by negating every x and y component.  Non-finite values, a zero column and (nearly)
+ * parallel axes are refused; a pixdim that disagrees with the matrix, a shear, a dropped
+ * time axis are said in volume->warning. */
 #include "picvr_io.h"
 #include "io/internal.h"
 
@@ -137,7 +145,6 @@ static void decode_header(const unsigned char *raw, nii_header *h)
         }
         h->datatype = (int)get_i16(raw + 12, sw);
         h->vox_offset = (double)get_i64(raw + 168, sw);
-        if (get_i64(raw + 168, sw) < 0) h->vox_offset = -1.0;
         h->scl_slope = get_f64(raw + 176, sw);
         h->scl_inter = get_f64(raw + 184, sw);
         h->qform_code = (int)get_i32(raw + 344, sw);
@@ -277,14 +284,12 @@ static picvr_io_status check_stream_end(gzFile gz, const char *path, char *err, 
     return PICVR_IO_OK;
 }
 
-/* The .img beside a .hdr (same letter case; with or without .gz, the header's way first).
-   NULL when path ends in neither .hdr nor .hdr.gz; *alt: the other candidate.  Both are
-   malloc'd. */
+/* The .img beside path, a .hdr or .hdr.gz (same letter case; with or without .gz, the
+   header's way first); *alt: the other candidate.  Both malloc'd; NULL when out of memory. */
 static char *image_names(const char *path, char **alt)
 {
     size_t n = strlen(path);
     int gz = picvr_io_has_suffix(path, ".hdr.gz");
-    if (!gz && !picvr_io_has_suffix(path, ".hdr")) return NULL;
     char *a = malloc(n + 4), *b = malloc(n + 4);
     if (!a || !b) {
         free(a);
@@ -305,7 +310,7 @@ static char *image_names(const char *path, char **alt)
 
 /* ---- header checks ------------------------------------------------------------------ */
 
-static int nifti_type(int datatype, picvr_voxel_type *type)
+static int picvr_type_of(int datatype, picvr_voxel_type *type)
 {
     switch (datatype) {
     case NIFTI_TYPE_UINT8: *type = PICVR_VOXEL_UINT8; return 1;
@@ -425,7 +430,7 @@ static picvr_io_status read_header(gzFile gz, const char *path, unsigned char ra
         nvox *= h->dim[i];
     }
     picvr_voxel_type type;
-    if (!nifti_type(h->datatype, &type)) {
+    if (!picvr_type_of(h->datatype, &type)) {
         set_error(err, err_size, "%s: NIfTI datatype %d (%s) is not one picvr holds "
                   "(uint8, int8, uint16, int16, int32, float32, float64)", path, h->datatype,
                   datatype_name(h->datatype));
@@ -506,6 +511,7 @@ static picvr_io_status set_geometry(picvr_io_volume *v, const nii_header *h, con
             memset(m, 0, sizeof m);
             for (int a = 0; a < 3; a++) m[a][a] = h->pixdim[a + 1];
             if (h->version == 0) add_warning(v, "ANALYZE 7.5 header: no orientation, axes taken as RAS");
+            else add_warning(v, "no qform or sform: axes taken as RAS");
         }
     }
     for (int r = 0; r < 3; r++)
@@ -572,7 +578,7 @@ static picvr_io_status set_geometry(picvr_io_volume *v, const nii_header *h, con
 int picvr_io_is_nifti(const char *path)
 {
     return picvr_io_has_suffix(path, ".nii") || picvr_io_has_suffix(path, ".nii.gz") ||
-           picvr_io_has_suffix(path, ".hdr");
+           picvr_io_has_suffix(path, ".hdr") || picvr_io_has_suffix(path, ".hdr.gz");
 }
 
 picvr_io_status picvr_io_load_nifti(const char *path, picvr_io_volume *volume, char *err, size_t err_size)
@@ -597,7 +603,7 @@ picvr_io_status picvr_io_load_nifti(const char *path, picvr_io_volume *volume, c
     if (st != PICVR_IO_OK) goto done;
 
     picvr_voxel_type type = PICVR_VOXEL_UINT8;
-    nifti_type(h.datatype, &type);
+    picvr_type_of(h.datatype, &type);
     picvr_io_layout layout = {{(uint32_t)h.dim[1], (uint32_t)h.dim[2], (uint32_t)h.dim[3]}, type};
     size_t bytes = 0;
     if (picvr_io_layout_bytes(&layout, &bytes, NULL, 0) != PICVR_IO_OK) {
@@ -635,11 +641,16 @@ picvr_io_status picvr_io_load_nifti(const char *path, picvr_io_volume *volume, c
     /* Where the voxels are: after the header (n+1, n+2), or in the .img beside the .hdr. */
     double offset = h.vox_offset;
     if (!h.onefile) {
-        img = image_names(path, &img_alt);
-        if (!img) {
+        if (!picvr_io_has_suffix(path, ".hdr") && !picvr_io_has_suffix(path, ".hdr.gz")) {
             set_error(err, err_size, "%s: the header says its voxels are in a separate .img file (magic %s), "
                       "but its name does not end in .hdr", path, h.version ? "ni1/ni2" : "none: ANALYZE 7.5");
             st = PICVR_IO_ERROR_BAD_HEADER;
+            goto done;
+        }
+        img = image_names(path, &img_alt);
+        if (!img) {
+            set_error(err, err_size, "%s: out of memory", path);
+            st = PICVR_IO_ERROR_OUT_OF_MEMORY;
             goto done;
         }
         gzclose(gz);
@@ -652,7 +663,12 @@ picvr_io_status picvr_io_load_nifti(const char *path, picvr_io_volume *volume, c
         }
         data_path = img;
         st = open_file(data_path, &gz, &file_size, err, err_size);
-        if (st != PICVR_IO_OK) goto done;
+        if (st != PICVR_IO_OK) {
+            if (stat(data_path, &sb) != 0)
+                set_error(err, err_size, "%s: its data file %s (or %s) cannot be opened: %s", path, img, img_alt,
+                          strerror(errno));
+            goto done;
+        }
     }
     if (gzdirect(gz)) {   /* plain: the size is known, so check it before any allocation */
         if ((double)file_size < offset || (unsigned long long)file_size - (unsigned long long)offset < bytes) {
@@ -681,6 +697,9 @@ picvr_io_status picvr_io_load_nifti(const char *path, picvr_io_volume *volume, c
     volume->data = data;
     volume->size = bytes;
     data = NULL;
+    /* NIfTI's world is RAS, here LPS; without a qform or sform the axes are RAS by the
+       specification's convention (method 1), said in the warning. */
+    volume->patient_frame = 1;
     volume->value_scale = 1.0;
     volume->value_offset = 0.0;
     if (h.version > 0 && isfinite(h.scl_slope) && h.scl_slope != 0.0) {

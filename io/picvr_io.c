@@ -442,6 +442,7 @@ typedef struct nrrd_header {
     double spacing[3], direction[9], origin[3];
     int have_directions, have_origin;
     int flip_x, flip_y;        /* the header's "space" is RAS or LAS: negated into LPS */
+    int anatomical;            /* the header's "space" is RAS, LAS or LPS */
     long long byte_skip;
     char data_file[1024];
 } nrrd_header;
@@ -557,6 +558,7 @@ static picvr_io_status nrrd_field(nrrd_header *h, const char *key, const char *v
         int las = !strcmp(v, "left-anterior-superior") || !strcmp(v, "LAS");
         h->flip_x = ras;
         h->flip_y = ras || las;
+        h->anatomical = ras || las || !strcmp(v, "left-posterior-superior") || !strcmp(v, "LPS");
     } else if (!strcmp(key, "space directions")) {
         const char *s = v;
         for (int a = 0; a < 3; a++) {
@@ -818,12 +820,13 @@ picvr_io_status picvr_io_load_nrrd(const char *path, picvr_io_volume *volume, ch
     }
     for (int i = 0; i < 9; i++) volume->direction[i] = (float)h.direction[i];
     for (int a = 0; a < 3; a++) {            /* RAS or LAS into LPS */
-        if (h.flip_x) volume->direction[3 * a + 0] = -volume->direction[3 * a + 0];
-        if (h.flip_y) volume->direction[3 * a + 1] = -volume->direction[3 * a + 1];
+        if (h.flip_x) volume->direction[3 * a + 0] = 0.0f - volume->direction[3 * a + 0];   /* 0 stays +0 */
+        if (h.flip_y) volume->direction[3 * a + 1] = 0.0f - volume->direction[3 * a + 1];
     }
-    if (h.flip_x) volume->origin[0] = -volume->origin[0];
-    if (h.flip_y) volume->origin[1] = -volume->origin[1];
+    if (h.flip_x) volume->origin[0] = 0.0f - volume->origin[0];
+    if (h.flip_y) volume->origin[1] = 0.0f - volume->origin[1];
     volume->value_scale = 1.0;
+    volume->patient_frame = h.anatomical;
     volume->data = data;
     volume->size = bytes;
     if (!(volume->spacing[0] > 0.0f && volume->spacing[1] > 0.0f && volume->spacing[2] > 0.0f) ||
@@ -844,6 +847,13 @@ picvr_io_status picvr_io_load(const char *path, const picvr_io_layout *layout, p
         return PICVR_IO_ERROR_NULL_POINTER;
     }
     if (!layout && picvr_io_is_nrrd(path)) return picvr_io_load_nrrd(path, volume, err, err_size);
+    /* The readers of other files (io/nifti.c, io/dicom.cpp, io/vdb.cpp); a build of this
+       file alone (the raw and NRRD fuzzer) leaves them out with PICVR_IO_RAW_NRRD_ONLY. */
+#ifndef PICVR_IO_RAW_NRRD_ONLY
+    if (!layout && picvr_io_is_nifti(path)) return picvr_io_load_nifti(path, volume, err, err_size);
+    if (!layout && picvr_io_is_vdb(path)) return picvr_io_load_vdb(path, NULL, volume, err, err_size);
+    if (!layout && picvr_io_is_dicom(path)) return picvr_io_load_dicom(path, volume, err, err_size);
+#endif
     picvr_io_layout from_name;
     if (!layout) {
         picvr_io_status st = picvr_io_parse_name(path, &from_name, err, err_size);
@@ -959,13 +969,34 @@ picvr_io_status picvr_io_value_range(const picvr_io_volume *volume, double *min,
     return PICVR_IO_OK;
 }
 
-picvr_io_status picvr_io_to_desc(const picvr_io_volume *volume, picvr_volume_desc *desc)
+picvr_io_status picvr_io_to_desc_sheared(const picvr_io_volume *volume, picvr_volume_desc *desc,
+                                         double *shear_degrees)
 {
+    if (shear_degrees) *shear_degrees = 0.0;
     if (!volume || !desc) return PICVR_IO_ERROR_NULL_POINTER;
     memset(desc, 0, sizeof *desc);
     memcpy(desc->dims, volume->dims, sizeof desc->dims);
     desc->type = volume->type;
     memcpy(desc->spacing, volume->spacing, sizeof desc->spacing);
     desc->data = volume->data;
+    memcpy(desc->direction, volume->direction, sizeof desc->direction);
+    desc->has_origin = 1;
+    memcpy(desc->origin, volume->origin, sizeof desc->origin);
+    const float *x = volume->direction, *y = volume->direction + 3, *z = volume->direction + 6;
+    double n[3] = {(double)x[1] * y[2] - (double)x[2] * y[1], (double)x[2] * y[0] - (double)x[0] * y[2],
+                   (double)x[0] * y[1] - (double)x[1] * y[0]};
+    double ln = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), lz = sqrt((double)z[0] * z[0] + (double)z[1] * z[1] + (double)z[2] * z[2]);
+    if (!(ln > 0.5) || !(lz > 0.5)) return PICVR_IO_OK;   /* degenerate axes: picvr refuses them */
+    double c = (n[0] * z[0] + n[1] * z[1] + n[2] * z[2]) / (ln * lz);
+    double angle = acos(fmin(1.0, fabs(c))) * 180.0 / 3.14159265358979323846;
+    if (angle > 0.01) {   /* sheared: the normal on z's side */
+        for (int i = 0; i < 3; i++) desc->direction[6 + i] = (float)((c < 0.0 ? -n[i] : n[i]) / ln);
+        if (shear_degrees) *shear_degrees = angle;
+    }
     return PICVR_IO_OK;
+}
+
+picvr_io_status picvr_io_to_desc(const picvr_io_volume *volume, picvr_volume_desc *desc)
+{
+    return picvr_io_to_desc_sheared(volume, desc, NULL);
 }

@@ -40,7 +40,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
-#include <mutex>
 #include <new>
 #include <sstream>
 #include <string>
@@ -113,7 +112,7 @@ public:
     {
         if (n <= end_ - pos_) return;
         if (end_ == size_) fail(PICVR_IO_ERROR_TRUNCATED, path_ + ": truncated: the file ends inside " + what);
-        fail(PICVR_IO_ERROR_BAD_HEADER, path_ + ": " + what + " runs past its grid's extent");
+        fail(PICVR_IO_ERROR_BAD_HEADER, path_ + ": a grid's data ends (where its descriptor says) inside " + what);
     }
     void read(void *p, size_t n, const char *what)
     {
@@ -132,7 +131,7 @@ public:
     template <typename T> T get(const char *what)
     {
         T v;
-        read(&v, sizeof v, what);   /* files are little-endian, as is every host OpenVDB runs on */
+        read(&v, sizeof v, what);   /* OpenVDB uses its host's byte order: little-endian here */
         return v;
     }
     /* OpenVDB's string: a uint32 length, then the bytes. */
@@ -232,7 +231,12 @@ void scan_metadata(Reader &r, const char *what)
         if (fixed < 0 && type != "string" && openvdb::Metadata::isRegisteredType(type))
             fail(PICVR_IO_ERROR_BAD_HEADER, r.path() + ": " + what + " " + quote(name) + " has type " + quote(type) +
                  ", which this reader does not check");
-        r.skip(bytes, what);   /* strings and unregistered types: the stated bytes */
+        if (type == "bool") {   /* a bool holding another byte than 0 or 1 is undefined */
+            if (r.get<uint8_t>(what) > 1)
+                fail(PICVR_IO_ERROR_BAD_HEADER, r.path() + ": " + what + " " + quote(name) + ": a bool that is neither 0 nor 1");
+            continue;
+        }
+        r.skip(bytes, what);   /* fixed sizes checked; strings and unregistered types: the stated bytes */
     }
 }
 
@@ -283,11 +287,11 @@ FileHeader scan_header(Reader &r)
             fail(PICVR_IO_ERROR_BAD_HEADER, r.path() + ": grid " + quote(name_as_string(d.unique)) + " has type " +
                  quote(d.type) + ", unknown to OpenVDB");
         int64_t grid_pos = r.get<int64_t>("a grid descriptor");
-        int64_t block_pos = r.get<int64_t>("a grid descriptor");
+        r.skip(8, "a grid descriptor");   /* the position of the tree's buffers (0 for an instance): unused */
         int64_t end_pos = r.get<int64_t>("a grid descriptor");
         /* OpenVDB's writer puts the grid right after its descriptor; the next descriptor
            starts at end_pos.  Increasing positions bound the number of descriptors. */
-        if (grid_pos != (int64_t)r.pos() || block_pos < grid_pos || end_pos < block_pos)
+        if (grid_pos != (int64_t)r.pos() || end_pos < grid_pos)
             fail(PICVR_IO_ERROR_BAD_HEADER, r.path() + ": grid " + quote(name_as_string(d.unique)) +
                  ": inconsistent offsets in its descriptor");
         r.need((uint64_t)(end_pos - grid_pos), "a grid");
@@ -621,15 +625,12 @@ void geometry(const openvdb::math::Transform &xf, const openvdb::Coord &min, con
     if (shear > 1e-6) warning += "the voxel axes are not orthogonal (a sheared transform); ";
 }
 
-std::once_flag init_once;
-
+/* Every load, before its scan: the registry is locked inside OpenVDB, unregistering an
+   absent type does nothing, and a host that re-initialized OpenVDB in between is covered. */
 void initialize()
 {
     openvdb::initialize();   /* idempotent and thread-safe */
-    std::call_once(init_once, [] {
-        if (openvdb::Metadata::isRegisteredType(openvdb::io::DelayedLoadMetadata::staticTypeName()))
-            openvdb::Metadata::unregisterType(openvdb::io::DelayedLoadMetadata::staticTypeName());
-    });
+    openvdb::Metadata::unregisterType(openvdb::io::DelayedLoadMetadata::staticTypeName());
 }
 
 template <typename GridT>
@@ -686,6 +687,7 @@ picvr_io_status load(const char *path_c, const char *wanted, picvr_io_volume *vo
     }
     volume->value_scale = 1.0;
     volume->value_offset = 0.0;
+    volume->patient_frame = 0;   /* the file's own axes (see geometry) */
     if (!warning.empty()) {
         warning.resize(warning.size() - 2);   /* the last "; " */
         std::snprintf(volume->warning, sizeof volume->warning, "%s", warning.c_str());
@@ -713,8 +715,8 @@ extern "C" picvr_io_status picvr_io_load_vdb(const char *path, const char *grid,
     } catch (const std::bad_alloc &) {
         status = PICVR_IO_ERROR_OUT_OF_MEMORY;
         message = std::string(path) + ": out of memory";
-    } catch (const openvdb::IoError &e) {
-        status = PICVR_IO_ERROR_READ;
+    } catch (const openvdb::ArithmeticError &e) {   /* e.g. a singular affine transform */
+        status = PICVR_IO_ERROR_BAD_HEADER;
         message = std::string(path) + ": OpenVDB: " + e.what();
     } catch (const std::exception &e) {
         status = PICVR_IO_ERROR_READ;   /* corrupt compressed data and the like */

@@ -81,9 +81,11 @@ void test_nrrd_reads_layout_values_and_geometry(void **state) {
     const int16_t want16[4] = {-300, 2, 32767, -32768};
     assert_memory_equal(v.data, want16, sizeof want16);
     assert_true(v.spacing[0] == 3.0f && v.spacing[1] == 4.0f && v.spacing[2] == 0.5f);
-    const float dir[9] = {0, 1, 0, -1, 0, 0, 0, 0, 1};
+    /* the header's RAS axes and origin in LPS: x and y negated */
+    const float dir[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1};
     assert_memory_equal(v.direction, dir, sizeof dir);
-    assert_true(v.origin[0] == 10.5f && v.origin[1] == -2.0f && v.origin[2] == 7.0f);
+    assert_true(v.origin[0] == -10.5f && v.origin[1] == 2.0f && v.origin[2] == 7.0f);
+    assert_int_equal(v.patient_frame, 1);
     picvr_io_free(&v);
 
     float f32[24];

@@ -207,7 +207,30 @@
     /* test_clip.c: placement and clipping */                      \
     X(test_clip_cube_under_sun_closed_form)                         \
     X(test_placed_volume_under_sun_closed_form)                     \
-    X(test_bad_placement_and_clip)
+    X(test_bad_placement_and_clip)                                  \
+    /* test_nifti.c */                                              \
+    X(test_nifti_reads_types_and_scaling)                           \
+    X(test_nifti_sform_geometry)                                    \
+    X(test_nifti_qform_and_identity_geometry)                       \
+    X(test_nifti_nifti2_4d_and_big_endian)                          \
+    X(test_nifti_hdr_img_pairs)                                     \
+    X(test_nifti_refuses_bad_files)                                 \
+    X(test_nifti_is_nifti)                                          \
+    X(test_nifti_nibabel_files)                                     \
+    /* test_dicom.c */                                              \
+    X(test_dicom_reads_geometry_and_values)                         \
+    X(test_dicom_shuffled_names_load_identically)                   \
+    X(test_dicom_uneven_spacing_and_tilt)                           \
+    X(test_dicom_rescale_per_slice_to_float)                        \
+    X(test_dicom_two_series_takes_larger)                           \
+    X(test_dicom_refusals)                                          \
+    X(test_dicom_real_ct_small)                                     \
+    /* test_vdb.c */                                                \
+    X(test_vdb_reads_values_and_geometry)                           \
+    X(test_vdb_selects_grids)                                       \
+    X(test_vdb_refuses_bad_files)                                   \
+    X(test_vdb_disney_cloud)                                        \
+    X(test_vdb_is_vdb)
 
 #define TU_DECLARE(name) void name(void **state);
 TU_ALL_TESTS(TU_DECLARE)

@@ -14,8 +14,13 @@ for a in "$@"; do
     *) extra="$extra $a" ;;
   esac
 done
+# The file readers of picvr_io (NIfTI, DICOM, OpenVDB; OpenVDB's headers need boost) and
+# picvr-render's OpenEXR output; real scans the tests read and the README renders: a T1
+# MRI head (mricron-data's ch2.nii.gz), nibabel's NIfTI and pydicom's DICOM test files.
 PKGS="gcc g++ clang make pkg-config mesa-vulkan-drivers libvulkan-dev glslang-tools \
-vulkan-validationlayers vulkan-tools libstb-dev libcmocka-dev zlib1g-dev$extra"
+vulkan-validationlayers vulkan-tools libstb-dev libcmocka-dev zlib1g-dev \
+libnifti2-dev libgdcm-dev libopenvdb-dev libboost-dev libopenexr-dev \
+mricron-data python3-nibabel python3-pydicom$extra"
 missing=""
 for p in $PKGS; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
