@@ -1,7 +1,24 @@
-/* picvr_io.h - load headerless raw volumes (optionally gzip-compressed) for picvr.
+/* picvr_io.h - picvr's file readers: volumes from NIfTI-1/2 (.nii, .nii.gz, .hdr/.img),
+ * NRRD (.nrrd, .nhdr), DICOM series (a folder of slices), OpenVDB (.vdb) and headerless
+ * raw files (.raw, .raw.gz), each with its geometry (spacing, orientation, origin in the
+ * patient's LPS frame where the file has one) and its value mapping (rescale to
+ * Hounsfield units).  A module of its own (io/, build/libpicvr_io.a): picvr.h's core
+ * takes voxels in memory, and an application with its own loader links none of this.
  *
- * NRRD files (.nrrd, .nhdr) carry their layout and geometry in their header
- * (picvr_io_load_nrrd).  Raw files' names carry the layout, as in the Open SciVis data sets:
+ *     picvr_io_volume v;
+ *     char err[512];
+ *     if (picvr_io_load("scan.nii.gz", NULL, &v, err, sizeof err) != PICVR_IO_OK) {
+ *         fprintf(stderr, "%s\n", err);
+ *         return 1;
+ *     }
+ *     picvr_volume_desc desc;
+ *     picvr_io_to_desc(&v, &desc);        // voxels, spacing, orientation and origin
+ *     desc.value_min = (float)((-1000 - v.value_offset) / v.value_scale);  // a CT window
+ *     desc.value_max = (float)((2000 - v.value_offset) / v.value_scale);   // in HU
+ *     picvr_upload_volume(ctx, &desc);    // picvr copies the voxels
+ *     picvr_io_free(&v);
+ *
+ * Raw files' names carry the layout, as in the Open SciVis data sets:
  *     NAME_XxYxZ_TYPE.raw  or  NAME_XxYxZ_TYPE.raw.gz
  * with TYPE one of uint8, uint16, float32, int8, int16, int32, float16, float64 (or
  * u8, u16, f32, i8, i16, i32, f16, f64), e.g.
@@ -9,8 +26,11 @@
  * little-endian.  zlib reads plain and gzip files alike.
  *
  * Every function validates its input and reports problems as a status plus an
- * optional message; none of them crashes, whatever the file name or contents.
- * Independent of the Vulkan library: only picvr.h's types are used.
+ * optional message; none of them crashes, whatever the file name or contents (each
+ * reader is fuzzed: make fuzz).  Only picvr.h's types are used, no Vulkan.  Link:
+ * build/libpicvr_io.a with -lnifti2 -lznz (niftilib), -lgdcmMSFF -lgdcmDSED -lgdcmDICT
+ * -lgdcmIOD -lgdcmCommon (GDCM), -lopenvdb -ltbb -lImath-3_1 -lblosc (OpenVDB), -lz
+ * -lstdc++ (the Makefile's IO_LIBS).
  */
 #ifndef PICVR_IO_H
 #define PICVR_IO_H
@@ -134,24 +154,44 @@ picvr_io_status picvr_io_load_nifti(const char *path, picvr_io_volume *volume, c
 int picvr_io_is_nifti(const char *path);
 
 /* Loads a DICOM series through GDCM.  path: a folder (the series with the most slices in
-   it) or one slice file (the series that file belongs to, from its folder).  Slices are
-   sorted by their position along the slice normal, the slice spacing comes from those
-   positions (not SliceThickness); uneven spacing and gantry tilt are accepted and said in
-   volume->warning; rescale slope/intercept give value_scale/value_offset (Hounsfield
-   units for CT; slices with different rescales are converted to float32); the modality
-   (CT, MR, ...) is copied.  On failure *volume is zeroed and nothing leaks.
+   it, the others said in volume->warning) or one slice file (the series that file
+   belongs to, from its folder).  Each file's structure is checked before GDCM reads it
+   (element lengths within their containers, a compressed stream's own header against
+   the DICOM header): only proper DICOM files (preamble, DICM, meta group); bare data sets
+   and ACR-NEMA files are refused, and so are multi-frame files.  Single-frame grey
+   images (MONOCHROME1 values kept as stored, said in warning).  Slices are sorted by
+   their position along the slice normal (not by name or InstanceNumber), the slice
+   spacing is the median of the position differences (not SliceThickness; a one-slice
+   volume takes SliceThickness, else 1); uneven spacing and gantry tilt are accepted and
+   said in volume->warning, a tilt giving a z axis that is not orthogonal (see
+   picvr_io_to_desc_sheared); rescale slope/intercept give value_scale/value_offset
+   (Hounsfield units for CT; slices with different rescales are converted to float32;
+   RT Dose's DoseGridScaling is not applied); the modality (CT, MR, ...) is copied;
+   patient_frame 1.  Statuses: OPEN for an empty folder, BAD_HEADER for no DICOM image or
+   a malformed one, TRUNCATED for a cut-off slice.  GDCM's trace output is off during the
+   call (process-wide flags, restored).  On failure *volume is zeroed and nothing leaks.
    PICVR_IO_ERROR_UNSUPPORTED in a build without GDCM (PICVR_IO_NO_DICOM). */
 picvr_io_status picvr_io_load_dicom(const char *path, picvr_io_volume *volume, char *err, size_t err_size);
 
 /* 1 when path is a folder or ends in .dcm (ASCII case-insensitive). */
 int picvr_io_is_dicom(const char *path);
 
-/* Loads one float grid of an OpenVDB file (.vdb) through OpenVDB, densified over the
-   grid's active voxel bounding box into float32; spacing, orientation and origin from the
-   grid's linear transform (other transforms are refused).  grid: the grid's name, or NULL
-   for "density" if present, else the first float grid.  On failure *volume is zeroed and
-   nothing leaks.  PICVR_IO_ERROR_UNSUPPORTED in a build without OpenVDB
-   (PICVR_IO_NO_VDB). */
+/* Loads one scalar grid of an OpenVDB file (.vdb) through OpenVDB, densified over the
+   grid's active voxel bounding box into float32: inactive voxels get the background, not
+   their stored values; non-finite values become 0 (counted in warning).  grid: the grid's
+   name ("name[N]" picks among duplicates), or NULL for "density" if it is a float or
+   double grid, else the first float grid, else the first double grid (converted, said in
+   warning).  Spacing, orientation and origin from the grid's linear transform (voxel
+   centres are at integer index coordinates, so origin is voxel (0,0,0)'s centre);
+   patient_frame 0 (the file's own frame).  Every byte OpenVDB will read is checked first
+   (OpenVDB trusts the counts and lengths in a file).  Refused: files without grid
+   offsets (written by io::Stream) and format versions outside 222..224 (BAD_HEADER),
+   non-linear transforms, an empty grid or one spanning more than PICVR_IO_MAX_DIM voxels
+   (BAD_DIMS), more than 4 GiB (SIZE_OVERFLOW), a cut-off file (TRUNCATED).  Side effect:
+   openvdb::initialize(), and the "__delayedload" metadata type is unregistered process-wide
+   (its parser trusts counts; it serves memory-mapped loading only, not used here).  On
+   failure *volume is zeroed and nothing leaks.  PICVR_IO_ERROR_UNSUPPORTED in a build
+   without OpenVDB (PICVR_IO_NO_VDB). */
 picvr_io_status picvr_io_load_vdb(const char *path, const char *grid, picvr_io_volume *volume, char *err, size_t err_size);
 
 /* 1 when path ends in .vdb (ASCII case-insensitive). */
