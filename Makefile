@@ -362,8 +362,13 @@ $(BF)/fuzz_dicom: tests/fuzz/fuzz_dicom.cpp io/dicom.cpp io/picvr_io.c $(IO_HDR)
 	clang++ -g -O1 -std=c++17 -I. -isystem /usr/include/gdcm-3.0 -fsanitize=fuzzer,address,undefined \
 	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_dicom.cpp io/dicom.cpp $(BF)/picvr_io_dicom.o \
 	  -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
-fuzz: deps-robust $(BF)/fuzz_volume_io $(BF)/fuzz_env_io $(BF)/fuzz_nifti $(BF)/fuzz_vdb $(BF)/fuzz_dicom
-	@mkdir -p $(BF)/corpus $(BF)/corpus_env $(BF)/corpus_nifti $(BF)/corpus_vdb $(BF)/corpus_dicom
+# picvr-render's transfer-function files (examples/presets.c, pvp_tf_load).
+$(BF)/fuzz_tf_file: tests/fuzz/fuzz_tf_file.c examples/presets.c examples/presets.h | $(B)/.deps-robust
+	@mkdir -p $(BF)
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_tf_file.c examples/presets.c -lm
+fuzz: deps-robust $(BF)/fuzz_volume_io $(BF)/fuzz_env_io $(BF)/fuzz_nifti $(BF)/fuzz_vdb $(BF)/fuzz_dicom $(BF)/fuzz_tf_file
+	@mkdir -p $(BF)/corpus $(BF)/corpus_env $(BF)/corpus_nifti $(BF)/corpus_vdb $(BF)/corpus_dicom $(BF)/corpus_tf
 	cd $(BF) && ./fuzz_volume_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
 	  -max_len=8192 -print_final_stats=1 -dict=$(abspath tests/fuzz/volume_io.dict) corpus $(abspath tests/fuzz/corpus)
 	cd $(BF) && ./fuzz_env_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
@@ -375,6 +380,8 @@ fuzz: deps-robust $(BF)/fuzz_volume_io $(BF)/fuzz_env_io $(BF)/fuzz_nifti $(BF)/
 	  -max_len=32768 -print_final_stats=1 corpus_vdb $(abspath tests/fuzz/corpus_vdb)
 	cd $(BF) && LSAN_OPTIONS=suppressions=$(abspath tests/lsan.supp) ./fuzz_dicom -max_total_time=$(FUZZ_TIME) \
 	  -rss_limit_mb=2048 -timeout=10 -max_len=16384 -print_final_stats=1 corpus_dicom $(abspath tests/fuzz/corpus_dicom)
+	cd $(BF) && ./fuzz_tf_file -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
+	  -max_len=4096 -print_final_stats=1 corpus_tf $(abspath tests/fuzz/corpus_tf)
 
 # SOAK_SECONDS of picvr_step with random camera, TF and light changes and image reads;
 # fails unless host RSS and live device memory are flat (tolerances in tests/soak.c).

@@ -54,10 +54,15 @@ static const pvc_option *find_option(const pvc_option *options, const char *text
 /* The option at argv[*next] (advancing *next past it and its value): its row, and
    *value (NULL for a flag); NULL after reporting a usage error. */
 static const pvc_option *next_option(int argc, char **argv, int *next, const pvc_option *options,
-                                     const char **value)
+                                     const char *positional, const char **value)
 {
     const char *arg = argv[(*next)++];
     if (strncmp(arg, "--", 2) != 0) {
+        const pvc_option *opt = positional ? find_option(options, positional, strlen(positional)) : NULL;
+        if (opt && opt->takes_value) {   /* a bare argument: the value of `positional` */
+            *value = arg;
+            return opt;
+        }
         pvc_fail("unexpected argument '%s' (see --help)", arg);
         return NULL;
     }
@@ -81,9 +86,15 @@ static const pvc_option *next_option(int argc, char **argv, int *next, const pvc
 int pvc_parse_options(int argc, char **argv, const pvc_option *options, pvc_apply_fn apply,
                       void *target, void (*help)(FILE *))
 {
+    return pvc_parse_options_positional(argc, argv, options, NULL, apply, target, help);
+}
+
+int pvc_parse_options_positional(int argc, char **argv, const pvc_option *options, const char *positional,
+                                 pvc_apply_fn apply, void *target, void (*help)(FILE *))
+{
     for (int next = 1; next < argc;) {
         const char *value;
-        const pvc_option *opt = next_option(argc, argv, &next, options, &value);
+        const pvc_option *opt = next_option(argc, argv, &next, options, positional, &value);
         if (!opt) return PVC_EXIT_USAGE;
         if (!strcmp(opt->name, "help")) {
             help(stdout);

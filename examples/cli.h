@@ -78,6 +78,11 @@ typedef int (*pvc_apply_fn)(void *target, const char *name, const char *value);
 int pvc_parse_options(int argc, char **argv, const pvc_option *options, pvc_apply_fn apply,
                       void *target, void (*help)(FILE *));
 
+/* pvc_parse_options, where an argument that does not start with "--" is the value of
+   the option named positional (picvr-render scan.nii.gz: --volume scan.nii.gz). */
+int pvc_parse_options_positional(int argc, char **argv, const pvc_option *options, const char *positional,
+                                 pvc_apply_fn apply, void *target, void (*help)(FILE *));
+
 /* A program's options in groups: a group applies the options it knows like a
    pvc_apply_fn but reports nothing, and returns -1 for an option not its own. */
 typedef int (*pvc_group_fn)(void *target, const char *name, const char *value);

@@ -64,7 +64,7 @@ static void install_interrupt_handler(void)
 static void print_help(FILE *f)
 {
     fprintf(f,
-        "usage: " PROGRAM " --volume FILE [options]\n"
+        "usage: " PROGRAM " [--volume] FILE [options]\n"
         "Progressive Monte-Carlo volume rendering with picvr.\n\n"
         "input\n"
         "  --volume FILE          the volume (required): NIfTI .nii[.gz], NRRD .nrrd/.nhdr,\n"
@@ -529,7 +529,7 @@ static int options_consistent(const render_options *o)
 static int parse_options(int argc, char **argv, render_options *o)
 {
     set_defaults(o);
-    int status = pvc_parse_options(argc, argv, OPTIONS, apply_option, o, print_help);
+    int status = pvc_parse_options_positional(argc, argv, OPTIONS, "volume", apply_option, o, print_help);
     if (status < 0 && !options_consistent(o)) return EXIT_USAGE;
     return status;   /* the transfer function, its bounces and window come with the volume */
 }

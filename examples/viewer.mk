@@ -10,8 +10,7 @@
 VIEWER_CXXFLAGS := -O2 -g -std=c++17 -Wall -Wextra -Wpedantic -Wshadow -I. -Iexamples
 # Deferred (=): pkg-config runs only when the viewer is linked, after GLFW is installed.
 VIEWER_LIBS = $(shell pkg-config --libs glfw3 2>/dev/null || echo -lglfw) -lstb -lz
-VIEWER_C_OBJ := $(patsubst examples/%.c,$(B)/viewer/%.o,examples/cli.c examples/presets.c io/picvr_io.c \
-                examples/env_io.c)
+VIEWER_C_OBJ := $(patsubst examples/%.c,$(B)/viewer/%.o,examples/cli.c examples/presets.c examples/env_io.c)
 
 deps-viewer: $(B)/.deps-viewer
 $(B)/.deps-viewer: tools/install-deps.sh | $(B)/.deps
@@ -23,8 +22,8 @@ $(B)/viewer/%.o: examples/%.c examples/%.h picvr.h | $(B)/.deps
 	$(CC) $(CFLAGS) -c -o $@ $<
 
 $(B)/picvr-viewer: examples/viewer.cpp $(VIEWER_C_OBJ) $(LIB_SRC) examples/cli.h examples/presets.h \
-                   picvr_io.h examples/env_io.h | $(B)/.deps-viewer
-	$(CXX) $(VIEWER_CXXFLAGS) -o $@ examples/viewer.cpp $(VIEWER_C_OBJ) $(LDLIBS) $(VIEWER_LIBS)
+                   picvr_io.h examples/env_io.h $(B)/libpicvr_io.a | $(B)/.deps-viewer
+	$(CXX) $(VIEWER_CXXFLAGS) -o $@ examples/viewer.cpp $(VIEWER_C_OBJ) $(B)/libpicvr_io.a $(LDLIBS) $(VIEWER_LIBS) $(IO_LIBS)
 
 viewer: $(B)/picvr-viewer
 

@@ -208,6 +208,7 @@
     X(test_clip_cube_under_sun_closed_form)                         \
     X(test_placed_volume_under_sun_closed_form)                     \
     X(test_bad_placement_and_clip)                                  \
+    X(test_placed_volume_environment_map)                           \
     /* test_nifti.c */                                              \
     X(test_nifti_reads_types_and_scaling)                           \
     X(test_nifti_sform_geometry)                                    \

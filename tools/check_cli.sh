@@ -161,7 +161,7 @@ fi
 # a T1 MRI (Debian's mricron-data): mr on its percentiles; a view; clipping
 MRI=/usr/share/mricron/templates/ch2.nii.gz
 if [ -f "$MRI" ]; then
-    says "tf mr (a scan)" --volume "$MRI" $S
+    says "tf mr (a scan)" "$MRI" $S
     says "quantiles" --volume "$MRI" --view left --clip-plane 1,0,0,0 $S
     expect 1 "made for CT in Hounsfield units" --volume "$MRI" --tf ct-bone $S
     says "" --volume "$MRI" --tf ct-bone --wl 120,90 $S
