@@ -88,6 +88,9 @@ typedef struct picvr_io_volume {
     double value_offset;       /* (NIfTI scl_slope/scl_inter, DICOM rescale to Hounsfield
                                   units); 1 and 0 when the file has none */
     char modality[8];          /* "CT", "MR", ... where the file says (DICOM), else "" */
+    int has_origin;            /* 1: origin is the file's (NIfTI, DICOM, OpenVDB, NRRD with a
+                                  space origin); 0: the file places nothing (raw), and
+                                  picvr_io_to_desc leaves the box centred at the origin */
     int patient_frame;         /* 1: world space is the patient's LPS frame (DICOM, NIfTI,
                                   NRRD in an anatomical space), so views such as anterior
                                   mean something; 0: the file's own axes */
@@ -217,8 +220,8 @@ picvr_io_status picvr_io_value_range(const picvr_io_volume *volume, double *min,
 picvr_io_status picvr_io_percentile_range(const picvr_io_volume *volume, double lo_frac, double hi_frac, double *lo, double *hi);
 
 /* Fills a picvr_volume_desc that points at volume's data (value range left 0:
-   picvr's default for the type), with its placement: direction and origin (has_origin
-   1).  picvr takes only orthonormal axes: a sheared z axis (a gantry-tilted series) is
+   picvr's default for the type), with its placement: direction, and origin where the
+   file has one (volume->has_origin).  picvr takes only orthonormal axes: a sheared z axis (a gantry-tilted series) is
    replaced by the normal of the x and y axes, on the side of the given one, and
    *shear_degrees (may be NULL) receives the angle between them (0 otherwise); the
    rendering is then without tilt correction. */

@@ -1067,6 +1067,7 @@ picvr_io_status load(const char *path, picvr_io_volume *volume, char *err, size_
     volume->value_offset = rescale_varies ? 0.0 : ref.intercept;
     snprintf(volume->modality, sizeof volume->modality, "%s", ref.modality.c_str());
     volume->patient_frame = 1;   /* DICOM's patient coordinates are LPS */
+    volume->has_origin = 1;
     snprintf(volume->warning, sizeof volume->warning, "%s", w.c_str());
     for (int i = 0; i < 3; i++)
         if (!(volume->spacing[i] > 0.0f) || !std::isfinite(volume->spacing[i]) || !std::isfinite(volume->origin[i])) {

@@ -700,6 +700,7 @@ picvr_io_status picvr_io_load_nifti(const char *path, picvr_io_volume *volume, c
     /* NIfTI's world is RAS, here LPS; without a qform or sform the axes are RAS by the
        specification's convention (method 1), said in the warning. */
     volume->patient_frame = 1;
+    volume->has_origin = 1;
     volume->value_scale = 1.0;
     volume->value_offset = 0.0;
     if (h.version > 0 && isfinite(h.scl_slope) && h.scl_slope != 0.0) {

@@ -827,6 +827,7 @@ picvr_io_status picvr_io_load_nrrd(const char *path, picvr_io_volume *volume, ch
     if (h.flip_y) volume->origin[1] = 0.0f - volume->origin[1];
     volume->value_scale = 1.0;
     volume->patient_frame = h.anatomical;
+    volume->has_origin = h.have_origin;
     volume->data = data;
     volume->size = bytes;
     if (!(volume->spacing[0] > 0.0f && volume->spacing[1] > 0.0f && volume->spacing[2] > 0.0f) ||
@@ -980,7 +981,7 @@ picvr_io_status picvr_io_to_desc_sheared(const picvr_io_volume *volume, picvr_vo
     memcpy(desc->spacing, volume->spacing, sizeof desc->spacing);
     desc->data = volume->data;
     memcpy(desc->direction, volume->direction, sizeof desc->direction);
-    desc->has_origin = 1;
+    desc->has_origin = volume->has_origin;
     memcpy(desc->origin, volume->origin, sizeof desc->origin);
     const float *x = volume->direction, *y = volume->direction + 3, *z = volume->direction + 6;
     double n[3] = {(double)x[1] * y[2] - (double)x[2] * y[1], (double)x[2] * y[0] - (double)x[0] * y[2],

@@ -688,6 +688,7 @@ picvr_io_status load(const char *path_c, const char *wanted, picvr_io_volume *vo
     volume->value_scale = 1.0;
     volume->value_offset = 0.0;
     volume->patient_frame = 0;   /* the file's own axes (see geometry) */
+    volume->has_origin = 1;
     if (!warning.empty()) {
         warning.resize(warning.size() - 2);   /* the last "; " */
         std::snprintf(volume->warning, sizeof volume->warning, "%s", warning.c_str());
