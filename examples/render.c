@@ -864,8 +864,9 @@ static int physical_percentiles(const picvr_io_volume *vol, double lo_frac, doub
 
 /* Whether the volume is a CT in Hounsfield units: a DICOM CT (its rescale gives HU by
    the standard), or values whose 0.5th percentile is air (-3100..-800: air is -1000,
-   scanners pad outside the field of view with down to -3024) and whose 99.5th is tissue
-   or bone (0..4000).  An MR's values are not negative. */
+   scanners pad outside the field of view with down to -3024) and whose largest is tissue,
+   bone or metal (0..40000: most voxels of a scan may be air).  An MR's values are not
+   negative, an MR phase image's reach -4096. */
 static int is_hounsfield(const picvr_io_volume *vol, const char **why)
 {
     if (!strcmp(vol->modality, "CT")) {
@@ -873,7 +874,7 @@ static int is_hounsfield(const picvr_io_volume *vol, const char **why)
         return 1;
     }
     double lo, hi;
-    if (physical_percentiles(vol, 0.005, 0.995, &lo, &hi) && lo >= -3100.0 && lo <= -800.0 && hi >= 0.0 && hi <= 4000.0) {
+    if (physical_percentiles(vol, 0.005, 1.0, &lo, &hi) && lo >= -3100.0 && lo <= -800.0 && hi >= 0.0 && hi <= 40000.0) {
         *why = "values like Hounsfield units: air at the 0.5th percentile";
         return 1;
     }

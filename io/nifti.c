@@ -158,42 +158,17 @@ static void decode_header(const unsigned char *raw, nii_header *h)
 
 /* ---- files -------------------------------------------------------------------------- */
 
-/* zlib's message for the last error, without the "path: " prefix zlib puts in front. */
-static const char *gz_message(gzFile gz, const char *path, int *errnum)
-{
-    const char *msg = gzerror(gz, errnum);
-    if (*errnum == Z_ERRNO) return strerror(errno);
-    if (!msg) return "unknown error";
-    size_t n = strlen(path);
-    if (strncmp(msg, path, n) == 0 && msg[n] == ':' && msg[n + 1] == ' ') msg += n + 2;
-    return msg;
-}
+#define gz_message picvr_io_gz_message
 
 /* Opens a regular file for reading through zlib (plain or gzip); *size: its size on disk. */
 static picvr_io_status open_file(const char *path, gzFile *out, long long *size, char *err, size_t err_size)
 {
     struct stat st;
-    if (stat(path, &st) != 0) {
-        set_error(err, err_size, "%s: %s", path, strerror(errno));
-        return PICVR_IO_ERROR_OPEN;
-    }
-    if (!S_ISREG(st.st_mode)) {
-        set_error(err, err_size, "%s: not a regular file", path);
-        return PICVR_IO_ERROR_OPEN;
-    }
-    errno = 0;
-    gzFile gz = gzopen(path, "rb");
-    if (!gz) {
-        set_error(err, err_size, "%s: %s", path, errno ? strerror(errno) : "cannot open");
-        return errno ? PICVR_IO_ERROR_OPEN : PICVR_IO_ERROR_OUT_OF_MEMORY;
-    }
-    gzbuffer(gz, 1u << 18);   /* fewer system calls than the 8 KiB default */
-    *out = gz;
-    *size = (long long)st.st_size;
-    return PICVR_IO_OK;
+    picvr_io_status status = picvr_io_gzopen(path, 0, out, &st, err, err_size);
+    if (status == PICVR_IO_OK) *size = (long long)st.st_size;
+    return status;
 }
 
-/* Reads exactly n bytes, or says how many came: status OK with *got < n at the end. */
 static picvr_io_status read_some(gzFile gz, const char *path, void *buf, size_t n, size_t *got,
                                  char *err, size_t err_size)
 {

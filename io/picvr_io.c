@@ -275,7 +275,9 @@ static void little_endian_to_host(unsigned char *data, size_t bytes, size_t voxe
 
 /* zlib's message for the last error, without the "path: " prefix zlib puts in front
    (our messages already start with the path). */
-static const char *gz_message(gzFile gz, const char *path, int *errnum)
+#define gz_message picvr_io_gz_message
+
+const char *picvr_io_gz_message(gzFile gz, const char *path, int *errnum)
 {
     const char *msg = gzerror(gz, errnum);
     if (*errnum == Z_ERRNO) return strerror(errno);
@@ -385,15 +387,14 @@ static picvr_io_status check_plain_file_size(gzFile gz, const struct stat *st, c
     return PICVR_IO_OK;
 }
 
-static picvr_io_status read_volume_file(const char *path, size_t expected, unsigned char **data,
-                                    char *err, size_t err_size)
+picvr_io_status picvr_io_gzopen(const char *path, int allow_fifo, gzFile *out, struct stat *st, char *err,
+                                size_t err_size)
 {
-    struct stat st;
-    if (stat(path, &st) != 0) {
+    if (stat(path, st) != 0) {
         set_error(err, err_size, "%s: %s", path, strerror(errno));
         return PICVR_IO_ERROR_OPEN;
     }
-    if (!S_ISREG(st.st_mode) && !S_ISFIFO(st.st_mode)) {
+    if (!S_ISREG(st->st_mode) && !(allow_fifo && S_ISFIFO(st->st_mode))) {
         set_error(err, err_size, "%s: not a regular file", path);
         return PICVR_IO_ERROR_OPEN;
     }
@@ -403,8 +404,18 @@ static picvr_io_status read_volume_file(const char *path, size_t expected, unsig
         set_error(err, err_size, "%s: %s", path, errno ? strerror(errno) : "cannot open");
         return errno ? PICVR_IO_ERROR_OPEN : PICVR_IO_ERROR_OUT_OF_MEMORY;
     }
-    gzbuffer(gz, 1u << 18); /* fewer system calls than the 8 KiB default */
+    gzbuffer(gz, 1u << 18);   /* fewer system calls than the 8 KiB default */
+    *out = gz;
+    return PICVR_IO_OK;
+}
 
+static picvr_io_status read_volume_file(const char *path, size_t expected, unsigned char **data,
+                                    char *err, size_t err_size)
+{
+    struct stat st;
+    gzFile gz;
+    picvr_io_status opened = picvr_io_gzopen(path, 1, &gz, &st, err, err_size);
+    if (opened != PICVR_IO_OK) return opened;
     unsigned char *buf = NULL;
     size_t have = 0;
     picvr_io_status status = check_plain_file_size(gz, &st, path, expected, err, err_size);

@@ -158,6 +158,17 @@ if /usr/bin/python3 tools/make_dicom_series.py "$DATA_DIR/fuel_64x64x64_uint8.ra
 else
     fail=$((fail + 1)); echo "check_cli: FAIL: tools/make_dicom_series.py (python3-pydicom)"
 fi
+# a CT as NIfTI in HU (int16, written by nibabel from the fuel data: value * 8 - 1000):
+# ct-bone chosen from the histogram (no modality in NIfTI)
+if /usr/bin/python3 -c "
+import gzip, numpy as np, nibabel as nib
+v = np.frombuffer(gzip.open('$DATA_DIR/fuel_64x64x64_uint8.raw.gz').read(), np.uint8).reshape(64, 64, 64)
+hu = (v.astype(np.int16) * 8 - 1000).transpose(2, 1, 0)
+nib.save(nib.Nifti1Image(hu, np.diag([0.8, 0.8, 1.5, 1.0])), '$T/ct.nii.gz')" 2> /dev/null; then
+    says "tf ct-bone (values like Hounsfield units" "$T/ct.nii.gz" $S
+else
+    fail=$((fail + 1)); echo "check_cli: FAIL: a NIfTI CT could not be written (python3-nibabel)"
+fi
 # a T1 MRI (Debian's mricron-data): mr on its percentiles; a view; clipping
 MRI=/usr/share/mricron/templates/ch2.nii.gz
 if [ -f "$MRI" ]; then
