@@ -107,7 +107,7 @@
  * Random numbers are a hash of (pixel, iteration, dimension, seed): the same seed
  *   and the same number of iterations give a bit-identical image on one device.
  * Accumulation restarts (iterations back to 0) whenever the camera, volume,
- *   transfer function or lights change, and on picvr_reset(); with
+ *   transfer function, lights or clipping change, and on picvr_reset(); with
  *   scheduler.temporal_reuse a camera move keeps it, reprojected, instead.
  * Threading: a context is not thread-safe; use one per thread or lock around it.
  * Engines (README "In an engine", docs/engines.md): the application's VkDevice goes in

@@ -715,6 +715,24 @@ pvp_status pvp_patient_view(const char *name, float front[3], float up[3])
     return PVP_ERROR_UNKNOWN_NAME;
 }
 
+pvp_status pvp_tf_rewindow(pvp_tf *tf, double from_lo, double from_hi, double to_lo, double to_hi)
+{
+    if (!tf) return PVP_ERROR_NULL_POINTER;
+    double fs = from_hi - from_lo, ts = to_hi - to_lo;
+    if (!(fs > 0.0) || !(ts > 0.0) || !isfinite(fs) || !isfinite(ts)) return PVP_ERROR_BAD_ARGUMENT;
+    for (uint32_t i = 0; i < tf->count; i++) {
+        double x = from_lo + (double)tf->points[i].value * fs;
+        tf->points[i].value = (float)fmin(1.0, fmax(0.0, (x - to_lo) / ts));
+    }
+    return PVP_OK;
+}
+
+int pvp_is_hounsfield(const char *modality, double p005, double max)
+{
+    if (modality && !strcmp(modality, "CT")) return 1;
+    return p005 >= -3100.0 && p005 <= -800.0 && max >= 0.0 && max <= 40000.0;
+}
+
 /* ---- transfer-function files ----------------------------------------------------------- */
 
 #define TF_FILE_MAX_LINE 1024

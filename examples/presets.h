@@ -116,6 +116,21 @@ pvp_status pvp_lights_preset(const char *name, const float box_min[3],
    read. */
 pvp_status pvp_tf_load(const char *path, pvp_tf *tf, char *err, size_t err_size);
 
+/* Moves tf's points from the window [from_lo, from_hi] onto [to_lo, to_hi] (any one
+   unit, from_lo < from_hi, to_lo < to_hi): a point at value v of the first lies at the
+   same data value in the second, clamped to [0, 1] (the map is increasing, so the
+   points stay sorted).  For an application that uploads a volume once over a wide range
+   and switches presets with other windows.  PVP_ERROR_BAD_ARGUMENT for an empty or
+   non-finite window. */
+pvp_status pvp_tf_rewindow(pvp_tf *tf, double from_lo, double from_hi, double to_lo, double to_hi);
+
+/* Whether a scan is a CT in Hounsfield units: modality "CT" (DICOM's rescale gives HU
+   by the standard), or physical values whose 0.5th percentile p005 is air
+   (-3100..-800: air is -1000, scanners pad outside the field of view with down to
+   -3024) and whose largest, max, is tissue, bone or metal (0..40000: most voxels of a
+   scan may be air).  An MR's values are not negative, an MR phase image's reach -4096. */
+int pvp_is_hounsfield(const char *modality, double p005, double max);
+
 /* Preset names and one-line descriptions for --help: index 0, 1, ... until NULL. */
 const char *pvp_tf_name(size_t index);
 const char *pvp_tf_description(size_t index);

@@ -862,24 +862,18 @@ static int physical_percentiles(const picvr_io_volume *vol, double lo_frac, doub
     return 1;
 }
 
-/* Whether the volume is a CT in Hounsfield units: a DICOM CT (its rescale gives HU by
-   the standard), or values whose 0.5th percentile is air (-3100..-800: air is -1000,
-   scanners pad outside the field of view with down to -3024) and whose largest is tissue,
-   bone or metal (0..40000: most voxels of a scan may be air).  An MR's values are not
-   negative, an MR phase image's reach -4096. */
+/* Whether the volume is a CT in Hounsfield units (pvp_is_hounsfield), and why. */
 static int is_hounsfield(const picvr_io_volume *vol, const char **why)
 {
-    if (!strcmp(vol->modality, "CT")) {
-        *why = "a CT";
-        return 1;
+    double lo = 0.0, hi = 0.0;
+    int have = physical_percentiles(vol, 0.005, 1.0, &lo, &hi);
+    if (!strcmp(vol->modality, "CT")) *why = "a CT";
+    else if (have && pvp_is_hounsfield(NULL, lo, hi)) *why = "values like Hounsfield units: air at the 0.5th percentile";
+    else {
+        *why = vol->modality[0] ? vol->modality : "no Hounsfield units";
+        return 0;
     }
-    double lo, hi;
-    if (physical_percentiles(vol, 0.005, 1.0, &lo, &hi) && lo >= -3100.0 && lo <= -800.0 && hi >= 0.0 && hi <= 40000.0) {
-        *why = "values like Hounsfield units: air at the 0.5th percentile";
-        return 1;
-    }
-    *why = vol->modality[0] ? vol->modality : "no Hounsfield units";
-    return 0;
+    return 1;
 }
 
 /* The transfer function: --tf's preset or file, else one chosen from the file (a CT in

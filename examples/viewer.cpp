@@ -110,7 +110,8 @@ static void print_help(FILE *f)
         "scene (as picvr-render's)\n"
         "  --volume FILE          raw volume NAME_XxYxZ_TYPE.raw[.gz]\n"
         "  --dims X,Y,Z  --type TYPE  --spacing X,Y,Z  --range MIN,MAX   as picvr-render's\n"
-        "  --tf PRESET            transfer function (default ramp; cloud for the cloud)\n"
+        "  --tf PRESET            transfer function (default from the file, as picvr-render\n"
+        "                         chooses it; T cycles the presets, each over its window)\n"
         "  --density D            override the presets' density factor\n"
         "  --lights PRESET        light set-up (default studio; sun-sky for the cloud)\n"
         "  --env FILE.hdr  --env-rotate DEG  --env-intensity X   an environment map\n"
@@ -260,8 +261,8 @@ static int parse_options(int argc, char **argv, viewer_options *o)
             o->distance = DEFAULT_CAMERA[2];
         }
     }
-    if (!o->tf_name) o->tf_name = "ramp";         /* picvr-render's defaults */
-    if (!o->lights_name) o->lights_name = "studio";
+    if (!o->lights_name) o->lights_name = "studio";   /* picvr-render's default; the transfer
+                                                        function's comes with the file */
     return -1;
 }
 
@@ -305,6 +306,7 @@ struct viewer {
     picvr_cache_mode cache = PICVR_CACHE_NONE;
     picvr_debug_view view = PICVR_VIEW_IMAGE;
     size_t tf_index = 0, lights_index = 0;
+    double value_window[2] = {0, 0};    /* the stored values the volume is uploaded over */
     pvp_lights lights = {};             /* built once for the first view, then on key L */
     bool lights_built = false;
     float box_min[3] = {0, 0, 0}, box_max[3] = {0, 0, 0};
@@ -661,17 +663,70 @@ static bool set_camera(viewer &v)
     return check(picvr_set_camera(v.ctx, &cam), "picvr_set_camera");
 }
 
-/* The transfer function of preset tf_index with the scattering it is made for (the
-   command line's --density, --g and --bounces override every preset alike). */
+/* The stored values the volume is uploaded over, once for every preset: --range; the
+   type's range for uint8, int8 and uint16 (picvr's default, which the presets of the
+   Open SciVis data are made for); else the data's min..max (picvr's default for int32
+   and the float types; for int16, a CT's HU windows keep their resolution). */
+static void upload_window(viewer &v)
+{
+    const picvr_voxel_type t = v.volume.type;
+    double lo = 0.0, hi = 0.0;
+    if (v.opt.have_range) lo = v.opt.range[0], hi = v.opt.range[1];
+    else if (t == PICVR_VOXEL_UINT8) hi = 255.0;
+    else if (t == PICVR_VOXEL_INT8) lo = -128.0, hi = 127.0;
+    else if (t == PICVR_VOXEL_UINT16) hi = 65535.0;
+    else if (picvr_io_value_range(&v.volume, &lo, &hi, nullptr) != PICVR_IO_OK || !(hi > lo)) hi = lo + 1.0;
+    v.value_window[0] = lo;
+    v.value_window[1] = hi;
+}
+
+/* The preset's window in stored values (presets.h, pvp_window_kind); false when it has
+   none that maps (a rescale slope that is not positive). */
+static bool preset_window(const viewer &v, const pvp_tf &tf, double w[2])
+{
+    const picvr_io_volume &vol = v.volume;
+    if (tf.window_kind == PVP_WINDOW_PERCENTILE && !v.opt.have_range)
+        return picvr_io_percentile_range(&vol, tf.window[0], tf.window[1], &w[0], &w[1]) == PICVR_IO_OK;
+    if (tf.window_kind == PVP_WINDOW_VALUE && !v.opt.have_range) {
+        if (!(vol.value_scale > 0.0)) return false;
+        w[0] = (tf.window[0] - vol.value_offset) / vol.value_scale;
+        w[1] = (tf.window[1] - vol.value_offset) / vol.value_scale;
+        return true;
+    }
+    w[0] = v.value_window[0];
+    w[1] = v.value_window[1];
+    return true;
+}
+
+/* The transfer function of preset tf_index, moved from its window onto the volume's
+   (pvp_tf_rewindow; unchanged when they are the same, so that the viewer and
+   picvr-render agree bit for bit), with the scattering it is made for (the command
+   line's --density, --g and --bounces override every preset alike). */
 static bool set_transfer_function(viewer &v)
 {
     pvp_tf tf;
     if (pvp_tf_preset(pvp_tf_name(v.tf_index), &tf) != PVP_OK) return false;
+    double w[2];
+    if (preset_window(v, tf, w) && (w[0] != v.value_window[0] || w[1] != v.value_window[1]))
+        pvp_tf_rewindow(&tf, w[0], w[1], v.value_window[0], v.value_window[1]);
     for (uint32_t i = 0; v.opt.have_g && i < tf.count; i++) tf.points[i].g = v.opt.g;
     picvr_scattering sc = {v.opt.have_bounces ? v.opt.bounces : tf.max_bounces, v.opt.phase_back[0], v.opt.phase_back[1]};
     return check(picvr_set_transfer_function(v.ctx, tf.points, tf.count, v.opt.have_density ? v.opt.density : tf.density),
                  "picvr_set_transfer_function") &&
            check(picvr_set_scattering(v.ctx, &sc), "picvr_set_scattering");
+}
+
+/* The transfer function when --tf is not given, as picvr-render chooses it: ct-bone for
+   a CT in Hounsfield units, mr for another scan, cloud for a .vdb, else ramp. */
+static const char *default_tf(const viewer &v)
+{
+    const picvr_io_volume &vol = v.volume;
+    double lo = 0.0, hi = 0.0;
+    bool have = picvr_io_percentile_range(&vol, 0.005, 1.0, &lo, &hi) == PICVR_IO_OK;
+    double a = lo * vol.value_scale + vol.value_offset, b = hi * vol.value_scale + vol.value_offset;
+    if (pvp_is_hounsfield(vol.modality, have ? std::min(a, b) : 0.0, have ? std::max(a, b) : 0.0)) return "ct-bone";
+    if (vol.patient_frame || vol.modality[0]) return "mr";
+    return picvr_io_is_vdb(v.opt.volume_path) ? "cloud" : "ramp";
 }
 
 /* Builds preset lights_index around the current view (presets.h: a light kit placed
@@ -727,10 +782,9 @@ static bool create_context(viewer &v, picvr_cache_mode cache)
     v.cache = cache;
     picvr_volume_desc desc;
     picvr_io_to_desc(&v.volume, &desc);
-    if (v.opt.have_range) {
-        desc.value_min = v.opt.range[0];
-        desc.value_max = v.opt.range[1];
-    }
+    upload_window(v);
+    desc.value_min = (float)v.value_window[0];
+    desc.value_max = (float)v.value_window[1];
     bool ok = check(picvr_upload_volume(v.ctx, &desc), "picvr_upload_volume") &&
               check(picvr_volume_box(v.ctx, v.box_min, v.box_max), "picvr_volume_box") &&
               (v.lights_built || build_lights(v)) && set_camera(v) && set_transfer_function(v) && set_lights(v);
@@ -1271,8 +1325,9 @@ static bool set_up(viewer &v)
     v.azimuth = v.opt.azimuth;
     v.elevation = v.opt.elevation;
     v.distance = v.opt.distance;
+    const char *tf_name = v.opt.tf_name ? v.opt.tf_name : default_tf(v);
     for (size_t i = 0; pvp_tf_name(i); i++)
-        if (!strcmp(pvp_tf_name(i), v.opt.tf_name)) v.tf_index = i;
+        if (!strcmp(pvp_tf_name(i), tf_name)) v.tf_index = i;
     for (size_t i = 0; pvp_lights_name(i); i++)
         if (!strcmp(pvp_lights_name(i), v.opt.lights_name)) v.lights_index = i;
     if (!create_context(v, v.opt.cache)) return false;

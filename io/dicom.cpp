@@ -263,8 +263,7 @@ private:
        start and length (kUndefined for an undefined length). */
     bool element_header(size_t pos, size_t end, size_t &value, size_t &len) {
         if (end - pos < 8) return fail(pos, "an element header cut short", true);
-        const bool meta = u16(pos) == 0x0002;   /* the meta group is explicit whatever follows */
-        if (implicit_ && !meta) {
+        if (implicit_) {   /* (the meta group, explicit, is walked before implicit_ is set) */
             len = u32(pos + 4);
             value = pos + 8;
             return true;
@@ -292,6 +291,10 @@ private:
                retries in a recovery mode that asserts. */
             if (end - pos < 8) return fail(pos, "an element header cut short", true);
             const unsigned group = u16(pos), elem = u16(pos + 2);
+            /* Group 2 belongs to the meta group alone: inside the data set GDCM reads it in
+               the data set's encoding, where a walker taking it as the meta group's would
+               not (an implicit length of gigabytes). */
+            if (group == 0x0002) return fail(pos, "a meta group element (0002,xxxx) inside the data set", false);
             if (group == 0xfffe) {
                 if (until_delimiter && elem == 0xe00d && u32(pos + 4) == 0) {
                     pos += 8;
@@ -937,7 +940,9 @@ picvr_io_status load(const char *path, picvr_io_volume *volume, char *err, size_
             FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: PhotometricInterpretation '%s': only MONOCHROME1/2 are read", p, quote(s.photometric, 32).c_str());
         if (s.bits != 8 && s.bits != 16 && s.bits != 32)
             FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: BitsAllocated %u: 8, 16 or 32 are read", p, s.bits);
-        if (s.bits_stored < 1 || s.bits_stored > s.bits || s.high_bit + 1 < s.bits_stored || s.high_bit >= s.bits)
+        /* HighBit = BitsStored - 1, as the image IODs require: GDCM asserts (aborts) on a
+           HighBit at or above BitsStored */
+        if (s.bits_stored < 1 || s.bits_stored > s.bits || s.high_bit + 1 != s.bits_stored)
             FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: BitsStored %u HighBit %u do not fit BitsAllocated %u", p, s.bits_stored, s.high_bit, s.bits);
         if (s.pixrep > 1) FAIL(PICVR_IO_ERROR_BAD_HEADER, "%s: PixelRepresentation %u (0 or 1)", p, s.pixrep);
         if (s.rows < 1 || s.cols < 1 || s.rows > PICVR_IO_MAX_DIM || s.cols > PICVR_IO_MAX_DIM)
