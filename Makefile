@@ -359,8 +359,8 @@ $(BF)/fuzz_dicom: tests/fuzz/fuzz_dicom.cpp io/dicom.cpp io/picvr_io.c $(IO_HDR)
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -fsanitize=fuzzer-no-link,address,undefined \
 	  -fno-sanitize-recover=undefined -DPICVR_IO_RAW_NRRD_ONLY -c -o $(BF)/picvr_io_dicom.o io/picvr_io.c
-	clang++ -g -O1 -std=c++17 -I. -isystem /usr/include/gdcm-3.0 -fsanitize=fuzzer,address,undefined \
-	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_dicom.cpp io/dicom.cpp $(BF)/picvr_io_dicom.o \
+	clang++ -g -O1 -std=c++17 -I. -isystem /usr/include/gdcm-3.0 '-DPICVR_IO_DICOM_MAX_BYTES=((uint64_t)256<<20)' \
+	  -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_dicom.cpp io/dicom.cpp $(BF)/picvr_io_dicom.o \
 	  -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
 # picvr-render's transfer-function files (examples/presets.c, pvp_tf_load).
 $(BF)/fuzz_tf_file: tests/fuzz/fuzz_tf_file.c examples/presets.c examples/presets.h | $(B)/.deps-robust

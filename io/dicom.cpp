@@ -175,6 +175,12 @@ int get_us(const gdcm::DataSet &ds, uint16_t g, uint16_t e, unsigned &out) {
 const int kMaxDepth = 16;
 const size_t kMaxFileBytes = (size_t)1 << 32;        /* one slice file at most (4 GiB) */
 const size_t kMaxInflatedBytes = (size_t)1 << 30;    /* a deflated data set, inflated */
+/* The largest volume this reader allocates.  A header may claim any size, and a slice of
+   a few kB, compressed, can claim gigabytes legitimately; the fuzz build lowers it (make
+   fuzz) so that such claims are refused instead of allocated. */
+#ifndef PICVR_IO_DICOM_MAX_BYTES
+#define PICVR_IO_DICOM_MAX_BYTES ((uint64_t)16 << 30)
+#endif
 
 class Walker {
 public:
@@ -1027,6 +1033,9 @@ picvr_io_status load(const char *path, picvr_io_volume *volume, char *err, size_
     char lerr[160];
     status = picvr_io_layout_bytes(&layout, &bytes, lerr, sizeof lerr);
     if (status != PICVR_IO_OK) FAIL(status, "%s: %s", path, lerr);
+    if ((uint64_t)bytes > (uint64_t)(PICVR_IO_DICOM_MAX_BYTES))
+        FAIL(PICVR_IO_ERROR_SIZE_OVERFLOW, "%s: %ux%ux%zu voxels need %zu bytes, more than this reader's limit of %llu", path,
+             ref.cols, ref.rows, nz, bytes, (unsigned long long)(PICVR_IO_DICOM_MAX_BYTES));
     std::string w;
     for (const std::string &s : warnings) w += (w.empty() ? "" : "; ") + s;
     const size_t stored_bytes_per_slice = (size_t)ref.cols * ref.rows * (ref.bits / 8);   /* fits: <= bytes */
