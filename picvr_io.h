@@ -171,7 +171,8 @@ int picvr_io_is_nifti(const char *path);
    (Hounsfield units for CT; slices with different rescales are converted to float32;
    RT Dose's DoseGridScaling is not applied); the modality (CT, MR, ...) is copied;
    patient_frame 1.  Statuses: OPEN for an empty folder, BAD_HEADER for no DICOM image or
-   a malformed one, TRUNCATED for a cut-off slice.  GDCM's trace output is off during the
+   a malformed one, TRUNCATED for a cut-off slice, SIZE_OVERFLOW for a volume over
+   PICVR_IO_DICOM_MAX_BYTES (16 GiB; a compile-time setting).  GDCM's trace output is off during the
    call (process-wide flags, restored).  On failure *volume is zeroed and nothing leaks.
    PICVR_IO_ERROR_UNSUPPORTED in a build without GDCM (PICVR_IO_NO_DICOM). */
 picvr_io_status picvr_io_load_dicom(const char *path, picvr_io_volume *volume, char *err, size_t err_size);
