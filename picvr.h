@@ -270,6 +270,23 @@ typedef struct picvr_cache_config {
                                   PICVR_ERROR_INVALID_ARGUMENT beyond).  A lower bound caps
                                   a lookup's cost where lists grow long, at the price of
                                   the entries it ignores */
+    picvr_switch blend;        /* ON (default): the cached image converges to the unbiased
+                                  one.  At a cache hit a plain estimate P of the same event
+                                  is drawn with probability q and the sample is
+                                  C + (w/q)(P - C), C the cached shading; each pixel
+                                  estimates the cache's bias b there and the variance of
+                                  that estimate V from these probes, and w = max(0, 1 -
+                                  V/b^2) (the weight of least mean squared error), q =
+                                  max(w, probe_fraction).  The estimator is consistent:
+                                  its bias at sample n is the mean of (1 - w_i) b, which
+                                  goes to 0 as V does (early the cache's low noise
+                                  dominates, later the unbiased part; derivation in
+                                  shaders/cache_blend.glsl, measurements in
+                                  docs/cache.md).  OFF: the paper's estimator, C alone,
+                                  whose bias stays */
+    float probe_fraction;      /* with blend: the least probability of a probe at a hit;
+                                  0: 0.125; (0, 1].  Higher finds the bias sooner and
+                                  costs more shadow rays */
     picvr_cache_mode mode;     /* DEFAULT: NONE */
 } picvr_cache_config;
 
@@ -787,7 +804,8 @@ typedef struct picvr_stats {
     uint32_t cache_pending;      /* creation requests the last round queued, each holding
                                     its lock, for the next round's creation procedure */
     uint64_t cache_bytes;        /* device memory of the cache: its pools, locks and the
-                                    rendering procedure's lookup queue (12 bytes a pixel) */
+                                    rendering procedure's lookup queue (12 bytes a pixel)
+                                    and, with cache.blend, its sums (16 bytes a pixel) */
     double cache_hit_rate;       /* fraction of scatter events served by the cache in
                                     the last step */
     /* scheduler: measured shares of device time over the last second, and the §6 targets */

@@ -17,12 +17,15 @@ static picvr_status picvr_resolve_cache_config(const picvr_cache_config *in, pic
     if (c->curvature_limit == PICVR_SWITCH_DEFAULT) c->curvature_limit = PICVR_SWITCH_OFF;
     if ((unsigned)c->medium_model > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->medium_model == PICVR_SWITCH_DEFAULT) c->medium_model = PICVR_SWITCH_ON;
-    float *f[7] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels,
-                   &c->update_threshold, &c->rebuild_interval_ms};
-    const float def[7] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f, 0.1f, 1000.0f};
-    picvr_status s = picvr_resolve_floats(f, def, 7);
+    if ((unsigned)c->blend > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->blend == PICVR_SWITCH_DEFAULT) c->blend = PICVR_SWITCH_ON;
+    float *f[8] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels,
+                   &c->update_threshold, &c->rebuild_interval_ms, &c->probe_fraction};
+    const float def[8] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f, 0.1f, 1000.0f, PICVR_CACHE_DEFAULT_PROBE};
+    picvr_status s = picvr_resolve_floats(f, def, 8);
     if (s) return s;
-    if (c->epsilon >= 1.0f || c->radius_max_voxels < c->radius_min_voxels) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c->epsilon >= 1.0f || c->radius_max_voxels < c->radius_min_voxels || c->probe_fraction > 1.0f)
+        return PICVR_ERROR_INVALID_ARGUMENT;
     if (!c->max_entries) c->max_entries = 65536;
     if (c->max_entries > (1u << 24)) return PICVR_ERROR_SIZE_OVERFLOW;   /* indices pass through floats */
     /* at least 8192 nodes: the pre-built top of the octree takes up to 4681 */
@@ -105,6 +108,7 @@ static uint32_t picvr_cache_scene_params(picvr_context *ctx) {
     g->max_nodes = c->max_nodes;
     g->max_refs = c->max_refs;
     g->max_requests = c->max_requests;
+    g->probe_fraction = c->blend == PICVR_SWITCH_ON ? c->probe_fraction : 0.0f;
     if (ctx->scene.has_camera) {
         uint32_t side = ctx->cache.cfg.superpixel_size;
         g->superpixel_side = side;

@@ -24,6 +24,7 @@ static picvr_status picvr_clear_accumulation(picvr_context *ctx) {
     picvr_barrier_all(ctx);
     for (int i = 0; i < 3; i++) vkCmdFillBuffer(ctx->vk.cmd, ctx->image.planes[i].buf, 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(ctx->vk.cmd, ctx->image.depth.buf, 0, VK_WHOLE_SIZE, 0);
+    if (ctx->image.blend.buf) vkCmdFillBuffer(ctx->vk.cmd, ctx->image.blend.buf, 0, VK_WHOLE_SIZE, 0);
     ctx->image.depth_valid = picvr_reuse_on(ctx);
     vkCmdFillBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, 0, VK_WHOLE_SIZE, 0);   /* block credits */
     picvr_barrier_all(ctx);
@@ -102,8 +103,8 @@ static picvr_status picvr_create_image_buffers(picvr_context *ctx, uint32_t w, u
     }
     VkDeviceSize groups = (pixels + 255) / 256;
     uint32_t blocks = ((w + 15) / 16) * ((h + 7) / 8);
-    picvr_buffer acc[3], rb, part, queue, shade, lookup, sp, depth;
-    picvr_buffer *made[] = {&acc[0], &acc[1], &acc[2], &rb, &part, &queue, &shade, &lookup, &sp, &depth};
+    picvr_buffer acc[3], rb, part, queue, shade, lookup, sp, depth, blend;
+    picvr_buffer *made[] = {&acc[0], &acc[1], &acc[2], &rb, &part, &queue, &shade, &lookup, &sp, &depth, &blend};
     for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) memset(made[i], 0, sizeof *made[i]);
     picvr_status s = PICVR_OK;
     for (int i = 0; i < 3 && !s; i++)
@@ -121,6 +122,8 @@ static picvr_status picvr_create_image_buffers(picvr_context *ctx, uint32_t w, u
                                      VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     if (!s) s = picvr_buffer_create(ctx, &shade, queue_bytes, queue_usage, 0);
     if (!s && ctx->cache.on) s = picvr_buffer_create(ctx, &lookup, queue_bytes, queue_usage, 0);
+    if (!s && ctx->cache.on) s = picvr_buffer_create(ctx, &blend, picvr_blend_on(ctx) ? plane : PICVR_PLACEHOLDER_BYTES,
+                                                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
     /* superpixel locks and counters: the real thing in screen-space mode, a stub (the
        shader module declares the binding) in object-space mode */
     uint32_t side = ctx->cache.cfg.superpixel_size, superpixels = 0;
@@ -144,11 +147,13 @@ static picvr_status picvr_create_image_buffers(picvr_context *ctx, uint32_t w, u
     picvr_buffer_destroy(ctx, &ctx->image.render_queue);
     picvr_buffer_destroy(ctx, &ctx->image.shade_queue);
     picvr_buffer_destroy(ctx, &ctx->image.lookup_queue);
+    picvr_buffer_destroy(ctx, &ctx->image.blend);
     ctx->results.readback = rb;
     ctx->results.partials = part;
     ctx->image.render_queue = queue;
     ctx->image.shade_queue = shade;
     ctx->image.lookup_queue = lookup;
+    ctx->image.blend = blend;
     ctx->image.block_total = blocks;
     ctx->image.block_stride = picvr_spread_stride(blocks);
     ctx->pipes.descriptors_dirty = 1;
@@ -238,4 +243,5 @@ static void picvr_image_buffers_destroy(picvr_context *ctx) {
     picvr_buffer_destroy(ctx, &ctx->image.render_queue);
     picvr_buffer_destroy(ctx, &ctx->image.shade_queue);
     picvr_buffer_destroy(ctx, &ctx->image.lookup_queue);
+    picvr_buffer_destroy(ctx, &ctx->image.blend);
 }

@@ -55,6 +55,8 @@
    plus the light loops (the budget is spelled out in cache_create.comp). */
 #define PICVR_CACHE_CREATE_GROUP 128u
 #define PICVR_CACHE_DEFAULT_SAMPLES 768u
+/* cache.probe_fraction's default (picvr.h; shaders/cache_blend.glsl) */
+#define PICVR_CACHE_DEFAULT_PROBE 0.125f
 #define PICVR_ROUND_READBACK_BYTES (sizeof(picvr_cache_counters) + 16)
 
 /* The rendering procedure's event queues (shaders/render.glsl), one buffer each: a
@@ -84,7 +86,7 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_ENV_MAP 1024u     /* constant 12 USE_ENV_MAP */
 #define PICVR_KEY_REUSE 2048u       /* constant 13 USE_REUSE */
 #define PICVR_KEY_CLIP 4096u        /* constant 14 USE_CLIP */
-#define PICVR_SPEC_CONSTANTS 15u
+#define PICVR_SPEC_CONSTANTS 16u   /* 15 CACHE_BLEND: fixed per context */
 /* Clip planes the kernels test: the user's and the six faces of the clip box. */
 #define PICVR_GPU_CLIP_PLANES (PICVR_MAX_CLIP_PLANES + 6)
 
@@ -128,7 +130,8 @@ typedef struct picvr_gpu_scene {
     float radius_min, radius_max;
     uint32_t curvature_limit, medium_model;
     uint32_t max_entries, max_nodes, max_refs, max_requests;
-    uint32_t superpixel_side, superpixels_per_row, superpixel_count, superpixel_unused;
+    uint32_t superpixel_side, superpixels_per_row, superpixel_count;
+    float probe_fraction;            /* 0 unless the blend is on (shaders/cache_blend.glsl) */
     uint32_t debug_view, view_unused[3];
     float light_log_k[3], mono_channel;
     uint32_t max_bounces;
@@ -286,6 +289,8 @@ typedef struct picvr_image_state {
     picvr_buffer render_queue;       /* header + one uvec4 per block (shaders/queue.glsl) */
     picvr_buffer shade_queue;        /* the rendering procedure's event queues (shaders/render.glsl): */
     picvr_buffer lookup_queue;       /* for shading, and with the cache for the lookup */
+    picvr_buffer blend;              /* binding 21: per pixel the sums of the consistent
+                                        blend (16 bytes; a placeholder with it off) */
     uint32_t block_total;            /* 16x8 blocks of the image */
     uint32_t block_cursor;           /* position k in the round-robin order (k * stride) mod B */
     uint32_t block_stride;           /* coprime with block_total, near block_total / golden ratio */
@@ -421,8 +426,8 @@ struct picvr_context {
    14 superpixels (screen-space locking), 15 the rendering queue, 16 and 17 the rendering
    procedure's event queues for shading and for the cache lookup, 18 the phase function's
    g per transfer-function entry, 19 the environment map, 20 the depth plane (temporal
-   reuse). */
-#define PICVR_NUM_BINDINGS 21
+   reuse), 21 the consistent blend's per-pixel sums (cache on). */
+#define PICVR_NUM_BINDINGS 22
 #define PICVR_PLACEHOLDER_BYTES 16u      /* bindings 18-20 when the scene needs none */
 #define PICVR_CACHE_PREBUILT_MAX_DEPTH 4u  /* levels of the octree's pre-built top (§4.4) */
 #define PICVR_CACHE_NODE_RADII 1.0f     /* as in shaders/cache.glsl (insertion_depth) */

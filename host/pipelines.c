@@ -28,7 +28,7 @@ static picvr_status picvr_create_pipeline(picvr_context *ctx, VkShaderModule mod
 }
 
 /* The bindings only cached contexts write: 9-14 and 17. */
-static int picvr_cache_binding(uint32_t i) { return (i >= 9 && i < 15) || i == 17; }
+static int picvr_cache_binding(uint32_t i) { return (i >= 9 && i < 15) || i == 17 || i == 21; }
 
 static VkDescriptorType picvr_binding_type(uint32_t i) {
     return i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
@@ -48,6 +48,11 @@ static picvr_status picvr_create_priority_pipeline(picvr_context *ctx) {
 }
 
 /* True when the cached rendering procedure runs its debug-view variant. */
+/* The consistent blend of cached and plain shading (shaders/cache_blend.glsl). */
+static int picvr_blend_on(const picvr_context *ctx) {
+    return ctx->cache.on && ctx->cache.cfg.blend == PICVR_SWITCH_ON;
+}
+
 static int picvr_debug_view_on(const picvr_context *ctx) {
     return ctx->cache.on && ctx->scene.gpu.debug_view != PICVR_VIEW_IMAGE;
 }
@@ -137,7 +142,8 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
    for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
    creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
    MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR, 8 USE_RESIDUAL, 9 USE_QMC, 10
-   USE_BOUNCES, 11 USE_HG, 12 USE_ENV_MAP, 13 USE_REUSE and 14 USE_CLIP from the key. */
+   USE_BOUNCES, 11 USE_HG, 12 USE_ENV_MAP, 13 USE_REUSE and 14 USE_CLIP from the key, 15
+   CACHE_BLEND fixed per context. */
 static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
@@ -154,7 +160,7 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
                          (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0,
                          (key & PICVR_KEY_QMC) != 0, (key & PICVR_KEY_BOUNCES) != 0,
                          (key & PICVR_KEY_HG) != 0, (key & PICVR_KEY_ENV_MAP) != 0,
-                         (key & PICVR_KEY_REUSE) != 0, (key & PICVR_KEY_CLIP) != 0};
+                         (key & PICVR_KEY_REUSE) != 0, (key & PICVR_KEY_CLIP) != 0, picvr_blend_on(ctx)};
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;
@@ -310,7 +316,8 @@ static void picvr_update_descriptors(picvr_context *ctx) {
         {ctx->cache.requests.buf, 0, VK_WHOLE_SIZE}, {ctx->cache.superpixels.buf, 0, VK_WHOLE_SIZE},
         {ctx->image.render_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->image.shade_queue.buf, 0, VK_WHOLE_SIZE},
         {ctx->image.lookup_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->scene.tf_g.buf, 0, VK_WHOLE_SIZE},
-        {ctx->scene.env.buf, 0, VK_WHOLE_SIZE}, {ctx->image.depth.buf, 0, VK_WHOLE_SIZE}};
+        {ctx->scene.env.buf, 0, VK_WHOLE_SIZE}, {ctx->image.depth.buf, 0, VK_WHOLE_SIZE},
+        {ctx->image.blend.buf, 0, VK_WHOLE_SIZE}};
     VkWriteDescriptorSet w[PICVR_NUM_BINDINGS];
     memset(w, 0, sizeof w);
     uint32_t n = 0;

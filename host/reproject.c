@@ -69,6 +69,9 @@ static picvr_status picvr_reproject(picvr_context *ctx, const picvr_gpu_scene *o
     picvr_barrier_all(ctx);
     for (int i = 0; i < 3; i++) vkCmdFillBuffer(ctx->vk.cmd, im->planes[i].buf, 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(ctx->vk.cmd, im->depth.buf, 0, VK_WHOLE_SIZE, 0);
+    /* the blend's statistics restart (its weights from 0): the moved samples' hits are
+       other pixels' */
+    if (im->blend.buf) vkCmdFillBuffer(ctx->vk.cmd, im->blend.buf, 0, VK_WHOLE_SIZE, 0);
     vkCmdFillBuffer(ctx->vk.cmd, im->landing.buf, 0, VK_WHOLE_SIZE, 0xffffffffu);   /* "empty" */
     vkCmdFillBuffer(ctx->vk.cmd, im->render_queue.buf, 0, VK_WHOLE_SIZE, 0);         /* block credits */
     picvr_barrier_all(ctx);

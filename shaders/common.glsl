@@ -67,7 +67,8 @@ layout(set = 0, binding = 0, std140) uniform Scene {
                                               // medium_fraction)
     uint max_entries; uint max_nodes; uint max_refs; uint max_requests; // pool capacities
     uint superpixel_side; uint superpixels_per_row; uint superpixel_count; // §5.2
-    uint superpixel_unused;                   // (the locking mode is SCREEN_LOCKING)
+    float probe_fraction;                     // the consistent blend's least probe
+                                              // probability (cache_blend.glsl)
     uint debug_view; uint view_unused0; uint view_unused1; uint view_unused2; // VIEW_*
     vec3 light_log_k; float mono_channel;     // lights of one chromaticity k (host/lights.c,
                                               // picvr_light_chromaticity): ln(k_c / k_m)

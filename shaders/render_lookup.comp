@@ -1,7 +1,8 @@
 #version 450
 // render_lookup.comp - the rendering procedure's cache lookup (paper §4.1, §5; see
 // render.glsl): one thread per queued scatter event.  A covered event is shaded from
-// the extrapolated irradiance (Eq. 7, 8, 11) with the isotropic phase function; a miss
+// the extrapolated irradiance (Eq. 7, 8, 11) with the isotropic phase function, blended
+// with a plain estimate so that the image converges (CACHE_BLEND, cache_blend.glsl); a miss
 // requests a new entry under the context's locking (§5.1, §5.2) and is queued for
 // plain Monte-Carlo shading (render_shade.comp).  The debug views shade here, misses
 // too, in their own variant (USE_DEBUG_VIEW).
@@ -9,6 +10,7 @@
 #define PICVR_CACHE 1
 #include "render.glsl"
 #include "cache.glsl"
+#include "cache_blend.glsl"
 layout(local_size_x = EVENT_GROUP, local_size_y = 1) in;
 
 // PICVR_VIEW_CACHE_ERROR at a hit: (luminance of the cached shading, luminance of a plain
@@ -40,6 +42,7 @@ void main() {
         Ls = direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
     }
     vec3 radiance = albedo_at(e.x) * Ls;
+    if (CACHE_BLEND && hit && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE)) radiance = blend_hit(e, radiance);
     float coverage = 1.0;
     uint events;
     if (USE_EQUIANGULAR && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE))

@@ -902,6 +902,10 @@ void test_create_config_errors(void **state) {
     CFG_ROW("cache.curvature_limit 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.curvature_limit = (picvr_switch)7);
     CFG_ROW("cache.medium_model 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.medium_model = (picvr_switch)7);
     CFG_ROW("cache.max_lookup_refs 8193", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_lookup_refs = 8193);
+    CFG_ROW("cache.blend 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.blend = (picvr_switch)7);
+    CFG_ROW("cache.probe_fraction 1.5", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.probe_fraction = 1.5f);
+    CFG_ROW("cache.probe_fraction -0.1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.probe_fraction = -0.1f);
+    CFG_ROW("cache.probe_fraction NaN", PICVR_ERROR_NON_FINITE, cfg.cache.probe_fraction = NAN);
     CFG_ROW("cache.max_entries 2^25", PICVR_ERROR_SIZE_OVERFLOW, cfg.cache.max_entries = 1u << 25);
     CFG_ROW("cache.max_nodes 100 (< pre-built top)", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_nodes = 100);
     CFG_ROW("cache.max_refs 1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_refs = 1);
@@ -1001,6 +1005,8 @@ void test_get_config_resolves_defaults(void **state) {
     assert_int_equal(c.cache.max_lookup_refs, PICVR_CACHE_MAX_LOOKUP_REFS);
     assert_int_equal(c.cache.curvature_limit, PICVR_SWITCH_OFF);
     assert_int_equal(c.cache.medium_model, PICVR_SWITCH_ON);
+    assert_int_equal(c.cache.blend, PICVR_SWITCH_ON);
+    assert_true(c.cache.probe_fraction == 0.125f);
     assert_true(c.scheduler.create_min == 0.05f && c.scheduler.create_max == 0.15f);
     assert_true(c.scheduler.update_min == 0.01f && c.scheduler.update_max == 0.02f);
     assert_true(c.scheduler.exponent == 3.0f && c.scheduler.rounds_per_second == 20.0f);

@@ -743,6 +743,7 @@ void test_cache_debug_view(void **state) {
 static double dense_cube_bias(picvr_switch medium, double *hit_rate, double *per_hit) {
     picvr_config cfg = cache_config(PICVR_CACHE_OBJECT_SPACE, 21);
     cfg.cache.medium_model = medium;
+    cfg.cache.blend = PICVR_SWITCH_OFF;   /* the entries' own bias, not the blend's */
     cfg.cache.max_requests = 32;
     picvr_context *ctx = tu_create_config(&cfg);
     tu_sun_scene s;
@@ -785,4 +786,84 @@ void test_cache_full_dense_lit_face(void **state) {
     if (!(fabs(e_on) <= 0.03)) fail_msg("medium model: %+.1f %% per hit beyond 3 %%", 100 * e_on);
     if (!(fabs(on) < fabs(off)))
         fail_msg("medium model %+.1f %% not closer than the paper model %+.1f %%", 100 * on, 100 * off);
+}
+
+/* The consistent blend (picvr.h, cache.blend; shaders/cache_blend.glsl): the cached
+   image's error against the closed form keeps falling with time as plain Monte Carlo's
+   does, where the cache alone levels off at its bias.  Scene: the dense cube of
+   test_cache_full_dense_lit_face with the paper's Eq. 6 (medium_model OFF), whose full
+   cache is about 9 % too dark per hit, so its bias dominates within the test.  At
+   n = 32, 128, 512 and 2048 samples per pixel the relative RMS error of 4x4-pixel
+   block means against the closed form (the block means average out the closed form's
+   4x4-subsample error at the silhouette and keep every pixel's bias), and the slope of
+   log error against log n by least squares.  Plain Monte Carlo's is -1/2 (asserted
+   below -0.4: the closed form is exact enough).  Asserted: the blend's slope below
+   -0.35 and its last error within 1.5x plain's (the blend's variance is at most the
+   cache's plus plain's) and below half the cache alone's.  Measured: plain, cache
+   alone, blended at 32 spp 0.0190, 0.0849, 0.0208 and at 4096 spp 0.0028, 0.0177,
+   0.0027 (slopes -0.44, -0.38 as the update procedure shrinks entries, -0.47). */
+static void slope_run(picvr_cache_mode mode, picvr_switch blend, double err[4], double *hit_rate) {
+    picvr_config cfg = cache_config(mode, 23);
+    cfg.cache.medium_model = PICVR_SWITCH_OFF;
+    cfg.cache.blend = blend;
+    cfg.cache.max_requests = 32;
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_sun_scene s;
+    const double l[3] = {0.3, 0.5, 1.0};
+    tu_sun_cube(ctx, 8, 10.0f, 0.9f, l, 4.0f, 0.0f, &s);
+    const uint32_t W = 24, H = 24, B = 4;
+    tu_cam cam = tu_set_camera(ctx, 0.4, -0.2, 14, 0, 0, 0, 30, W, H);
+    double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+    uint32_t done = 0;
+    for (int k = 0; k < 4; k++) {
+        uint32_t want = 32u << (2 * k);
+        TU_OK(picvr_step_iterations(ctx, want - done));
+        done = want;
+        float *img = tu_read(ctx, W, H);
+        tu_assert_image_valid(img, W, H, "slope run");
+        double se = 0, sr = 0;
+        for (uint32_t by = 0; by < H / B; by++)
+            for (uint32_t bx = 0; bx < W / B; bx++) {
+                double m = 0, e = 0;
+                for (uint32_t y = by * B; y < by * B + B; y++)
+                    for (uint32_t x = bx * B; x < bx * B + B; x++) {
+                        m += img[4 * ((size_t)y * W + x) + 1];
+                        e += expv[4 * ((size_t)y * W + x) + 1];
+                    }
+                se += (m - e) * (m - e);
+                sr += e * e;
+            }
+        err[k] = sqrt(se / sr);
+        free(img);
+    }
+    *hit_rate = tu_stats_finite(ctx).cache_hit_rate;
+    free(expv);
+    tu_finish(ctx);
+}
+
+static double log_slope(const double err[4]) {
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (int k = 0; k < 4; k++) {
+        double x = log(32.0 * (1 << (2 * k))), y = log(err[k]);
+        sx += x; sy += y; sxx += x * x; sxy += x * y;
+    }
+    return (4 * sxy - sx * sy) / (4 * sxx - sx * sx);
+}
+
+void test_cache_blend_converges(void **state) {
+    (void)state;
+    double plain[4], alone[4], blend[4], h_plain, h_alone, h_blend;
+    slope_run(PICVR_CACHE_NONE, PICVR_SWITCH_DEFAULT, plain, &h_plain);
+    slope_run(PICVR_CACHE_OBJECT_SPACE, PICVR_SWITCH_OFF, alone, &h_alone);
+    slope_run(PICVR_CACHE_OBJECT_SPACE, PICVR_SWITCH_DEFAULT, blend, &h_blend);
+    const char *name[3] = {"plain", "cache alone", "cache blended"};
+    const double *e[3] = {plain, alone, blend};
+    const double h[3] = {h_plain, h_alone, h_blend};
+    for (int i = 0; i < 3; i++)
+        print_message("    %-13s rel. RMSE at 32/128/512/2048 spp: %.4f %.4f %.4f %.4f, slope %+.2f, hit rate %.2f\n",
+                      name[i], e[i][0], e[i][1], e[i][2], e[i][3], log_slope(e[i]), h[i]);
+    if (!(log_slope(plain) < -0.4)) fail_msg("plain slope %+.2f: the closed form is not accurate enough", log_slope(plain));
+    if (!(log_slope(blend) < -0.35)) fail_msg("blended cache: slope %+.2f, its error levels off", log_slope(blend));
+    if (!(blend[3] < 1.5 * plain[3])) fail_msg("blended %.4f beyond 1.5x plain's %.4f", blend[3], plain[3]);
+    if (!(blend[3] < alone[3] / 2)) fail_msg("blended %.4f not below half the cache alone's %.4f", blend[3], alone[3]);
 }

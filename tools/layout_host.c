@@ -41,6 +41,7 @@ int main(void)
     PICVR_SCENE(superpixel_side);
     PICVR_SCENE(superpixels_per_row);
     PICVR_SCENE(superpixel_count);
+    PICVR_SCENE(probe_fraction);
     PICVR_SCENE(debug_view);
     PICVR_SCENE(light_log_k);
     PICVR_SCENE(max_bounces);

@@ -1,0 +1,81 @@
+// cache_blend.glsl - the consistent cached estimator (render_lookup.comp, CACHE_BLEND):
+// a cache hit's shading is blended with a plain Monte-Carlo estimate at the same event,
+// so that each pixel converges to the unbiased image however wrong the cache is.
+//
+// At a hit with cached radiance C (Eq. 7, 8, 11) a probe, drawn with probability q,
+// shades the same event by plain Monte Carlo, P (the random numbers after the hit's, so
+// independent of C).  The sample is
+//     Y = C + (w / q) 1[probe] (P - C),
+// with w and q fixed before the probe is drawn (from the pixel's earlier samples), so
+//     E[Y] = E[C] + w b,   b = E[P - C], the cache's bias at this pixel's hits:
+// the sample's bias is (1 - w) b.  w = 0 is the paper's cached estimator, w = 1 an
+// unbiased one.  d = 1[probe] (P - C) / q is an unbiased sample of b whatever q is; each
+// pixel keeps sum d, sum d^2 and its hit count m (binding 21), whence
+//     b^ = mean d,   V = var(d) / m, the variance of b^.
+// The weight that minimises the mean squared error of C + w b^ is b^2 / (b^2 + V); with
+// b^2 estimated without bias by b^2 - V it is
+//     w = max(0, 1 - V / b^^2)   (the positive-part James-Stein weight),
+// and q = max(w, probe_fraction), so the unbiased part is sampled as often as it is
+// weighted: w / q <= 1, and Y's variance stays within those of C and P together.
+// Consistency: where b != 0, V -> 0 as m grows, so w -> 1 and the bias of later samples
+// (1 - w) b -> 0; the pixel mean's bias, the mean of (1 - w_i) b over its samples, goes
+// to 0 (a Cesaro mean).  Where b = 0 there is nothing to remove.  The statistics of the
+// pixel's 3x3 neighbourhood, pooled, give a second weight and the larger one is used:
+// neighbours share entries, so their common bias shows about 9x sooner, and a larger
+// weight only moves the sample toward the unbiased one (the argument above holds with
+// w >= the pixel's own weight).  The sums are float: they steer a weight, never a pixel.
+
+layout(set = 0, binding = 21, std430) buffer CacheBlend { vec4 cache_blend[]; };  // sum d, sum d^2, m (uint bits), -
+
+layout(constant_id = 15) const bool CACHE_BLEND = true;
+
+// The weight from the sums (s1 = sum d, s2 = sum d^2) of m hits.
+// Rules: m < 2 -> 0 (no variance estimate yet); b^ = 0 -> 0 (no sign of a bias);
+// var < 0 from rounding -> 0, so a constant nonzero difference gives 1; sums that
+// overflowed (non-finite) -> 1, the unbiased estimator.
+float blend_weight(float s1, float s2, float m) {
+    if (m < 2.0) return 0.0;
+    if (isinf(s1) || isinf(s2) || isnan(s1) || isnan(s2)) return 1.0;
+    float b = s1 / m;
+    if (b == 0.0) return 0.0;
+    float var_mean = max(s2 - s1 * b, 0.0) / ((m - 1.0) * m);
+    float w = 1.0 - var_mean / (b * b);
+    return isnan(w) ? 1.0 : clamp(w, 0.0, 1.0);
+}
+
+// The weight for pixel px: the larger of its own and its 3x3 neighbourhood's.  The
+// neighbours' statistics may be updated by this dispatch as they are read; a stale value
+// only delays the weight.
+float pixel_blend_weight(uvec2 px) {
+    vec4 own = cache_blend[px.y * scene.image.x + px.x];
+    float w = blend_weight(own.x, own.y, float(floatBitsToUint(own.z)));
+    vec3 pool = vec3(0.0);
+    for (int dy = -1; dy <= 1; dy++)
+        for (int dx = -1; dx <= 1; dx++) {
+            ivec2 q = ivec2(px) + ivec2(dx, dy);
+            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, ivec2(scene.image.xy)))) continue;
+            vec4 s = cache_blend[uint(q.y) * scene.image.x + uint(q.x)];
+            pool += vec3(s.xy, float(floatBitsToUint(s.z)));
+        }
+    return max(w, blend_weight(pool.x, pool.y, pool.z));
+}
+
+// The hit sample Y (albedo included) of the event e whose cached shading is `cached`;
+// records d in the pixel's sums.  Rule: a non-finite difference (only from extreme user
+// input) is not recorded and the sample is the cached one.
+vec3 blend_hit(inout ScatterEvent e, vec3 cached) {
+    float w = pixel_blend_weight(e.px);
+    float q = max(w, scene.probe_fraction);
+    vec3 y = cached;
+    float d = 0.0;
+    if (rnd(e.rng) < q) {
+        vec3 plain = albedo_at(e.x) * direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
+        vec3 diff = plain - cached;
+        d = luminance(diff) / q;
+        if (isinf(d) || isnan(d)) return cached;
+        y = cached + (w / q) * diff;
+    }
+    vec4 s = cache_blend[e.idx];
+    cache_blend[e.idx] = vec4(s.x + d, s.y + d * d, uintBitsToFloat(floatBitsToUint(s.z) + 1u), 0.0);
+    return y;
+}
