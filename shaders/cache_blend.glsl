@@ -69,8 +69,7 @@ vec3 blend_hit(inout ScatterEvent e, vec3 cached) {
     vec3 y = cached;
     float d = 0.0;
     if (rnd(e.rng) < q) {
-        vec3 plain = albedo_at(e.x) * direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
-        vec3 diff = plain - cached;
+        vec3 diff = event_direct(e) - cached;
         d = luminance(diff) / q;
         if (isinf(d) || isnan(d)) return cached;
         y = cached + (w / q) * diff;

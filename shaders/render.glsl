@@ -94,13 +94,19 @@ Rng pixel_rng(uint idx) { return rng_init(idx, floatBitsToUint(accum_stat[idx].z
 
 struct ScatterEvent { uint idx; uvec2 px; vec3 rd; float t; vec3 x; Rng rng; bool truncated; };
 
+// Plain Monte Carlo's single-scattered light at the event e, albedo included: one light
+// and one phase sample, combined by MIS.
+vec3 event_direct(inout ScatterEvent e) {
+    return albedo_at(e.x) * direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
+}
+
 // The light scattered toward the camera at the event e (albedo included) and the event's
 // scatter events: the direct light alone, or with USE_BOUNCES the whole path
 // (path.glsl), `direct` its first event's own part.
 vec3 event_radiance(inout ScatterEvent e, out vec3 direct, out uint events) {
     events = 1u;
     if (!USE_BOUNCES) {
-        direct = albedo_at(e.x) * direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
+        direct = event_direct(e);
         return direct;
     }
     vec3 indirect;

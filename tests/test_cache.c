@@ -740,18 +740,29 @@ void test_cache_debug_view(void **state) {
    +1.5 %; paper model -7.8 % to -8.5 % and -8.7 % to -9.9 %.  Asserted: with the
    medium model (the default) |bias| <= 2 % and |error per hit| <= 3 %, the paper
    model's error per hit below -5 %. */
-static double dense_cube_bias(picvr_switch medium, double *hit_rate, double *per_hit) {
-    picvr_config cfg = cache_config(PICVR_CACHE_OBJECT_SPACE, 21);
+#define DENSE_CUBE_SIDE 24u   /* the dense cube's image: DENSE_CUBE_SIDE^2 pixels */
+
+/* The dense cube (above) in a context of the given cache mode, medium model and blend,
+   32 creation requests per iteration; *expv: its closed-form image (free it). */
+static picvr_context *dense_cube(picvr_cache_mode mode, uint32_t seed, picvr_switch medium, picvr_switch blend,
+                                 double **expv) {
+    picvr_config cfg = cache_config(mode, seed);
     cfg.cache.medium_model = medium;
-    cfg.cache.blend = PICVR_SWITCH_OFF;   /* the entries' own bias, not the blend's */
+    cfg.cache.blend = blend;
     cfg.cache.max_requests = 32;
     picvr_context *ctx = tu_create_config(&cfg);
     tu_sun_scene s;
     const double l[3] = {0.3, 0.5, 1.0};
     tu_sun_cube(ctx, 8, 10.0f, 0.9f, l, 4.0f, 0.0f, &s);
-    const uint32_t W = 24, H = 24;
-    tu_cam cam = tu_set_camera(ctx, 0.4, -0.2, 14, 0, 0, 0, 30, W, H);
-    double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+    tu_cam cam = tu_set_camera(ctx, 0.4, -0.2, 14, 0, 0, 0, 30, DENSE_CUBE_SIDE, DENSE_CUBE_SIDE);
+    *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+    return ctx;
+}
+
+static double dense_cube_bias(picvr_switch medium, double *hit_rate, double *per_hit) {
+    double *expv;   /* blend off: the entries' own bias, not the blend's */
+    picvr_context *ctx = dense_cube(PICVR_CACHE_OBJECT_SPACE, 21, medium, PICVR_SWITCH_OFF, &expv);
+    const uint32_t W = DENSE_CUBE_SIDE, H = DENSE_CUBE_SIDE;
     TU_OK(picvr_step_iterations(ctx, 64));
     picvr_stats st = tu_stats_finite(ctx);
     float *img = tu_read(ctx, W, H);
@@ -803,17 +814,9 @@ void test_cache_full_dense_lit_face(void **state) {
    alone, blended at 32 spp 0.0190, 0.0849, 0.0208 and at 4096 spp 0.0028, 0.0177,
    0.0027 (slopes -0.44, -0.38 as the update procedure shrinks entries, -0.47). */
 static void slope_run(picvr_cache_mode mode, picvr_switch blend, double err[4], double *hit_rate) {
-    picvr_config cfg = cache_config(mode, 23);
-    cfg.cache.medium_model = PICVR_SWITCH_OFF;
-    cfg.cache.blend = blend;
-    cfg.cache.max_requests = 32;
-    picvr_context *ctx = tu_create_config(&cfg);
-    tu_sun_scene s;
-    const double l[3] = {0.3, 0.5, 1.0};
-    tu_sun_cube(ctx, 8, 10.0f, 0.9f, l, 4.0f, 0.0f, &s);
-    const uint32_t W = 24, H = 24, B = 4;
-    tu_cam cam = tu_set_camera(ctx, 0.4, -0.2, 14, 0, 0, 0, 30, W, H);
-    double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+    double *expv;
+    picvr_context *ctx = dense_cube(mode, 23, PICVR_SWITCH_OFF, blend, &expv);
+    const uint32_t W = DENSE_CUBE_SIDE, H = DENSE_CUBE_SIDE, B = 4;
     uint32_t done = 0;
     for (int k = 0; k < 4; k++) {
         uint32_t want = 32u << (2 * k);
