@@ -160,7 +160,7 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
                          (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0,
                          (key & PICVR_KEY_QMC) != 0, (key & PICVR_KEY_BOUNCES) != 0,
                          (key & PICVR_KEY_HG) != 0, (key & PICVR_KEY_ENV_MAP) != 0,
-                         (key & PICVR_KEY_REUSE) != 0, (key & PICVR_KEY_CLIP) != 0, picvr_blend_on(ctx)};
+                         (key & PICVR_KEY_REUSE) != 0, (key & PICVR_KEY_CLIP) != 0, picvr_blend_on(ctx) != 0};
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;
