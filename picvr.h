@@ -204,7 +204,15 @@ typedef enum picvr_cache_mode {
                                       yet beat plain Monte Carlo (docs/error.md) */
     PICVR_CACHE_NONE,              /* plain Monte Carlo, the baseline */
     PICVR_CACHE_OBJECT_SPACE,      /* cache, object-space locking (§5.1) */
-    PICVR_CACHE_SCREEN_SPACE       /* cache, screen-space locking (§5.2) */
+    PICVR_CACHE_SCREEN_SPACE,      /* cache, screen-space locking (§5.2) */
+    PICVR_CACHE_AUTO               /* cache (object-space locking, cache.blend required)
+                                      where it pays: the scheduler measures, per unit of
+                                      device time, the error reduction of rounds with the
+                                      cache and of plain rounds (stats.auto_efficiency)
+                                      and runs the better kind, giving 1/16 of the time to
+                                      the other to keep both measured; the blend routes
+                                      pixels where the cache is biased to plain shading.
+                                      docs/cache.md, "The automatic mode" */
 } picvr_cache_mode;
 
 /* An on/off field of a config struct whose zero value means its documented default. */
@@ -808,6 +816,19 @@ typedef struct picvr_stats {
                                     and, with cache.blend, its sums (16 bytes a pixel) */
     double cache_hit_rate;       /* fraction of scatter events served by the cache in
                                     the last step */
+    double cache_routed;         /* fraction of the scatter events reaching the cache that
+                                    cache.blend sent to plain shading without a lookup
+                                    (pixels where the cache's bias is established);
+                                    a moving average over the recent cached rounds */
+    double cache_gain;           /* the share of a plain sample's variance that a hit
+                                    removes, measured at the blend's probes (moving
+                                    average; 0 until measured) */
+    double auto_efficiency;      /* PICVR_CACHE_AUTO: error reduction per device time of
+                                    cached rounds over plain ones, E (> 1: the cache
+                                    pays, cached rounds run); 0 until both are measured */
+    double auto_cached_share;    /* share of the context's device time spent in rounds
+                                    that ran the cache: 1 with a forced cache, 0
+                                    without, in between with PICVR_CACHE_AUTO */
     /* scheduler: measured shares of device time over the last second, and the §6 targets */
     double fraction_render, fraction_create, fraction_update;
     double target_create, target_update;

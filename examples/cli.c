@@ -228,6 +228,7 @@ int pvc_parse_cache_mode(const char *text, picvr_cache_mode *out)
     if (!strcmp(text, "off") || !strcmp(text, "none")) *out = PICVR_CACHE_NONE;
     else if (!strcmp(text, "object")) *out = PICVR_CACHE_OBJECT_SPACE;
     else if (!strcmp(text, "screen")) *out = PICVR_CACHE_SCREEN_SPACE;
+    else if (!strcmp(text, "auto")) *out = PICVR_CACHE_AUTO;
     else return 0;
     return 1;
 }
@@ -239,6 +240,7 @@ const char *pvc_cache_mode_name(picvr_cache_mode mode)
     case PICVR_CACHE_NONE: return "none";
     case PICVR_CACHE_OBJECT_SPACE: return "object";
     case PICVR_CACHE_SCREEN_SPACE: return "screen";
+    case PICVR_CACHE_AUTO: return "auto";
     }
     return "?";
 }

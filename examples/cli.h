@@ -115,10 +115,10 @@ int pvc_parse_bounces(const char *text, uint32_t *out);
 /* "on", "off" or "default". */
 const char *pvc_switch_name(picvr_switch s);
 
-/* "off" (or "none"), "object" or "screen". */
+/* "off" (or "none"), "object", "screen" or "auto". */
 int pvc_parse_cache_mode(const char *text, picvr_cache_mode *out);
 
-/* "default", "none", "object" or "screen". */
+/* "default", "none", "object", "screen" or "auto". */
 const char *pvc_cache_mode_name(picvr_cache_mode mode);
 
 /* "default", "debug", "info", "warning", "error"; "?" for another value. */

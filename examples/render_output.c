@@ -280,6 +280,10 @@ static const pvc_json_field SUMMARY_FIELDS[] = {
     {"cache_refs_per_entry", PVC_JSON_F64, AT(stats.cache_refs_per_entry)},
     {"cache_hit_rate", PVC_JSON_F64, AT(stats.cache_hit_rate)},
     {"hit_rate", PVC_JSON_F64, AT(stats.cache_hit_rate)},
+    {"cache_routed", PVC_JSON_F64, AT(stats.cache_routed)},
+    {"cache_gain", PVC_JSON_F64, AT(stats.cache_gain)},
+    {"auto_efficiency", PVC_JSON_F64, AT(stats.auto_efficiency)},
+    {"auto_cached_share", PVC_JSON_F64, AT(stats.auto_cached_share)},
     {"fraction_render", PVC_JSON_F64, AT(stats.fraction_render)},
     {"fraction_create", PVC_JSON_F64, AT(stats.fraction_create)},
     {"fraction_update", PVC_JSON_F64, AT(stats.fraction_update)},
@@ -371,6 +375,9 @@ void render_print_summary(const render_options *o, const picvr_stats *s, int int
                s->cache_entries, s->cache_entries_capped,
                s->cache_refs_per_entry, s->cache_hit_rate, s->cache_full ? " (full)" : "",
                s->fraction_render, s->fraction_create, s->fraction_update, s->target_create, s->target_update);
+    if (s->cache_entries)
+        printf(", blend routed %.3f, gain of a hit %.3f, cached share of time %.3f (efficiency %.2f)",
+               s->cache_routed, s->cache_gain, s->auto_cached_share, s->auto_efficiency);
     if (s->cache_samples_truncated)
         printf(", %llu of %llu creation samples with a truncated transmittance estimate (biased)",
                (unsigned long long)s->cache_samples_truncated, (unsigned long long)s->cache_samples);

@@ -121,7 +121,7 @@ static void print_help(FILE *f)
         "  --fov DEG              vertical field of view (default %g)\n"
         "  --exposure E           tone-mapping exposure (default 1)\n"
         "  --seed N               random seed (default 0)\n"
-        "  --cache off|object|screen  the irradiance cache at start (default off; key C)\n"
+        "  --cache off|object|screen|auto  the irradiance cache at start (default off; key C)\n"
         "  --priorities on|off    Eq. 12 block priorities once a frame's pass is done\n"
         "                         (default on; off: round robin, every pixel alike)\n"
         "  --reuse on|off         temporal reuse: a moved camera keeps its samples,\n"

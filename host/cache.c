@@ -9,7 +9,7 @@
 /* Fills in the Table 1 defaults and validates. */
 static picvr_status picvr_resolve_cache_config(const picvr_cache_config *in, picvr_cache_config *c) {
     *c = *in;
-    if ((unsigned)c->mode > PICVR_CACHE_SCREEN_SPACE) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)c->mode > PICVR_CACHE_AUTO) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->mode == PICVR_CACHE_DEFAULT) c->mode = PICVR_CACHE_NONE;   /* picvr.h: plain until the cache pays */
     if (!c->superpixel_size) c->superpixel_size = 32;
     if (c->superpixel_size > 4096) return PICVR_ERROR_INVALID_ARGUMENT;
@@ -19,6 +19,8 @@ static picvr_status picvr_resolve_cache_config(const picvr_cache_config *in, pic
     if (c->medium_model == PICVR_SWITCH_DEFAULT) c->medium_model = PICVR_SWITCH_ON;
     if ((unsigned)c->blend > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->blend == PICVR_SWITCH_DEFAULT) c->blend = PICVR_SWITCH_ON;
+    /* the automatic mode leaves the cache's bias to the blend (host/schedule.c) */
+    if (c->mode == PICVR_CACHE_AUTO && c->blend == PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     float *f[8] = {&c->gamma, &c->epsilon, &c->delta_voxels, &c->radius_min_voxels, &c->radius_max_voxels,
                    &c->update_threshold, &c->rebuild_interval_ms, &c->probe_fraction};
     const float def[8] = {0.1f, 0.1f, 2.0f, 0.01f, 16.0f, 0.1f, 1000.0f, PICVR_CACHE_DEFAULT_PROBE};

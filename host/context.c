@@ -90,6 +90,7 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     picvr_status s = picvr_resolve_cache_config(&cfg.cache, &ctx->cache.cfg);
     if (!s) s = picvr_resolve_scheduler_config(&cfg.scheduler, &ctx->sched.cfg);
     ctx->cache.on = ctx->cache.cfg.mode != PICVR_CACHE_NONE;
+    ctx->sched.auto_mode.on = ctx->cache.cfg.mode == PICVR_CACHE_AUTO;
     ctx->sched.use_priorities = ctx->sched.cfg.priorities == PICVR_SWITCH_ON;
     picvr_update_targets(&ctx->sched, ctx->cache.on);
     if (!s) s = picvr_context_init(ctx, &cfg);

@@ -86,6 +86,7 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_ENV_MAP 1024u     /* constant 12 USE_ENV_MAP */
 #define PICVR_KEY_REUSE 2048u       /* constant 13 USE_REUSE */
 #define PICVR_KEY_CLIP 4096u        /* constant 14 USE_CLIP */
+#define PICVR_KEY_PLAIN 8192u       /* PICVR_CACHE_AUTO's plain rounds: the plain tracking module */
 #define PICVR_SPEC_CONSTANTS 16u   /* 15 CACHE_BLEND: fixed per context */
 /* Clip planes the kernels test: the user's and the six faces of the clip box. */
 #define PICVR_GPU_CLIP_PLANES (PICVR_MAX_CLIP_PLANES + 6)
@@ -182,7 +183,26 @@ typedef struct picvr_cache_counters {
     uint32_t truncated;          /* their samples cut at the loop bound (wraps) */
     uint32_t lookups_cut;        /* octree walks stopped at max_lookup_refs (wraps) */
     uint32_t lookups_spilled;    /* lookups past the candidate buffer (wraps) */
+    uint32_t routed;             /* events the blend sent to plain shading unlooked, this round */
+    uint32_t probes;             /* probes whose gain was counted, this round */
+    uint32_t gain_lo, gain_hi;   /* their gain (2^-16 units, 64 bits), this round */
 } picvr_cache_counters;
+
+/* PICVR_CACHE_AUTO: what a cached and a plain round cost and what a hit gains, from
+   which each round is chosen cached or plain (host/schedule.c, picvr_auto_choose). */
+typedef struct picvr_auto {
+    int on;
+    double cost[2];                  /* device ms per block, all procedures: [0] plain, [1] cached; 0: unmeasured */
+    uint32_t measured[2];            /* rounds that entered cost[] */
+    double render_cost[2];           /* the rendering procedure's device ms per block, per kind */
+    double served;                   /* fraction of a cached round's scatter events a hit served */
+    double gain;                     /* mean gain of a hit (shaders/cache_blend.glsl, count_gain) */
+    double routed;                   /* fraction of the lookup's events the blend routed (any cached context) */
+    double time_ms[2];               /* device time spent in rounds of each kind */
+} picvr_auto;
+#define PICVR_AUTO_WARM 2u            /* rounds of each kind measured before the choice is by efficiency */
+#define PICVR_AUTO_EXPLORE 0.0625     /* share of device time the less efficient kind keeps */
+#define PICVR_AUTO_MIN_VARIANCE 0.05  /* cached sample variance over plain's is taken >= this */
 
 /* A round's record for the §6 time shares and the hit-rate window. */
 typedef struct picvr_round_record {
@@ -219,6 +239,7 @@ typedef struct picvr_pipelines {
     VkDescriptorSet set;
     int descriptors_dirty;           /* a bound buffer or image changed */
     VkShaderModule track_module, shade_module, lookup_module; /* the rendering kernels; lookup: cached */
+    VkShaderModule plain_track_module; /* PICVR_CACHE_AUTO's plain rounds (VK_NULL_HANDLE otherwise) */
     VkShaderModule stats_module, create_module, update_module, rebuild_module;
     VkShaderModule select_module, priority_module;
     VkPipeline select_pipe, priority_pipe; /* the rendering queue; priority_pipe only with priorities */
@@ -226,6 +247,7 @@ typedef struct picvr_pipelines {
     picvr_variant_slot variants[3][PICVR_VARIANT_SLOTS]; /* PROC_*: the variants made so far */
     uint32_t variant_clock;          /* ticks once per step: the slots' last use */
     uint32_t current_slot[3];        /* PROC_*: the slot this step's rounds dispatch */
+    uint32_t plain_slot;             /* PICVR_CACHE_AUTO: the rendering slot of its plain rounds */
     VkSampler linear_sampler;
 } picvr_pipelines;
 
@@ -336,6 +358,7 @@ typedef struct picvr_sched {
     uint32_t history_count;          /* records in history (ring, newest at history_count-1 mod N) */
     double hit_rate;                 /* over the last hit_rate_window_ms */
     double target[2];                /* the §6 shares of creation and update now */
+    picvr_auto auto_mode;            /* PICVR_CACHE_AUTO's economics (host/schedule.c) */
 } picvr_sched;
 
 /* Submissions of rounds and their device timestamps (host/rounds.c). */
@@ -356,6 +379,7 @@ typedef struct picvr_round_plan {
     uint32_t request_cap;     /* requests this round's rendering may queue */
     uint32_t update_groups;   /* update work packages */
     int rebuild;              /* rebuild the octree */
+    int plain;                /* PICVR_CACHE_AUTO: a plain round (no cache procedure, no lookup) */
 } picvr_round_plan;
 
 /* A step begun by picvr_step_begin and not yet ended (host/step.c): its round is

@@ -117,8 +117,9 @@ static int picvr_cache_serves(const picvr_context *ctx) {
    up but samples no light, plain Monte Carlo looks nothing up.  The light types present
    are not specialized: compiling them out gained nothing measurable (docs/cache.md),
    and each new combination would cost a new variant, and a pause, whenever an
-   application turns a light of a new type on. */
-static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
+   application turns a light of a new type on.  plain: the rendering variant of
+   PICVR_CACHE_AUTO's plain rounds (the plain tracking module, no lookup). */
+static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain) {
     uint32_t mis = ctx->scene.use_phase_mis ? PICVR_KEY_PHASE_MIS : 0u, fine = ctx->scene.use_fine ? PICVR_KEY_FINE : 0u;
     uint32_t mono = (uint32_t)ctx->scene.gpu.mono_channel << PICVR_KEY_MONO_SHIFT;
     uint32_t residual = ctx->config.transmittance == PICVR_TRANSMITTANCE_RESIDUAL && ctx->scene.use_control
@@ -134,6 +135,7 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc) {
     if (proc == PICVR_PROC_CREATE) return mis | fine | env | clip;
     if (proc == PICVR_PROC_UPDATE) return fine | mono | qmc | clip;
     if (!ctx->cache.on) return mis | fine | residual | equi | qmc | env | paths | clip;
+    if (plain) return mis | fine | residual | equi | qmc | env | paths | clip | PICVR_KEY_PLAIN;
     return mis | fine | mono | residual | equi | qmc | env | paths | clip | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
 }
 
@@ -149,9 +151,10 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
     else if (proc == PICVR_PROC_UPDATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.update_module;
     else {
-        mod[PICVR_KERNEL_MAIN] = ctx->pipes.track_module;
+        int plain = (key & PICVR_KEY_PLAIN) != 0;
+        mod[PICVR_KERNEL_MAIN] = plain ? ctx->pipes.plain_track_module : ctx->pipes.track_module;
         mod[PICVR_KERNEL_SHADE] = ctx->pipes.shade_module;
-        if (ctx->cache.on) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
+        if (ctx->cache.on && !plain) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
     }
     uint32_t value[PICVR_SPEC_CONSTANTS] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP,
                          (key & PICVR_KEY_DEBUG_VIEW) != 0, (key >> PICVR_KEY_MONO_SHIFT) & 3u,
@@ -183,8 +186,8 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
    holds its key, in a free slot or in place of the least recently used one.  Rounds
    wait for their fence, so between steps no pipeline is in use.  On a failure the
    slots are as before. */
-static picvr_status picvr_select_variant(picvr_context *ctx, int proc) {
-    uint32_t key = picvr_variant_key(ctx, proc), pick = 0;
+static picvr_status picvr_select_variant(picvr_context *ctx, int proc, int plain) {
+    uint32_t key = picvr_variant_key(ctx, proc, plain), pick = 0;
     picvr_variant_slot *t = ctx->pipes.variants[proc];
     for (uint32_t i = 0; i < PICVR_VARIANT_SLOTS; i++)
         if (t[i].pipe[PICVR_KERNEL_MAIN] && t[i].key == key) {
@@ -208,19 +211,32 @@ static picvr_status picvr_select_variant(picvr_context *ctx, int proc) {
     return PICVR_OK;
 }
 
-/* Kernel k of the variant this step dispatches for procedure proc. */
-static VkPipeline picvr_current_kernel(const picvr_context *ctx, int proc, int k) {
-    return ctx->pipes.variants[proc][ctx->pipes.current_slot[proc]].pipe[k];
+/* Kernel k of the variant this step dispatches for procedure proc (the rendering
+   procedure of a plain round: PICVR_CACHE_AUTO's plain variant). */
+static VkPipeline picvr_current_kernel(const picvr_context *ctx, int proc, int k, int plain) {
+    uint32_t slot = proc == PICVR_PROC_RENDER && plain ? ctx->pipes.plain_slot : ctx->pipes.current_slot[proc];
+    return ctx->pipes.variants[proc][slot].pipe[k];
 }
 
-static VkPipeline picvr_current_pipeline(const picvr_context *ctx, int proc) { return picvr_current_kernel(ctx, proc, PICVR_KERNEL_MAIN); }
+static VkPipeline picvr_current_pipeline(const picvr_context *ctx, int proc) { return picvr_current_kernel(ctx, proc, PICVR_KERNEL_MAIN, 0); }
+
+/* PICVR_CACHE_AUTO may render a round plain: not with a debug view (it shows the cache)
+   nor where the cache idles anyway (picvr_cache_serves). */
+static int picvr_auto_plain_allowed(const picvr_context *ctx) {
+    return ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_AUTO && !picvr_debug_view_on(ctx) && picvr_cache_serves(ctx);
+}
 
 /* The pipeline variants of every procedure the context runs, for the current scene. */
 static picvr_status picvr_select_variants(picvr_context *ctx) {
     ctx->pipes.variant_clock++;
-    picvr_status s = picvr_select_variant(ctx, PICVR_PROC_RENDER);
-    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_CREATE);
-    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_UPDATE);
+    picvr_status s = PICVR_OK;
+    if (picvr_auto_plain_allowed(ctx)) {
+        s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 1);
+        ctx->pipes.plain_slot = ctx->pipes.current_slot[PICVR_PROC_RENDER];
+    }
+    if (!s) s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 0);
+    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_CREATE, 0);
+    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_UPDATE, 0);
     return s;
 }
 
@@ -279,6 +295,8 @@ static picvr_status picvr_create_pipelines(picvr_context *ctx) {
               ctx->cache.cfg.max_samples, PICVR_CACHE_MAX_SAMPLES_CPU);
         s = PICVR_ERROR_INVALID_ARGUMENT;
     }
+    if (!s && ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_AUTO)
+        s = picvr_create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->pipes.plain_track_module);
     if (!s && ctx->cache.on) {
         s = picvr_create_shader(ctx, picvr_spv_render_lookup, sizeof picvr_spv_render_lookup, &ctx->pipes.lookup_module);
         if (!s) s = picvr_create_shader(ctx, picvr_spv_cache_create, sizeof picvr_spv_cache_create, &ctx->pipes.create_module);
@@ -352,7 +370,7 @@ static void picvr_pipelines_destroy(picvr_context *ctx) {
         if (pipes[i]) vkDestroyPipeline(d, pipes[i], NULL);
     VkShaderModule modules[] = {p->select_module, p->priority_module, p->update_module, p->rebuild_module,
                                 p->lookup_module, p->create_module, p->track_module, p->shade_module,
-                                p->stats_module};
+                                p->stats_module, p->plain_track_module};
     for (size_t i = 0; i < sizeof modules / sizeof modules[0]; i++)
         if (modules[i]) vkDestroyShaderModule(d, modules[i], NULL);
     if (p->linear_sampler) vkDestroySampler(d, p->linear_sampler, NULL);

@@ -143,9 +143,13 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_lookups_cut = ctx->cache.lookups_cut;
             st.cache_lookups_spilled = ctx->cache.lookups_spilled;
             st.cache_hit_rate = ctx->sched.hit_rate;
+            st.cache_routed = ctx->sched.auto_mode.routed;
+            st.cache_gain = ctx->sched.auto_mode.gain;
+            st.auto_efficiency = picvr_auto_efficiency(&ctx->sched.auto_mode);
         }
         st.cache_max_samples = ctx->cache.cfg.max_samples;
         picvr_sched_shares(&ctx->sched, &st);
+        if (!ctx->cache.on) st.auto_cached_share = 0.0;
         st.iterations = ctx->image.block_total ? (uint32_t)(ctx->image.block_samples / ctx->image.block_total) : 0;
         st.elapsed_ms = ctx->image.elapsed_ms;
         double samples = st.iterations_mean * ctx->scene.camera.width * ctx->scene.camera.height;

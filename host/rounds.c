@@ -9,6 +9,12 @@
  * scheduler (host/schedule.c) turns into the next round's shares.  Part of picvr_vk.c;
  * uses util, vulkan, schedule, pipelines, cache, image. */
 
+/* Whether round p runs the cache procedures and the lookup: the cache is on and the
+   round is not one of PICVR_CACHE_AUTO's plain rounds. */
+static int picvr_round_cached(const picvr_context *ctx, const picvr_round_plan *p) {
+    return ctx->cache.on && !p->plain;
+}
+
 static picvr_status picvr_create_timestamps(picvr_context *ctx) {
     uint32_t n = 0;
     vkGetPhysicalDeviceQueueFamilyProperties(ctx->vk.phys, &n, NULL);
@@ -42,7 +48,7 @@ static void picvr_push_constants(picvr_context *ctx, uint32_t a, uint32_t b, uin
 /* Entries this round's creation may add: one per workgroup of its indirect dispatch,
    which holds the requests the previous round queued (read back), within the budget. */
 static uint32_t picvr_round_creations(const picvr_context *ctx, const picvr_round_plan *p) {
-    if (!ctx->cache.on) return 0;
+    if (!picvr_round_cached(ctx, p)) return 0;
     return p->create_budget < ctx->cache.requests_pending ? p->create_budget : ctx->cache.requests_pending;
 }
 
@@ -73,10 +79,10 @@ static void picvr_record_rebuild(picvr_context *ctx, uint32_t created) {
 
 /* Empties the event queues for the next dispatch of the rendering procedure; the
    barrier after block_select (picvr_record_render) orders it before the kernels. */
-static void picvr_record_empty_queues(picvr_context *ctx) {
+static void picvr_record_empty_queues(picvr_context *ctx, int cached) {
     static const uint32_t empty_head[4] = {0, 1, 1, 0};   /* dispatch (x, 1, 1), count */
     vkCmdUpdateBuffer(ctx->vk.cmd, ctx->image.shade_queue.buf, 0, sizeof empty_head, empty_head);
-    if (ctx->cache.on) vkCmdUpdateBuffer(ctx->vk.cmd, ctx->image.lookup_queue.buf, 0, sizeof empty_head, empty_head);
+    if (cached) vkCmdUpdateBuffer(ctx->vk.cmd, ctx->image.lookup_queue.buf, 0, sizeof empty_head, empty_head);
 }
 
 /* One dispatch of the rendering procedure over the queued blocks: tracking, then with
@@ -85,16 +91,17 @@ static void picvr_record_empty_queues(picvr_context *ctx) {
    queues its misses for shading; with one it shades them itself and the shading
    dispatch has no workgroups. */
 static void picvr_record_render_kernels(picvr_context *ctx, const picvr_round_plan *p) {
+    int plain = p->plain;
     picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->request_cap, 0);
-    vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_MAIN));
+    vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_MAIN, plain));
     vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.render_queue.buf, 0);
     picvr_barrier_all(ctx);
-    if (ctx->cache.on) {
-        vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_LOOKUP));
+    if (picvr_round_cached(ctx, p)) {
+        vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_LOOKUP, 0));
         vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.lookup_queue.buf, 0);
         picvr_barrier_all(ctx);
     }
-    vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_SHADE));
+    vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_SHADE, plain));
     vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.shade_queue.buf, 0);
     picvr_barrier_all(ctx);
 }
@@ -126,7 +133,7 @@ static void picvr_record_render(picvr_context *ctx, const picvr_round_plan *p) {
             vkCmdDispatch(ctx->vk.cmd, (B + 63) / 64, 1, 1);
             picvr_barrier_all(ctx);
         }
-        picvr_record_empty_queues(ctx);
+        picvr_record_empty_queues(ctx, picvr_round_cached(ctx, p));
         vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->pipes.select_pipe);
         uint32_t base = (uint32_t)((uint64_t)ctx->image.block_cursor * ctx->image.block_stride % B);
         picvr_push_constants(ctx, want, B, prio ? ctx->image.block_cursor : base, prio ? 0 : ctx->image.block_stride);
@@ -144,26 +151,28 @@ static void picvr_record_render(picvr_context *ctx, const picvr_round_plan *p) {
    runs when the last round queued requests: its indirect dispatch has one workgroup
    per request. */
 static void picvr_note_dispatches(picvr_context *ctx, const picvr_round_plan *p) {
-    int runs[3] = {ctx->cache.on && ctx->cache.requests_pending > 0, ctx->cache.on && p->update_groups > 0,
-                   p->render_blocks > 0};
+    int cached = picvr_round_cached(ctx, p);
+    int runs[3] = {cached && ctx->cache.requests_pending > 0, cached && p->update_groups > 0, p->render_blocks > 0};
     for (int i = 0; i < 3; i++) {
         if (!runs[i]) {
             ctx->sched.first_dispatch[i] = 0;
             continue;
         }
-        picvr_variant_slot *v = &ctx->pipes.variants[i][ctx->pipes.current_slot[i]];
+        uint32_t slot = i == PICVR_PROC_RENDER && p->plain ? ctx->pipes.plain_slot : ctx->pipes.current_slot[i];
+        picvr_variant_slot *v = &ctx->pipes.variants[i][slot];
         ctx->sched.first_dispatch[i] = !v->dispatched;
         v->dispatched = 1;
     }
 }
 
 static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, uint32_t created) {
+    int cached = picvr_round_cached(ctx, p);
     picvr_note_dispatches(ctx, p);
     picvr_barrier_all(ctx);
     if (ctx->rounds.timestamps) vkCmdResetQueryPool(ctx->vk.cmd, ctx->rounds.timestamps, 0, PICVR_ROUND_TIMESTAMPS);
     vkCmdBindDescriptorSets(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, ctx->pipes.layout, 0, 1, &ctx->pipes.set, 0, NULL);
     picvr_write_timestamp(ctx, 0);
-    if (ctx->cache.on) {
+    if (cached) {
         /* creation: one workgroup per request queued by the previous round */
         vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_pipeline(ctx, PICVR_PROC_CREATE));
         picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->create_budget, 0);
@@ -174,9 +183,9 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
         picvr_barrier_all(ctx);
     }
     picvr_write_timestamp(ctx, 1);
-    if (ctx->cache.on && p->rebuild) picvr_record_rebuild(ctx, created);
+    if (cached && p->rebuild) picvr_record_rebuild(ctx, created);
     picvr_write_timestamp(ctx, 2);
-    if (ctx->cache.on && p->update_groups > 0) {
+    if (cached && p->update_groups > 0) {
         vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_pipeline(ctx, PICVR_PROC_UPDATE));
         picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, 0, 0);
         vkCmdDispatch(ctx->vk.cmd, p->update_groups, 1, 1);
@@ -185,7 +194,7 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
     picvr_write_timestamp(ctx, 3);
     picvr_record_render(ctx, p);
     picvr_write_timestamp(ctx, 4);
-    if (ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE) {
+    if (cached && ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE) {
         /* superpixel counters: the set this round read is the one the next round writes */
         VkDeviceSize n = ctx->cache.superpixel_count, set = (ctx->rounds.count + 1) & 1;
         vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.superpixels.buf, (n + 2 * n * set) * 4, 2 * n * 4, 0);
@@ -199,8 +208,10 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
     VkBufferCopy q = {16, sizeof(picvr_cache_counters), 12};
     vkCmdCopyBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, ctx->rounds.readback.buf, 1, &q);
     picvr_barrier_all(ctx);
-    if (ctx->cache.on)   /* hits, misses, requests */
+    if (ctx->cache.on) {   /* hits, misses, requests; routed, probes, gain */
         vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.counters.buf, offsetof(picvr_cache_counters, hits), 3 * 4, 0);
+        vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.counters.buf, offsetof(picvr_cache_counters, routed), 4 * 4, 0);
+    }
     vkCmdFillBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, 16, 12, 0);
     picvr_barrier_all(ctx);
 }
@@ -230,9 +241,9 @@ static picvr_status picvr_round_device_ms(picvr_context *ctx, const picvr_round_
     *rebuild_ms = ms[1];
     dev[PICVR_PROC_UPDATE] = ms[1] + ms[2];          /* octree maintenance counts as update */
     dev[PICVR_PROC_RENDER] = ms[3];
-    /* Rule: without the cache the round is all rendering (the empty intervals hold
-       only barriers). */
-    if (!ctx->cache.on) {
+    /* Rule: without the cache (or in a plain round) the round is all rendering (the
+       empty intervals hold only barriers). */
+    if (!picvr_round_cached(ctx, p)) {
         dev[PICVR_PROC_RENDER] += dev[PICVR_PROC_CREATE] + dev[PICVR_PROC_UPDATE];
         dev[PICVR_PROC_CREATE] = dev[PICVR_PROC_UPDATE] = 0.0;
     }
@@ -261,7 +272,7 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
     }
     picvr_status s = picvr_round_device_ms(ctx, p, wall_ms, created, blocks, dev, &rebuild_ms);
     if (s) return s;
-    picvr_sched_account(&ctx->sched, dev, rebuild_ms, created, p->update_groups, blocks, wall_ms, ctx->cache.on);
+    picvr_sched_account(&ctx->sched, dev, rebuild_ms, created, p->update_groups, blocks, wall_ms, picvr_round_cached(ctx, p));
     ctx->image.block_samples += blocks;
     if (blocks > 0) ctx->image.has_samples = 1;
     ctx->image.scatter_events += (uint64_t)events[1] << 32 | events[0];
@@ -275,6 +286,7 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
         picvr_cache_take_counters(ctx, &got);
         hits = got.hits;
         misses = got.misses;
+        picvr_auto_account(&ctx->sched, p->plain, dev, blocks, &got);
     }
     picvr_sched_record(&ctx->sched, picvr_clock_ms(), dev, hits, misses, ctx->cache.on);
     return PICVR_OK;

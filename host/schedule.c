@@ -175,9 +175,71 @@ static void picvr_sched_shares(const picvr_sched *sc, picvr_stats *st) {
         for (int i = 0; i < 3; i++) sum[i] += r->device_ms[i];
     }
     double total = sum[0] + sum[1] + sum[2];
+    const picvr_auto *a = &sc->auto_mode;
+    double both = a->time_ms[0] + a->time_ms[1];
+    st->auto_cached_share = !a->on ? 1.0 : both > 0.0 ? a->time_ms[1] / both : 0.0;
     st->fraction_create = total > 0.0 ? sum[PICVR_PROC_CREATE] / total : 0.0;
     st->fraction_update = total > 0.0 ? sum[PICVR_PROC_UPDATE] / total : 0.0;
     st->fraction_render = total > 0.0 ? sum[PICVR_PROC_RENDER] / total : 0.0;
     st->target_create = sc->target[PICVR_PROC_CREATE];
     st->target_update = sc->target[PICVR_PROC_UPDATE];
+}
+
+/* ---- PICVR_CACHE_AUTO: cached or plain, by measured efficiency ----------------------
+   Per unit of device time a kind of round reduces the squared error in proportion to
+   1 / (c v): c its device time per block (all procedures: a cached round pays for the
+   creation and update it runs), v its variance per sample.  With a fraction h of the
+   scatter events served by a hit, each removing the share g of a plain sample's variance
+   that plain shading's noise makes (count_gain in shaders/cache_blend.glsl),
+   v_cached / v_plain = 1 - h g, so cached rounds pay when
+       E = c_plain / (c_cached (1 - h g)) >= 1.
+   The cache's bias is left to the blend (cache.blend, on in this mode), which routes the
+   events of pixels with an established bias to plain shading; those are counted in h's
+   denominator and gain nothing.  Both kinds run at first (PICVR_AUTO_WARM rounds each);
+   then the more efficient kind runs, and the other keeps PICVR_AUTO_EXPLORE of the device
+   time, so that both costs and the gain stay measured (and the cache keeps growing) at a
+   bounded price: that share of the time at the worse efficiency. */
+
+/* E above; 0 while a kind is unmeasured.  Rule: 1 - h g is taken >= AUTO_MIN_VARIANCE
+   (g and h are estimates: a cache is never credited with removing all the noise). */
+static double picvr_auto_efficiency(const picvr_auto *a) {
+    if (a->measured[0] < PICVR_AUTO_WARM || a->measured[1] < PICVR_AUTO_WARM || !(a->cost[1] > 0.0)) return 0.0;
+    double v = 1.0 - a->served * a->gain;
+    if (!(v >= PICVR_AUTO_MIN_VARIANCE)) v = PICVR_AUTO_MIN_VARIANCE;
+    return a->cost[0] / (a->cost[1] * v);
+}
+
+/* Whether the next round is plain: the more efficient kind, unless the other has had
+   less than PICVR_AUTO_EXPLORE of the device time so far. */
+static int picvr_auto_choose(const picvr_auto *a) {
+    if (a->measured[0] < PICVR_AUTO_WARM || a->measured[1] < PICVR_AUTO_WARM)
+        return a->measured[0] < a->measured[1];          /* cached first, then alternate */
+    int prefer_plain = picvr_auto_efficiency(a) < 1.0;
+    double other = a->time_ms[prefer_plain ? 1 : 0], total = a->time_ms[0] + a->time_ms[1];
+    return other < PICVR_AUTO_EXPLORE * total ? !prefer_plain : prefer_plain;
+}
+
+/* After a round of kind `plain`: its cost per block and, for a cached round, the share of
+   events a hit served and the mean gain of its probes.  Rule: a round that ran a variant
+   for the first time (pipeline compilation inside the timestamps) or rendered nothing
+   is left out; so are gains of a round without probes. */
+static void picvr_auto_account(picvr_sched *sc, int plain, const double dev[3], uint32_t blocks,
+                               const picvr_cache_counters *got) {
+    picvr_auto *a = &sc->auto_mode;
+    int k = plain ? 0 : 1;
+    a->time_ms[k] += dev[0] + dev[1] + dev[2];
+    uint64_t events = (uint64_t)got->hits + got->misses + got->routed;
+    if (!plain && events) a->routed = 0.7 * a->routed + 0.3 * (double)got->routed / (double)events;
+    if (!a->on) return;
+    a->render_cost[k] = sc->cost[PICVR_PROC_RENDER];   /* picvr_sched_account's, for this kind */
+    if (blocks == 0 || sc->first_dispatch[0] || sc->first_dispatch[1] || sc->first_dispatch[2]) return;
+    a->cost[k] = picvr_moving_average(a->cost[k], (dev[0] + dev[1] + dev[2]) / blocks);
+    a->measured[k]++;
+    if (plain) return;
+    double served = events ? (double)got->hits / (double)events : 0.0;
+    a->served = a->measured[1] == 1 ? served : 0.7 * a->served + 0.3 * served;
+    if (got->probes > 0) {
+        double gain = (double)((uint64_t)got->gain_hi << 32 | got->gain_lo) / 65536.0 / got->probes;
+        a->gain = a->gain > 0.0 ? 0.7 * a->gain + 0.3 * gain : gain;
+    }
 }

@@ -51,14 +51,21 @@ static uint32_t picvr_first_pass_left(picvr_context *ctx) {
     return im->block_total - im->first_pass_blocks;
 }
 
-/* The plan of one timed round of `round_ms`: the §6 plan, and under scheduler.frames
+/* The plan of one timed round of `round_ms`: plain or cached under PICVR_CACHE_AUTO
+   (picvr_auto_choose), the §6 plan, and under scheduler.frames
    round-robin while the first pass is incomplete: at most the rest of the pass for
    picvr_step (its next rounds go by priority), at least the rest for picvr_step_begin
    (whose one round is the whole step; blocks beyond it start the next pass in the same
    order). */
 static picvr_round_plan picvr_plan_timed_round(picvr_context *ctx, double round_ms, int whole_first_pass) {
     picvr_plan_inputs in = picvr_plan_inputs_now(ctx);
+    /* PICVR_CACHE_AUTO: this round's kind, and the rendering cost of that kind to plan by */
+    int plain = picvr_auto_plain_allowed(ctx) && picvr_auto_choose(&ctx->sched.auto_mode);
+    if (picvr_auto_plain_allowed(ctx) && ctx->sched.auto_mode.render_cost[plain ? 0 : 1] > 0.0)
+        ctx->sched.cost[PICVR_PROC_RENDER] = ctx->sched.auto_mode.render_cost[plain ? 0 : 1];
+    if (plain) in.cache_on = 0;
     picvr_round_plan p = picvr_sched_plan(&ctx->sched, round_ms, &in);
+    p.plain = plain;
     uint32_t rest = picvr_first_pass_left(ctx);
     if (rest > 0) {
         p.whole_passes = 1;

@@ -52,6 +52,9 @@ layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
     uint truncated;       // creation samples with a transmittance estimate cut at its loop bound
     uint lookups_cut;     // octree walks stopped at CACHE_MAX_LOOKUP_REFS (walk_next)
     uint lookups_spilled; // lookups with more than LOOKUP_CANDIDATES candidates (cache_lookup)
+    uint routed;          // scatter events the blend sent to plain shading unlooked (blend_route)
+    uint probes;          // probes whose gain was counted (count_gain)
+    uint gain_lo, gain_hi; // their gain, 64 bits in units of 2^-16 (count_gain)
 } cache_counters;
 layout(set = 0, binding = 13, std430) buffer CacheRequests { Request requests[]; };
 // Screen-space locking (§5.2): per superpixel a lock, then two sets of (rays, misses)

@@ -16,7 +16,8 @@
 // b^2 estimated without bias by b^2 - V it is
 //     w = max(0, 1 - V / b^^2)   (the positive-part James-Stein weight),
 // and q = max(w, probe_fraction), so the unbiased part is sampled as often as it is
-// weighted: w / q <= 1, and Y's variance stays within those of C and P together.
+// weighted: w / q <= 1, and Y's variance stays within those of C and P together.  Where
+// w >= probe_fraction the event is routed instead (blend_route): same sample, no lookup.
 // Consistency: where b != 0, V -> 0 as m grows, so w -> 1 and the bias of later samples
 // (1 - w) b -> 0; the pixel mean's bias, the mean of (1 - w_i) b over its samples, goes
 // to 0 (a Cesaro mean).  Where b = 0 there is nothing to remove.  The statistics of the
@@ -60,21 +61,56 @@ float pixel_blend_weight(uvec2 px) {
     return max(w, blend_weight(pool.x, pool.y, pool.z));
 }
 
-// The hit sample Y (albedo included) of the event e whose cached shading is `cached`;
-// records d in the pixel's sums.  Rule: a non-finite difference (only from extreme user
+// Routing, the blend without its wasted lookups: where w >= probe_fraction the blend's
+// sample is P with probability q = w and C otherwise, so such an event goes straight to
+// plain shading with probability w, before the lookup it would not use, and a hit that
+// was not routed keeps C (blend_hit).  The sample has the blend's distribution,
+// E = w E[P] + (1 - w) E[C] = E[C] + w b, at the cost of plain Monte Carlo where the
+// cache's bias is established.  Where w < probe_fraction nothing is routed: the blend's
+// sample C + (w/q)(P - C) then has the smaller variance.
+bool blend_route(inout ScatterEvent e, float w) {
+    return w >= scene.probe_fraction && rnd(e.rng) < w;
+}
+
+// The cache's gain at a probe, for the automatic mode's economics (host/schedule.c): the
+// share of the pixel's sample variance S^2 that plain shading's noise at the event makes,
+// g = (lum(P - C)^2 - b^2) / S^2, clamped to [0, 1] (a hit removes that share; the bias
+// part b^2 of the squared difference is not noise).  Added in units of 2^-16 to a 64-bit
+// sum in two words (the high word takes the carry), with the count of probes.
+// Rules: S^2 undefined (n < 2) or 0 -> not counted; a non-finite g -> not counted.
+void count_gain(uint idx, float diff, float bias) {
+    vec4 st = accum_stat[idx];
+    float n = float(floatBitsToUint(st.z));
+    if (n < 2.0 || !(st.y > 0.0)) return;
+    float g = (diff * diff - bias * bias) / (st.y / (n - 1.0));
+    if (isnan(g) || isinf(g)) return;
+    uint units = uint(clamp(g, 0.0, 1.0) * 65536.0);
+    uint old = atomicAdd(cache_counters.gain_lo, units);
+    if (old + units < old) atomicAdd(cache_counters.gain_hi, 1u);
+    atomicAdd(cache_counters.probes, 1u);
+}
+
+// The hit sample Y (albedo included) of the event e whose cached shading is `cached`, w
+// the pixel's weight (pixel_blend_weight, taken before the routing); records d in the
+// pixel's sums.  The probe is drawn with q = probe_fraction: where w >= q the routing
+// carried the weight and Y = C (the probe only feeds the statistics); below,
+// Y = C + (w/q) 1[probe] (P - C).  Rule: a non-finite difference (only from extreme user
 // input) is not recorded and the sample is the cached one.
-vec3 blend_hit(inout ScatterEvent e, vec3 cached) {
-    float w = pixel_blend_weight(e.px);
-    float q = max(w, scene.probe_fraction);
+vec3 blend_hit(inout ScatterEvent e, vec3 cached, float w) {
+    float q = scene.probe_fraction;
+    float wy = w >= q ? 0.0 : w;
     vec3 y = cached;
     float d = 0.0;
+    vec4 s = cache_blend[e.idx];
+    uint m = floatBitsToUint(s.z);
     if (rnd(e.rng) < q) {
         vec3 diff = event_direct(e) - cached;
-        d = luminance(diff) / q;
+        float dl = luminance(diff);
+        d = dl / q;
         if (isinf(d) || isnan(d)) return cached;
-        y = cached + (w / q) * diff;
+        y = cached + (wy / q) * diff;
+        count_gain(e.idx, dl, m > 0u ? s.x / float(m) : 0.0);
     }
-    vec4 s = cache_blend[e.idx];
-    cache_blend[e.idx] = vec4(s.x + d, s.y + d * d, uintBitsToFloat(floatBitsToUint(s.z) + 1u), 0.0);
+    cache_blend[e.idx] = vec4(s.x + d, s.y + d * d, uintBitsToFloat(m + 1u), 0.0);
     return y;
 }

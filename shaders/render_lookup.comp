@@ -23,6 +23,13 @@ vec3 cache_error_sample(vec3 x, vec3 cached, inout Rng rng, inout bool truncated
 void main() {
     ScatterEvent e;
     LOAD_EVENT(lookup_queue, e)
+    bool blend = CACHE_BLEND && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE);
+    float w = blend ? pixel_blend_weight(e.px) : 0.0;
+    if (blend && blend_route(e, w)) {
+        atomicAdd(cache_counters.routed, 1u);
+        QUEUE_EVENT(shade_queue, e.idx, e.t, e.rng, e.truncated)
+        return;
+    }
     vec3 E;
     uint node;
     bool near_centre;
@@ -42,7 +49,7 @@ void main() {
         Ls = direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
     }
     vec3 radiance = albedo_at(e.x) * Ls;
-    if (CACHE_BLEND && hit && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE)) radiance = blend_hit(e, radiance);
+    if (blend && hit) radiance = blend_hit(e, radiance, w);
     float coverage = 1.0;
     uint events;
     if (USE_EQUIANGULAR && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE))

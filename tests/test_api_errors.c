@@ -891,6 +891,9 @@ void test_create_config_errors(void **state) {
     CFG_ROW("allocator free only", PICVR_ERROR_INVALID_ARGUMENT, cfg.allocator.free = free_hook);
     /* cache */
     CFG_ROW("cache.mode 99", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.mode = (picvr_cache_mode)99);
+    CFG_ROW("cache.mode AUTO + 1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.mode = (picvr_cache_mode)(PICVR_CACHE_AUTO + 1));
+    CFG_ROW("cache.mode AUTO, blend OFF", PICVR_ERROR_INVALID_ARGUMENT,
+            (cfg.cache.mode = PICVR_CACHE_AUTO, cfg.cache.blend = PICVR_SWITCH_OFF));
     CFG_ROW("cache.gamma NaN", PICVR_ERROR_NON_FINITE, cfg.cache.gamma = NAN);
     CFG_ROW("cache.epsilon -0.1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.epsilon = -0.1f);
     CFG_ROW("cache.epsilon 1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.epsilon = 1.0f);

@@ -76,7 +76,8 @@ static picvr_context *create_cache(uint32_t seed, picvr_cache_mode mode) {
 }
 
 static const char *mode_name(picvr_cache_mode m) {
-    return m == PICVR_CACHE_OBJECT_SPACE ? "cache object" : m == PICVR_CACHE_SCREEN_SPACE ? "cache screen" : "no cache";
+    return m == PICVR_CACHE_OBJECT_SPACE ? "cache object" : m == PICVR_CACHE_SCREEN_SPACE ? "cache screen"
+         : m == PICVR_CACHE_AUTO ? "cache auto" : "no cache";
 }
 
 /* ---- closed forms ------------------------------------------------------------------------ */
@@ -270,6 +271,7 @@ void test_sweep_optical_thickness_sun_cache(void **state) {
     const float tau[] = {1e-6f, 0.5f, 10.0f, 100.0f, 1e3f, 1e4f, 1e5f};
     sun_thickness_sweep(PICVR_CACHE_OBJECT_SPACE, tau, sizeof tau / sizeof tau[0], 48);
     sun_thickness_sweep(PICVR_CACHE_SCREEN_SPACE, tau, sizeof tau / sizeof tau[0], 48);
+    sun_thickness_sweep(PICVR_CACHE_AUTO, tau, sizeof tau / sizeof tau[0], 48);   /* the blend's routing */
 }
 
 /* ---- transfer functions ------------------------------------------------------------------ */

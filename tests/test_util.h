@@ -63,6 +63,7 @@
     X(test_cache_off_by_default_allocates_nothing)                  \
     X(test_cache_homogeneous_sun_matches_closed_form)               \
     X(test_cache_blend_converges)                                   \
+    X(test_cache_auto_mode)                                         \
     X(test_cache_rebuild_keeps_new_entries)                         \
     X(test_cache_lookup_sees_long_lists)                            \
     X(test_cache_lookup_bound_cuts_walks)                           \

@@ -87,6 +87,10 @@ int main(void)
     PICVR_COUNTER("truncated", truncated);
     PICVR_COUNTER("lookups_cut", lookups_cut);
     PICVR_COUNTER("lookups_spilled", lookups_spilled);
+    PICVR_COUNTER("routed", routed);
+    PICVR_COUNTER("probes", probes);
+    PICVR_COUNTER("gain_lo", gain_lo);
+    PICVR_COUNTER("gain_hi", gain_hi);
     printf("VIEW_IMAGE %d\nVIEW_CACHE %d\nVIEW_CACHE_ERROR %d\n", (int)PICVR_VIEW_IMAGE,
            (int)PICVR_VIEW_CACHE, (int)PICVR_VIEW_CACHE_ERROR);
     printf("CACHE_NODE_RADII %g\n", (double)PICVR_CACHE_NODE_RADII);
