@@ -209,12 +209,16 @@ clean:
 BENCH_NICE ?= nice -n 15
 BENCH_OUT ?= bench/results
 BENCH_ARGS ?= --datasets bonsai --lights paper1 --size 128x128 --time 10000 --slice 200 \
-              --repeats 3 --rotate 4000 --after 6000 --ref-chunk 120000 --ref-max-chunks 40
+              --repeats 3 --rotate 4000 --after 6000 --conditions plain,object,auto \
+              --ref-chunk 30000 --ref-factor 3 --ref-max-chunks 40
+# The reduced matrix of this machine: every dataset x the three light set-ups x
+# background off/on (24 scenes) at 320x180, plain against the object-space cache and the
+# automatic mode, 30 s x 2 seeds each, references 2.5x below the runs' error (their own
+# variance taken out of every error): about 2.6 hours on 2 cores.
 BENCH_FULL_OUT ?= bench/results/full
-BENCH_FULL_ARGS ?= --size 1280x720 --time 60000 --slice 1000 --repeats 3 --rotate 8000 \
-              --after 30000 --ref-chunk 600000 --ref-max-chunks 400 \
-              --fig10 bonsai,engine,aneurism,cloud --bias bonsai,engine,aneurism,cloud \
-              --bias-time 300000
+BENCH_FULL_ARGS ?= --size 320x180 --time 30000 --slice 500 --repeats 2 --rotate 8000 \
+              --after 22000 --fig10 bonsai --conditions plain,object,auto --ref-chunk 50000 --ref-factor 2.5 \
+              --ref-max-chunks 24 --bias none
 
 # The library's sources as one checksum: the bench's run files carry it, so that a run
 # made with other library code is never reused (bench/error/runs.c, run_signature).

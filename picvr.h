@@ -209,8 +209,8 @@ typedef enum picvr_cache_mode {
                                       where it pays: the scheduler measures, per unit of
                                       device time, the error reduction of rounds with the
                                       cache and of plain rounds (stats.auto_efficiency)
-                                      and runs the better kind, giving 1/16 of the time to
-                                      the other to keep both measured; the blend routes
+                                      and runs the better kind, giving 1/16 of the recent
+                                      time to the other to keep both measured; the blend routes
                                       pixels where the cache is biased to plain shading.
                                       docs/cache.md, "The automatic mode" */
 } picvr_cache_mode;
@@ -826,7 +826,13 @@ typedef struct picvr_stats {
     double auto_efficiency;      /* PICVR_CACHE_AUTO: error reduction per device time of
                                     cached rounds over plain ones, E (> 1: the cache
                                     pays, cached rounds run); 0 until both are measured */
-    double auto_cached_share;    /* share of the context's device time spent in rounds
+    double kernel_ms_plain[3];   /* device ms per rendered block of the rendering
+                                    procedure's kernels (tracking, lookup, shading) in
+                                    rounds without the cache (moving average; 0 where
+                                    none ran or the device has no timestamps) */
+    double kernel_ms_cached[3];  /* the same in rounds with the cache */
+    double auto_cached_share;    /* share of the recent device time (the last ~200
+                                    rounds, exponentially weighted) spent in rounds
                                     that ran the cache: 1 with a forced cache, 0
                                     without, in between with PICVR_CACHE_AUTO */
     /* scheduler: measured shares of device time over the last second, and the §6 targets */

@@ -284,6 +284,11 @@ static const pvc_json_field SUMMARY_FIELDS[] = {
     {"cache_gain", PVC_JSON_F64, AT(stats.cache_gain)},
     {"auto_efficiency", PVC_JSON_F64, AT(stats.auto_efficiency)},
     {"auto_cached_share", PVC_JSON_F64, AT(stats.auto_cached_share)},
+    {"kernel_ms_plain_track", PVC_JSON_F64, AT(stats.kernel_ms_plain[0])},
+    {"kernel_ms_plain_shade", PVC_JSON_F64, AT(stats.kernel_ms_plain[2])},
+    {"kernel_ms_cached_track", PVC_JSON_F64, AT(stats.kernel_ms_cached[0])},
+    {"kernel_ms_cached_lookup", PVC_JSON_F64, AT(stats.kernel_ms_cached[1])},
+    {"kernel_ms_cached_shade", PVC_JSON_F64, AT(stats.kernel_ms_cached[2])},
     {"fraction_render", PVC_JSON_F64, AT(stats.fraction_render)},
     {"fraction_create", PVC_JSON_F64, AT(stats.fraction_create)},
     {"fraction_update", PVC_JSON_F64, AT(stats.fraction_update)},
@@ -375,6 +380,12 @@ void render_print_summary(const render_options *o, const picvr_stats *s, int int
                s->cache_entries, s->cache_entries_capped,
                s->cache_refs_per_entry, s->cache_hit_rate, s->cache_full ? " (full)" : "",
                s->fraction_render, s->fraction_create, s->fraction_update, s->target_create, s->target_update);
+    if (s->kernel_ms_cached[0] > 0)
+        printf(", cached rounds' kernels track/lookup/shade %.3g/%.3g/%.3g ms per block",
+               s->kernel_ms_cached[0], s->kernel_ms_cached[1], s->kernel_ms_cached[2]);
+    if (s->kernel_ms_plain[0] > 0)
+        printf(", plain rounds' kernels track/shade %.3g/%.3g ms per block", s->kernel_ms_plain[0],
+               s->kernel_ms_plain[2]);
     if (s->cache_entries)
         printf(", blend routed %.3f, gain of a hit %.3f, cached share of time %.3f (efficiency %.2f)",
                s->cache_routed, s->cache_gain, s->auto_cached_share, s->auto_efficiency);

@@ -198,10 +198,12 @@ typedef struct picvr_auto {
     double served;                   /* fraction of a cached round's scatter events a hit served */
     double gain;                     /* mean gain of a hit (shaders/cache_blend.glsl, count_gain) */
     double routed;                   /* fraction of the lookup's events the blend routed (any cached context) */
-    double time_ms[2];               /* device time spent in rounds of each kind */
+    double time_ms[2];               /* device time of each kind over the last PICVR_AUTO_WINDOW rounds
+                                        (exponentially weighted) */
 } picvr_auto;
 #define PICVR_AUTO_WARM 2u            /* rounds of each kind measured before the choice is by efficiency */
 #define PICVR_AUTO_EXPLORE 0.0625     /* share of device time the less efficient kind keeps */
+#define PICVR_AUTO_WINDOW 200.0       /* rounds (about 10 s) over which the shares of time are kept */
 #define PICVR_AUTO_MIN_VARIANCE 0.05  /* cached sample variance over plain's is taken >= this */
 
 /* A round's record for the §6 time shares and the hit-rate window. */
@@ -368,6 +370,8 @@ typedef struct picvr_rounds {
     VkQueryPool timestamps;          /* PICVR_ROUND_TIMESTAMPS; VK_NULL_HANDLE: none */
     double timestamp_ns;             /* nanoseconds per timestamp tick */
     uint64_t timestamp_mask;         /* valid bits */
+    double kernel_ms[2][3];          /* [plain, cached round][tracking, lookup, shading]: device ms per
+                                        block of the round's first rendering dispatch (moving average) */
 } picvr_rounds;
 
 /* What one round does. */
@@ -463,7 +467,7 @@ struct picvr_context {
 #endif
 
 /* Timestamps of a round: start, after creation, after rebuild, after update, end. */
-#define PICVR_ROUND_TIMESTAMPS 5u
+#define PICVR_ROUND_TIMESTAMPS 9u   /* 0-4 around the procedures, 5-8 around the first rendering dispatch's kernels */
 
 
 /* What the §6 plan of a round reads of the cache and the image. */

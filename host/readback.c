@@ -150,6 +150,8 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
         st.cache_max_samples = ctx->cache.cfg.max_samples;
         picvr_sched_shares(&ctx->sched, &st);
         if (!ctx->cache.on) st.auto_cached_share = 0.0;
+        memcpy(st.kernel_ms_plain, ctx->rounds.kernel_ms[0], sizeof st.kernel_ms_plain);
+        memcpy(st.kernel_ms_cached, ctx->rounds.kernel_ms[1], sizeof st.kernel_ms_cached);
         st.iterations = ctx->image.block_total ? (uint32_t)(ctx->image.block_samples / ctx->image.block_total) : 0;
         st.elapsed_ms = ctx->image.elapsed_ms;
         double samples = st.iterations_mean * ctx->scene.camera.width * ctx->scene.camera.height;

@@ -90,20 +90,24 @@ static void picvr_record_empty_queues(picvr_context *ctx, int cached) {
    before it queued events for (shaders/render.glsl).  Without a debug view the lookup
    queues its misses for shading; with one it shades them itself and the shading
    dispatch has no workgroups. */
-static void picvr_record_render_kernels(picvr_context *ctx, const picvr_round_plan *p) {
+static void picvr_record_render_kernels(picvr_context *ctx, const picvr_round_plan *p, int first) {
     int plain = p->plain;
     picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->request_cap, 0);
+    if (first) picvr_write_timestamp(ctx, 5);
     vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_MAIN, plain));
     vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.render_queue.buf, 0);
     picvr_barrier_all(ctx);
+    if (first) picvr_write_timestamp(ctx, 6);
     if (picvr_round_cached(ctx, p)) {
         vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_LOOKUP, 0));
         vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.lookup_queue.buf, 0);
         picvr_barrier_all(ctx);
     }
+    if (first) picvr_write_timestamp(ctx, 7);
     vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_SHADE, plain));
     vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.shade_queue.buf, 0);
     picvr_barrier_all(ctx);
+    if (first) picvr_write_timestamp(ctx, 8);
 }
 
 /* Keeps count of the first pass since the reset: round-robin dispatches from cursor 0
@@ -139,7 +143,7 @@ static void picvr_record_render(picvr_context *ctx, const picvr_round_plan *p) {
         picvr_push_constants(ctx, want, B, prio ? ctx->image.block_cursor : base, prio ? 0 : ctx->image.block_stride);
         vkCmdDispatch(ctx->vk.cmd, 1, 1, 1);
         picvr_barrier_all(ctx);
-        picvr_record_render_kernels(ctx, p);
+        picvr_record_render_kernels(ctx, p, left == p->render_blocks);
         picvr_note_first_pass(ctx, prio, want);
         ctx->image.block_cursor = (uint32_t)(((uint64_t)ctx->image.block_cursor + want) % B);
         left -= want;
@@ -216,10 +220,22 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
     picvr_barrier_all(ctx);
 }
 
+/* The rendering kernels' device time per block in the round's first rendering dispatch
+   (k: the intervals between timestamps 5-8), into ctx->rounds.kernel_ms of the round's
+   kind.  Rule: a round that compiled its rendering variant (first dispatch) is left out. */
+static void picvr_note_kernel_times(picvr_context *ctx, const picvr_round_plan *p, const double k[3]) {
+    uint32_t cap = ctx->image.block_total < PICVR_MAX_QUEUE ? ctx->image.block_total : PICVR_MAX_QUEUE;
+    uint32_t blocks = p->render_blocks < cap ? p->render_blocks : cap;
+    if (blocks == 0 || ctx->sched.first_dispatch[PICVR_PROC_RENDER]) return;
+    double *out = ctx->rounds.kernel_ms[picvr_round_cached(ctx, p)];
+    for (int i = 0; i < 3; i++) out[i] = picvr_moving_average(out[i], k[i] / blocks);
+}
+
 /* The device time of each procedure in the round just finished (dev[PROC_*]) and the
    octree rebuild's part of it, from the round's timestamps. */
 static picvr_status picvr_round_device_ms(picvr_context *ctx, const picvr_round_plan *p, double wall_ms,
-                                          uint32_t created, uint32_t blocks, double dev[3], double *rebuild_ms) {
+                                          uint32_t created, uint32_t blocks, double dev[3], double *rebuild_ms,
+                                          int note_kernels) {
     dev[0] = dev[1] = dev[2] = 0.0;
     *rebuild_ms = 0.0;
     if (!ctx->rounds.timestamps) {
@@ -237,6 +253,7 @@ static picvr_status picvr_round_device_ms(picvr_context *ctx, const picvr_round_
     double ms[PICVR_ROUND_TIMESTAMPS - 1];
     for (uint32_t i = 0; i + 1 < PICVR_ROUND_TIMESTAMPS; i++)
         ms[i] = (double)((t[i + 1] - t[i]) & ctx->rounds.timestamp_mask) * ctx->rounds.timestamp_ns * 1e-6;
+    if (note_kernels) picvr_note_kernel_times(ctx, p, ms + 5);
     dev[PICVR_PROC_CREATE] = ms[0];
     *rebuild_ms = ms[1];
     dev[PICVR_PROC_UPDATE] = ms[1] + ms[2];          /* octree maintenance counts as update */
@@ -263,14 +280,14 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
         /* Rule: a step the application ended after it had finished has no measured wall
            time; it is taken as the device time (timestamps, else the cost model) plus
            the modelled overhead, so that the cost model learns nothing false from it. */
-        picvr_status s = picvr_round_device_ms(ctx, p, 0.0, created, blocks, dev, &rebuild_ms);
+        picvr_status s = picvr_round_device_ms(ctx, p, 0.0, created, blocks, dev, &rebuild_ms, 0);
         if (s) return s;
         const double *cost = ctx->sched.cost;
         double planned = created * cost[PICVR_PROC_CREATE] + p->update_groups * cost[PICVR_PROC_UPDATE] +
                          blocks * cost[PICVR_PROC_RENDER];
         wall_ms = (ctx->rounds.timestamps ? dev[0] + dev[1] + dev[2] : planned) + ctx->sched.overhead_ms;
     }
-    picvr_status s = picvr_round_device_ms(ctx, p, wall_ms, created, blocks, dev, &rebuild_ms);
+    picvr_status s = picvr_round_device_ms(ctx, p, wall_ms, created, blocks, dev, &rebuild_ms, 1);
     if (s) return s;
     picvr_sched_account(&ctx->sched, dev, rebuild_ms, created, p->update_groups, blocks, wall_ms, picvr_round_cached(ctx, p));
     ctx->image.block_samples += blocks;

@@ -210,7 +210,7 @@ static double picvr_auto_efficiency(const picvr_auto *a) {
 }
 
 /* Whether the next round is plain: the more efficient kind, unless the other has had
-   less than PICVR_AUTO_EXPLORE of the device time so far. */
+   less than PICVR_AUTO_EXPLORE of the recent device time (time_ms). */
 static int picvr_auto_choose(const picvr_auto *a) {
     if (a->measured[0] < PICVR_AUTO_WARM || a->measured[1] < PICVR_AUTO_WARM)
         return a->measured[0] < a->measured[1];          /* cached first, then alternate */
@@ -227,6 +227,9 @@ static void picvr_auto_account(picvr_sched *sc, int plain, const double dev[3], 
                                const picvr_cache_counters *got) {
     picvr_auto *a = &sc->auto_mode;
     int k = plain ? 0 : 1;
+    /* an exponential window of PICVR_AUTO_WINDOW rounds: a kind starved long ago is
+       measured again within seconds once its share of the window falls */
+    for (int i = 0; i < 2; i++) a->time_ms[i] *= 1.0 - 1.0 / PICVR_AUTO_WINDOW;
     a->time_ms[k] += dev[0] + dev[1] + dev[2];
     uint64_t events = (uint64_t)got->hits + got->misses + got->routed;
     if (!plain && events) a->routed = 0.7 * a->routed + 0.3 * (double)got->routed / (double)events;

@@ -884,8 +884,8 @@ void test_cache_blend_converges(void **state) {
    at least 2 % and at most 98 % of the device time, and the image mean within 3 % of
    the closed form (plain Monte Carlo's is within 1 % at these samples; the cache's own
    bias is -9 % per hit, test_cache_full_dense_lit_face, so 3 % shows the blend and the
-   routing at work when the cached kind wins).  A forced cache reports a share of 1, no
-   cache 0. */
+   routing at work when the cached kind wins); each kind's kernels timed (a plain round's
+   lookup interval holds only barriers).  A forced cache reports a share of 1. */
 void test_cache_auto_mode(void **state) {
     (void)state;
     double *expv;
@@ -905,6 +905,15 @@ void test_cache_auto_mode(void **state) {
     if (!(st.auto_cached_share >= 0.02 && st.auto_cached_share <= 0.98))
         fail_msg("auto: cached share %.3f, one kind starved", st.auto_cached_share);
     if (!(fabs(m / e - 1) < 0.03)) fail_msg("auto: image mean %+.2f %% off the closed form", 100 * (m / e - 1));
+    /* the kernels timed per kind (timestamps 5-8): a plain round has no lookup */
+    print_message("    kernels, ms per block: plain track %.3g shade %.3g; cached track %.3g lookup %.3g shade %.3g\n",
+                  st.kernel_ms_plain[0], st.kernel_ms_plain[2], st.kernel_ms_cached[0], st.kernel_ms_cached[1],
+                  st.kernel_ms_cached[2]);
+    if (!(st.kernel_ms_plain[0] > 0 && st.kernel_ms_plain[2] > 0 && st.kernel_ms_cached[0] > 0 &&
+          st.kernel_ms_cached[1] > 0 && st.kernel_ms_cached[2] > 0))
+        fail_msg("auto: a kernel of a kind was never timed");
+    if (!(st.kernel_ms_plain[1] < 0.1 * st.kernel_ms_cached[1]))
+        fail_msg("auto: plain rounds' lookup interval %.3g ms per block (it only holds barriers)", st.kernel_ms_plain[1]);
     free(img);
     free(expv);
     tu_finish(ctx);

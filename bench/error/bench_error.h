@@ -28,7 +28,6 @@
 #define MAX_REPEATS 32
 #define NAME_LEN 64
 #define PATH_LEN 1024
-#define REF_FACTOR 10.0        /* reference error at least this far below */
 #define REF_MIN_CHUNKS 4
 #define REF_SEED0 1001u
 #define FINGERPRINT_SEED 7u    /* plain_fingerprint: a seed no chunk or run uses */
@@ -37,7 +36,7 @@
 #define FLOOR_FRACTION 1e-2    /* relative error floor, fraction of the mean */
 #define GRID_POINTS 200        /* equal-time grid of the ratio average */
 #define REF_ROUNDS 3           /* grow-the-reference attempts per scene */
-#define N_CONDITIONS 6         /* rows of CONDITIONS */
+#define N_CONDITIONS 7         /* rows of CONDITIONS */
 #define N_BIAS_CONDITIONS 3    /* rows of BIAS_CONDITIONS */
 #define N_WARM_CONDITIONS 2    /* BIAS_CONDITIONS[1..2] */
 /* The library's sources this binary was built from (the Makefile passes a checksum of
@@ -67,6 +66,7 @@ typedef struct options {
                                   --cache-param (presets.h); zero: the library's
                                   defaults.  The mode comes from the condition */
     int repeats, ref_max_chunks;
+    double ref_factor;         /* --ref-factor: the reference's error this far below the runs' */
     int list;                  /* --list: print the scenes and their reference folders */
     int self_test;             /* --self-test: check the harness and exit */
 } options;
@@ -231,14 +231,18 @@ int run_scene(const options *o, const scene *s, const picvr_io_volume *vol, scen
 enum field { F_RMSE, F_REL, F_EST, F_EST_REL };
 
 /* The ratio a/b of two runs' errors, averaged over equal times. */
+/* Table 2's ratio_true_worst: the smallest ratio plain (runs[0]) / condition c over the
+   equal-time grid, each time's errors the geometric mean over the repeats. */
+double worst_ratio(const scene_result *r, int c, int repeats, enum field f);
 double mean_ratio(const run *a, const run *b, enum field f);
 
 typedef struct writers {
     FILE *t2csv, *t2md, *t3csv, *t3md, *bcsv, *bmd;
     const options *o;
+    const char *device;        /* the device's name, Table 2's column */
 } writers;
 
-int open_writers(const options *o, writers *w);
+int open_writers(const options *o, writers *w, const char *device);
 void close_writers(writers *w, const char *device);
 /* Every output of a scene that was not refused: Table 2, Table 3, bias, Fig. 11 and,
    when it has rotation runs, Fig. 10. */

@@ -70,7 +70,7 @@ void run_signature(const options *o, const reference *r, char *out, size_t size)
 {
     char cache[256];
     cache_options_text(&o->cache, cache, sizeof cache);
-    snprintf(out, size, "# reference %u chunks %llu iterations; library %s; %s", r->chunks,
+    snprintf(out, size, "# reference %u chunks %llu iterations (its variance removed); library %s; %s", r->chunks,
              (unsigned long long)r->iterations, PICVR_BENCH_BUILD, cache);
 }
 
@@ -99,11 +99,11 @@ errors compare(const float *lum, const reference *ref)
     size_t n = (size_t)ref->width * ref->height;
     double floor = FLOOR_FRACTION * ref->mean_lum, se = 0, sr = 0;
     for (size_t i = 0; i < n; i++) {
-        double e = lum[i] - ref->lum[i], rel = e / (ref->lum[i] + floor);
-        se += e * e;
-        sr += rel * rel;
+        double e = lum[i] - ref->lum[i], d = ref->lum[i] + floor, rel = e / d;
+        se += e * e - ref->var[i];
+        sr += rel * rel - ref->var[i] / (d * d);
     }
-    errors out = {sqrt(se / n), sqrt(sr / n)};
+    errors out = {sqrt(fmax(se / n, 0.0)), sqrt(fmax(sr / n, 0.0))};
     return out;
 }
 
@@ -406,21 +406,18 @@ static int run_bias(const options *o, const scene *s, const picvr_io_volume *vol
     return 1;
 }
 
-/* How many times the reference's error must shrink to lie REF_FACTOR below the smallest
-   error measured against it (the reference's own part of that error taken out); at
-   most 1: converged enough. */
-static double reference_shortfall(const reference *ref, scene_result *res, const scene *s,
+/* How many times the reference's error must shrink to lie --ref-factor below the
+   smallest error measured against it (compare() already took the reference's own
+   variance out of that error); at most 1: converged enough. */
+static double reference_shortfall(const options *o, const reference *ref, scene_result *res, const scene *s,
                                   int repeats)
 {
     smallest_errors(res, repeats, &res->smallest_rmse, &res->smallest_rel);
-    double sm = sqrt(fmax(res->smallest_rmse * res->smallest_rmse - ref->rmse * ref->rmse,
-                          1e-30));
-    double sr = sqrt(fmax(res->smallest_rel * res->smallest_rel - ref->rel_rmse * ref->rel_rmse,
-                          1e-30));
-    double need = fmax(REF_FACTOR * ref->rmse / sm, REF_FACTOR * ref->rel_rmse / sr);
+    double sm = fmax(res->smallest_rmse, 1e-15), sr = fmax(res->smallest_rel, 1e-15);
+    double need = fmax(o->ref_factor * ref->rmse / sm, o->ref_factor * ref->rel_rmse / sr);
     fprintf(stderr, "  %s: reference RMSE %.3g (rel %.3g), smallest measured %.3g "
             "(rel %.3g): %.1fx below\n", s->id, ref->rmse, ref->rel_rmse,
-            res->smallest_rmse, res->smallest_rel, REF_FACTOR / need);
+            res->smallest_rmse, res->smallest_rel, o->ref_factor / need);
     return need;
 }
 
@@ -434,7 +431,7 @@ static int run_converged(const options *o, const scene *s, const picvr_io_volume
     for (int round = 0; round < REF_ROUNDS; round++) {
         count_done = base_done;
         if (!run_all(o, s, vol, ref, res)) return 0;
-        double need = reference_shortfall(ref, res, s, o->repeats);
+        double need = reference_shortfall(o, ref, res, s, o->repeats);
         res->refused = need > 1.0;
         if (!res->refused) return 1;
         uint32_t chunks = (uint32_t)ceil(ref->chunks * need * need * 1.1);

@@ -35,6 +35,7 @@ const condition CONDITIONS[N_CONDITIONS] = {
     {"screen", PICVR_CACHE_SCREEN_SPACE, PICVR_SWITCH_ON},
     {"screen-noprio", PICVR_CACHE_SCREEN_SPACE, PICVR_SWITCH_OFF},
     {"plain-prio", PICVR_CACHE_NONE, PICVR_SWITCH_ON},
+    {"auto", PICVR_CACHE_AUTO, PICVR_SWITCH_ON},
 };
 
 const condition *find_condition(const char *name)

@@ -43,6 +43,28 @@ static int self_test_ratio(void)
     return expect(fabs(q - 2) < 0.01, "mean_ratio of 2/sqrt(t) over 1/sqrt(t) is not 2");
 }
 
+/* Two repeats of plain 2/sqrt(t) against a condition at 1/sqrt(t) that, in repeat 0
+   only, is 8/sqrt(t) from 4 s to 6 s: the worst time's geometric mean of the ratios is
+   sqrt(2/8 * 2/1) = 0.707 (the repeat average keeps one run's dip from being the
+   worst alone), everywhere else 2. */
+static int self_test_worst(void)
+{
+    static scene_result r;
+    memset(&r, 0, sizeof r);
+    int ok = 1;
+    for (int k = 0; k < 2; k++)
+        for (int i = 1; ok && i <= 50; i++) {
+            row x = {0}, y = {0};
+            x.t_ms = y.t_ms = 200.0 * i;
+            x.rmse = 2 / sqrt(x.t_ms);
+            y.rmse = (k == 0 && y.t_ms >= 4000 && y.t_ms <= 6000 ? 8 : 1) / sqrt(y.t_ms);
+            ok = run_push(&r.runs[0][k], &x) && run_push(&r.runs[1][k], &y);
+        }
+    double q = ok ? worst_ratio(&r, 1, 2, F_RMSE) : NAN;
+    for (int k = 0; k < 2; k++) { run_free(&r.runs[0][k]); run_free(&r.runs[1][k]); }
+    return expect(fabs(q - sqrt(0.5)) < 0.01, "worst_ratio of the dip is not 0.707");
+}
+
 /* One pixel, four chunks of n = 10 with means 1, 2, 3, 4: weighted mean 2.5, per-sample
    variance n * sum (m - 2.5)^2 / 3 = 50 / 3, variance of the mean (50/3) / 40. */
 static int self_test_reference(void)
@@ -73,8 +95,12 @@ static int self_test_compare(void)
     r.var = ref_var;
     r.mean_lum = 1;
     errors e = compare(lum, &r);
-    return expect(fabs(e.rmse - 0.5) < 1e-12, "RMSE") &&
-           expect(fabs(e.rel_rmse - 0.5 / 1.01) < 1e-12, "relative RMSE");
+    int ok = expect(fabs(e.rmse - 0.5) < 1e-12, "RMSE") &&
+             expect(fabs(e.rel_rmse - 0.5 / 1.01) < 1e-12, "relative RMSE");
+    /* the reference's variance comes off the mean square: (1 - 4 * 0.04) / 4 */
+    for (int i = 0; i < 4; i++) ref_var[i] = 0.04;
+    e = compare(lum, &r);
+    return ok && expect(fabs(e.rmse - sqrt(0.84 / 4)) < 1e-12, "RMSE less the reference's variance");
 }
 
 /* Writes a finished one-row run file whose first line is `sig`. */
@@ -216,7 +242,7 @@ static int self_test_defaults(void)
 
 int self_test(void)
 {
-    int ok = self_test_ratio() & self_test_reference() & self_test_compare() &
+    int ok = self_test_ratio() & self_test_worst() & self_test_reference() & self_test_compare() &
              self_test_signature() & self_test_defaults() & self_test_pfm() &
              self_test_fingerprint();
     fprintf(stderr, PROGRAM ": self-test %s\n", ok ? "passed" : "FAILED");
