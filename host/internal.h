@@ -198,11 +198,18 @@ typedef struct picvr_auto {
     double served;                   /* fraction of a cached round's scatter events a hit served */
     double gain;                     /* mean gain of a hit (shaders/cache_blend.glsl, count_gain) */
     double routed;                   /* fraction of the lookup's events the blend routed (any cached context) */
+    int cached_ready;                /* the cached kind's pipelines are selected (picvr_ready_cached) */
+    double compile_ms;               /* the longest a plain rendering variant took to make */
+    uint32_t plain_rounds;           /* plain rounds run, the first (pipeline compilation) included */
+    double first_wall_ms;            /* wall time of the first plain round */
+    double plain_wall_ms;            /* wall time of the plain rounds after it (sum and moving average) */
+    double plain_round_ms;
     double time_ms[2];               /* device time of each kind over the last PICVR_AUTO_WINDOW rounds
                                         (exponentially weighted) */
 } picvr_auto;
 #define PICVR_AUTO_WARM 2u            /* rounds of each kind measured before the choice is by efficiency */
 #define PICVR_AUTO_EXPLORE 0.0625     /* share of device time the less efficient kind keeps */
+#define PICVR_AUTO_DEFER 40.0         /* the first cached round waits for this many compile times of plain rendering */
 #define PICVR_AUTO_WINDOW 200.0       /* rounds (about 10 s) over which the shares of time are kept */
 #define PICVR_AUTO_MIN_VARIANCE 0.05  /* cached sample variance over plain's is taken >= this */
 

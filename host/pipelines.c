@@ -231,12 +231,29 @@ static picvr_status picvr_select_variants(picvr_context *ctx) {
     ctx->pipes.variant_clock++;
     picvr_status s = PICVR_OK;
     if (picvr_auto_plain_allowed(ctx)) {
+        /* the time a rendering variant takes to make (a new one: pipelines compiled) */
+        double t0 = picvr_clock_ms();
         s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 1);
+        double made_ms = picvr_clock_ms() - t0;
+        if (made_ms > ctx->sched.auto_mode.compile_ms) ctx->sched.auto_mode.compile_ms = made_ms;
         ctx->pipes.plain_slot = ctx->pipes.current_slot[PICVR_PROC_RENDER];
+        /* the cached kind's pipelines wait for its first round (picvr_auto_choose) */
+        if (s || !ctx->sched.auto_mode.cached_ready) return s;
     }
     if (!s) s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 0);
     if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_CREATE, 0);
     if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_UPDATE, 0);
+    return s;
+}
+
+/* Before a round that runs the cache: under PICVR_CACHE_AUTO its pipelines are made at
+   the cached kind's first round, so that the plain rounds before it do not wait for
+   their compilation. */
+static picvr_status picvr_ready_cached(picvr_context *ctx) {
+    if (ctx->sched.auto_mode.cached_ready || !picvr_auto_plain_allowed(ctx)) return PICVR_OK;
+    ctx->sched.auto_mode.cached_ready = 1;
+    picvr_status s = picvr_select_variants(ctx);
+    if (s) ctx->sched.auto_mode.cached_ready = 0;
     return s;
 }
 

@@ -303,7 +303,7 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
         picvr_cache_take_counters(ctx, &got);
         hits = got.hits;
         misses = got.misses;
-        picvr_auto_account(&ctx->sched, p->plain, dev, blocks, &got);
+        picvr_auto_account(&ctx->sched, p->plain, dev, blocks, wall_ms, &got);
     }
     picvr_sched_record(&ctx->sched, picvr_clock_ms(), dev, hits, misses, ctx->cache.on);
     return PICVR_OK;

@@ -195,7 +195,7 @@ static void picvr_sched_shares(const picvr_sched *sc, picvr_stats *st) {
        E = c_plain / (c_cached (1 - h g)) >= 1.
    The cache's bias is left to the blend (cache.blend, on in this mode), which routes the
    events of pixels with an established bias to plain shading; those are counted in h's
-   denominator and gain nothing.  Both kinds run at first (PICVR_AUTO_WARM rounds each);
+   denominator and gain nothing.  Both kinds run at first (picvr_auto_choose says when);
    then the more efficient kind runs, and the other keeps PICVR_AUTO_EXPLORE of the device
    time, so that both costs and the gain stay measured (and the cache keeps growing) at a
    bounded price: that share of the time at the worse efficiency. */
@@ -209,11 +209,21 @@ static double picvr_auto_efficiency(const picvr_auto *a) {
     return a->cost[0] / (a->cost[1] * v);
 }
 
-/* Whether the next round is plain: the more efficient kind, unless the other has had
-   less than PICVR_AUTO_EXPLORE of the recent device time (time_ms). */
+/* Whether the next round is plain.  Plain rounds first; the cached kind's first round
+   makes and compiles its pipelines (seconds on lavapipe), so it waits until the plain
+   rounds have rendered PICVR_AUTO_DEFER times the plain variant's own compile time (the
+   longer of the time making its pipelines took and the first plain round's wall time
+   beyond a later round's, where the driver compiles at the first dispatch; the cached
+   kind compiles about three times as many kernels, and a pause of C at time t costs
+   1 - sqrt(1 - C/t) of the error ratio), which keeps the error at every moment near
+   plain's; then PICVR_AUTO_WARM rounds of each kind; then
+   the more efficient kind, unless the other has had less than PICVR_AUTO_EXPLORE of the
+   recent device time (time_ms). */
 static int picvr_auto_choose(const picvr_auto *a) {
-    if (a->measured[0] < PICVR_AUTO_WARM || a->measured[1] < PICVR_AUTO_WARM)
-        return a->measured[0] < a->measured[1];          /* cached first, then alternate */
+    if (a->measured[0] < PICVR_AUTO_WARM) return 1;
+    double compile_ms = fmax(a->first_wall_ms - a->plain_round_ms, a->compile_ms);
+    if (a->measured[1] == 0 && a->plain_wall_ms < PICVR_AUTO_DEFER * compile_ms) return 1;
+    if (a->measured[1] < PICVR_AUTO_WARM) return 0;
     int prefer_plain = picvr_auto_efficiency(a) < 1.0;
     double other = a->time_ms[prefer_plain ? 1 : 0], total = a->time_ms[0] + a->time_ms[1];
     return other < PICVR_AUTO_EXPLORE * total ? !prefer_plain : prefer_plain;
@@ -223,7 +233,7 @@ static int picvr_auto_choose(const picvr_auto *a) {
    events a hit served and the mean gain of its probes.  Rule: a round that ran a variant
    for the first time (pipeline compilation inside the timestamps) or rendered nothing
    is left out; so are gains of a round without probes. */
-static void picvr_auto_account(picvr_sched *sc, int plain, const double dev[3], uint32_t blocks,
+static void picvr_auto_account(picvr_sched *sc, int plain, const double dev[3], uint32_t blocks, double wall_ms,
                                const picvr_cache_counters *got) {
     picvr_auto *a = &sc->auto_mode;
     int k = plain ? 0 : 1;
@@ -234,6 +244,11 @@ static void picvr_auto_account(picvr_sched *sc, int plain, const double dev[3], 
     uint64_t events = (uint64_t)got->hits + got->misses + got->routed;
     if (!plain && events) a->routed = 0.7 * a->routed + 0.3 * (double)got->routed / (double)events;
     if (!a->on) return;
+    if (plain && a->plain_rounds++ == 0) a->first_wall_ms = wall_ms;
+    else if (plain) {
+        a->plain_wall_ms += wall_ms;
+        a->plain_round_ms = picvr_moving_average(a->plain_round_ms, wall_ms);
+    }
     a->render_cost[k] = sc->cost[PICVR_PROC_RENDER];   /* picvr_sched_account's, for this kind */
     if (blocks == 0 || sc->first_dispatch[0] || sc->first_dispatch[1] || sc->first_dispatch[2]) return;
     a->cost[k] = picvr_moving_average(a->cost[k], (dev[0] + dev[1] + dev[2]) / blocks);

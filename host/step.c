@@ -85,6 +85,7 @@ static picvr_status picvr_step_time(picvr_context *ctx, double budget_ms) {
     do {
         double left = budget_ms - (picvr_clock_ms() - start);
         picvr_round_plan p = picvr_plan_timed_round(ctx, left < round_ms ? left : round_ms, 0);
+        if (!p.plain && (s = picvr_ready_cached(ctx))) return s;
         if ((s = picvr_run_round(ctx, &p))) return s;
         /* Rule: a remainder under a tenth of a round is not worth a round's fixed costs. */
     } while (budget_ms - (picvr_clock_ms() - start) > 0.1 * round_ms || picvr_first_pass_left(ctx) > 0);
@@ -106,6 +107,7 @@ static uint32_t picvr_pass_request_cap(const picvr_context *ctx) {
    updated.  Without it, passes are batched into rounds of about BATCH_TARGET_MS. */
 static picvr_status picvr_step_passes(picvr_context *ctx, uint32_t passes) {
     picvr_status s = picvr_prepare_render(ctx);
+    if (!s) s = picvr_ready_cached(ctx);   /* whole passes render cached */
     if (s) return s;
     ctx->cache.requests_issued = 0;
     ctx->image.block_cursor = 0;
@@ -152,6 +154,7 @@ picvr_status picvr_step_begin(picvr_context *ctx, double milliseconds) {
     if (s || (s = picvr_prepare_render(ctx))) return s;
     ctx->cache.requests_issued = 0;
     picvr_round_plan p = picvr_plan_timed_round(ctx, milliseconds, 1);
+    if (!p.plain && (s = picvr_ready_cached(ctx))) return s;
     if ((s = picvr_submit_round(ctx, &p))) return s;
     ctx->pending.active = 1;
     return PICVR_OK;
