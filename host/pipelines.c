@@ -213,9 +213,12 @@ static picvr_status picvr_select_variant(picvr_context *ctx, int proc, int plain
 
 /* Kernel k of the variant this step dispatches for procedure proc (the rendering
    procedure of a plain round: PICVR_CACHE_AUTO's plain variant). */
+static uint32_t picvr_current_slot(const picvr_context *ctx, int proc, int plain) {
+    return proc == PICVR_PROC_RENDER && plain ? ctx->pipes.plain_slot : ctx->pipes.current_slot[proc];
+}
+
 static VkPipeline picvr_current_kernel(const picvr_context *ctx, int proc, int k, int plain) {
-    uint32_t slot = proc == PICVR_PROC_RENDER && plain ? ctx->pipes.plain_slot : ctx->pipes.current_slot[proc];
-    return ctx->pipes.variants[proc][slot].pipe[k];
+    return ctx->pipes.variants[proc][picvr_current_slot(ctx, proc, plain)].pipe[k];
 }
 
 static VkPipeline picvr_current_pipeline(const picvr_context *ctx, int proc) { return picvr_current_kernel(ctx, proc, PICVR_KERNEL_MAIN, 0); }

@@ -162,8 +162,7 @@ static void picvr_note_dispatches(picvr_context *ctx, const picvr_round_plan *p)
             ctx->sched.first_dispatch[i] = 0;
             continue;
         }
-        uint32_t slot = i == PICVR_PROC_RENDER && p->plain ? ctx->pipes.plain_slot : ctx->pipes.current_slot[i];
-        picvr_variant_slot *v = &ctx->pipes.variants[i][slot];
+        picvr_variant_slot *v = &ctx->pipes.variants[i][picvr_current_slot(ctx, i, p->plain)];
         ctx->sched.first_dispatch[i] = !v->dispatched;
         v->dispatched = 1;
     }
