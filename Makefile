@@ -201,7 +201,7 @@ clean:
 
 # ---- error against run time ---------------------------------------------------------
 # bench/error/ (main.c says what it measures); scenes in bench/scenes.txt; references
-# cached in bench/refs/ (not committed); results (CSV, Markdown, gnuplot scripts and
+# in bench/refs/ (committed: luminance only, compressed, a few MB); results (CSV, Markdown, gnuplot scripts and
 # PNGs) in bench/results/ for `make bench` and bench/results/full/ for `make bench-full`.
 # Both resume: finished runs (bench/results/**/runs/) and reference chunks are reused.
 # Exit status 3: a reference was not converged enough and its scene was left out.
@@ -213,12 +213,13 @@ BENCH_ARGS ?= --datasets bonsai --lights paper1 --size 128x128 --time 10000 --sl
               --ref-chunk 30000 --ref-factor 3 --ref-max-chunks 40
 # The reduced matrix of this machine: every dataset x the three light set-ups x
 # background off/on (24 scenes) at 320x180, plain against the object-space cache and the
-# automatic mode, 30 s x 2 seeds each, references 2.5x below the runs' error (their own
-# variance taken out of every error): about 2.6 hours on 2 cores.
+# automatic mode, 30 s, one seed; references of 4 chunks of 30 s, at least 1.5x below the
+# runs' error (their own variance is taken out of every error, so a reference that close
+# still gives an unbiased error): about 1.7 hours on 2 cores.
 BENCH_FULL_OUT ?= bench/results/full
-BENCH_FULL_ARGS ?= --size 320x180 --time 30000 --slice 500 --repeats 2 --rotate 8000 \
-              --after 22000 --fig10 bonsai --conditions plain,object,auto --ref-chunk 50000 --ref-factor 2.5 \
-              --ref-max-chunks 24 --bias none
+BENCH_FULL_ARGS ?= --size 320x180 --time 30000 --slice 500 --repeats 1 --rotate 8000 \
+              --after 22000 --fig10 bonsai --conditions plain,object,auto --ref-chunk 30000 --ref-factor 1.5 \
+              --ref-max-chunks 12 --bias none
 
 # The library's sources as one checksum: the bench's run files carry it, so that a run
 # made with other library code is never reused (bench/error/runs.c, run_signature).

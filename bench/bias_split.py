@@ -4,8 +4,8 @@ the part that changes with the seed, over the pixels that see the volume.
 
 usage: bench/bias_split.py REF_DIR RUN.lum|RUN.pfm [RUN ...]
 
-REF_DIR: a reference folder of picvr-bench-error (bench/refs/<key>/chunk_*.pfm, RGB,
-rows bottom to top); RUN: the final images of runs of one condition with different
+REF_DIR: a reference folder of picvr-bench-error (bench/refs/<key>/: chunk_*.lum.gz,
+gzip-compressed grayscale PFMs of the chunks' luminance, or chunk_*.pfm, RGB); RUN: the final images of runs of one condition with different
 seeds, at least two: luminance (bench/results/<out>/runs/*_r?_warm.lum, float32, rows
 top to bottom) or picvr-render's --out-float images (RUN.pfm).  The reference is the
 mean of its chunks, reduced to luminance with the weights bench/error/ uses.
@@ -23,6 +23,7 @@ Printed (RMS over those pixels):
 Standard library only (docs/cache.md, "A full cache's error floor").
 """
 import glob
+import gzip
 import math
 import os
 import struct
@@ -31,16 +32,19 @@ from collections import Counter
 
 
 def read_pfm_luminance(path):
-    with open(path, 'rb') as f:
-        if f.readline().strip() != b'PF':
-            sys.exit('%s: not an RGB PFM' % path)
+    """Luminance, rows top to bottom, of an RGB PFM or a (gzipped) grayscale one."""
+    with (gzip.open if path.endswith('.gz') else open)(path, 'rb') as f:
+        magic = f.readline().strip()
+        if magic not in (b'PF', b'Pf'):
+            sys.exit('%s: not a PFM' % path)
+        c = 3 if magic == b'PF' else 1
         w, h = map(int, f.readline().split())
         scale = float(f.readline())
-        data = f.read(w * h * 12)
-    fmt = ('<' if scale < 0 else '>') + '%df' % (w * h * 3)
+        data = f.read(w * h * 4 * c)
+    fmt = ('<' if scale < 0 else '>') + '%df' % (w * h * c)
     v = struct.unpack(fmt, data)
-    lum = [0.2126 * v[3 * i] + 0.7152 * v[3 * i + 1] + 0.0722 * v[3 * i + 2]
-           for i in range(w * h)]
+    lum = v if c == 1 else [0.2126 * v[3 * i] + 0.7152 * v[3 * i + 1] + 0.0722 * v[3 * i + 2]
+                            for i in range(w * h)]
     return [lum[(h - 1 - y) * w + x] for y in range(h) for x in range(w)], w, h
 
 
@@ -64,9 +68,10 @@ def read_run(path, w, h):
 def main():
     if len(sys.argv) < 4:
         sys.exit(__doc__)
-    chunks = sorted(glob.glob(os.path.join(sys.argv[1], 'chunk_*.pfm')))
+    chunks = sorted(glob.glob(os.path.join(sys.argv[1], 'chunk_*.lum.gz')) +
+                    glob.glob(os.path.join(sys.argv[1], 'chunk_*.pfm')))
     if not chunks:
-        sys.exit('%s: no chunk_*.pfm' % sys.argv[1])
+        sys.exit('%s: no chunk_*.lum.gz or chunk_*.pfm' % sys.argv[1])
     ref, w, h = None, 0, 0
     for c in chunks:
         lum, w, h = read_pfm_luminance(c)

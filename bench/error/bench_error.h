@@ -154,6 +154,8 @@ typedef struct reference {
 /* Opens (creating its folder) and loads the chunks there are of scene s's reference. */
 int ref_open(const options *o, const scene *s, reference *r);
 void ref_close(reference *r);
+/* Loads the chunks there are in r->dir (r->width, r->height, r->lum and r->var set). */
+int ref_load(reference *r);
 /* Renders chunks up to `chunks` in all, then loads the reference again. */
 int ref_grow(const options *o, const scene *s, const picvr_io_volume *vol, reference *r,
              uint32_t chunks);

@@ -10,8 +10,8 @@
  *
  * For every dataset x light set-up of the matrix ("scene"):
  *  1. a reference: plain Monte Carlo (cache off, priorities off), rendered as
- *     independent chunks with seeds 1001, 1002, ... and stored as PFM files in
- *     REFS/<hash>/ where the hash is FNV-1a of the scene description (data file, TF,
+ *     independent chunks with seeds 1001, 1002, ... and stored as luminance files
+ *     (references.c) in REFS/<hash>/ where the hash is FNV-1a of the scene description (data file, TF,
  *     spacing, lights, size, camera; not the seed) and of the plain renderer's
  *     fingerprint (plain_fingerprint: a short deterministic render of the scene,
  *     hashed bit for bit).  The reference is the iteration-weighted mean of the

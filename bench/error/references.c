@@ -1,8 +1,12 @@
 /* references.c - picvr-bench-error's converged references: plain Monte Carlo rendered
- * as independent chunks (seeds 1001, 1002, ...) and kept as PFM files in
- * REFS/<hash>/chunk_<seed>.pfm with chunk_<seed>.json (its iterations).  The reference
- * is the iteration-weighted mean of the chunks' luminance; its own per-pixel error is
- * estimated from the spread between chunks.
+ * as independent chunks (seeds 1001, 1002, ...) and kept in REFS/<hash>/ as
+ * chunk_<seed>.lum.gz (the chunk's luminance: a gzip-compressed grayscale PFM) with
+ * chunk_<seed>.json (its iterations).  Only luminance is kept because every error of the
+ * bench is one of luminance; it makes the references small enough to be committed
+ * (bench/refs/), so that they are rendered once.  Chunks of the older RGB format
+ * (chunk_<seed>.pfm) are still read, and rewritten in the new one when read.  The
+ * reference is the iteration-weighted mean of the chunks' luminance; its own per-pixel
+ * error is estimated from the spread between chunks.
  */
 #include <errno.h>
 #include <math.h>
@@ -11,6 +15,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+
+#include <zlib.h>
 
 #include "bench_error.h"
 #include "cli.h"
@@ -39,7 +45,7 @@ int file_exists(const char *path)
 
 /* ---- PFM chunks --------------------------------------------------------------------------- */
 
-/* Reads a w x h PFM into luminance, rows top down. */
+/* Reads a w x h RGB PFM into luminance, rows top down. */
 static int read_pfm_luminance(const char *path, uint32_t w, uint32_t h, double *lum)
 {
     size_t n = (size_t)w * h;
@@ -49,6 +55,68 @@ static int read_pfm_luminance(const char *path, uint32_t w, uint32_t h, double *
     for (size_t i = 0; ok && i < n; i++) lum[i] = luminance(rgb + 3 * i);
     free(rgb);
     return ok;
+}
+
+/* Writes a w x h luminance image (rows top down) as a gzip-compressed grayscale PFM
+   ("Pf", little endian, rows bottom up as PFM has them), first to a temporary name so
+   that a chunk is never half there. */
+static int write_lum_gz(const char *path, const double *lum, uint32_t w, uint32_t h)
+{
+    char tmp[PATH_LEN];
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    gzFile f = gzopen(tmp, "wb9");
+    unsigned char *row = malloc((size_t)w * 4);
+    char head[64];
+    int len = snprintf(head, sizeof head, "Pf\n%u %u\n-1.0\n", w, h);
+    int ok = f && row && gzwrite(f, head, (unsigned)len) == len;
+    for (uint32_t y = h; ok && y-- > 0;) {
+        for (uint32_t x = 0; x < w; x++) {
+            float v = (float)lum[(size_t)y * w + x];
+            uint32_t u;
+            memcpy(&u, &v, 4);
+            for (int b = 0; b < 4; b++) row[4 * x + b] = (unsigned char)(u >> (8 * b));
+        }
+        ok = gzwrite(f, row, w * 4) == (int)(w * 4);
+    }
+    if (f && gzclose(f) != Z_OK) ok = 0;
+    free(row);
+    ok = ok && rename(tmp, path) == 0;
+    if (!ok) pvc_fail("cannot write %s", path);
+    return ok;
+}
+
+/* Reads what write_lum_gz wrote; any other size or format is an error. */
+static int read_lum_gz(const char *path, uint32_t w, uint32_t h, double *lum)
+{
+    gzFile f = gzopen(path, "rb");
+    unsigned char *row = malloc((size_t)w * 4);
+    char head[64] = {0}, expect[64];
+    int len = snprintf(expect, sizeof expect, "Pf\n%u %u\n-1.0\n", w, h);
+    int ok = f && row && gzread(f, head, (unsigned)len) == len && !memcmp(head, expect, (size_t)len);
+    for (uint32_t y = h; ok && y-- > 0;) {
+        ok = gzread(f, row, w * 4) == (int)(w * 4);
+        for (uint32_t x = 0; ok && x < w; x++) {
+            uint32_t u = 0;
+            float v;
+            for (int b = 0; b < 4; b++) u |= (uint32_t)row[4 * x + b] << (8 * b);
+            memcpy(&v, &u, 4);
+            ok = isfinite(v);
+            lum[(size_t)y * w + x] = v;
+        }
+    }
+    if (f) gzclose(f);
+    free(row);
+    if (!ok) pvc_fail("%s is not a %ux%u luminance chunk", path, w, h);
+    return ok;
+}
+
+/* A chunk's luminance from either format; an RGB chunk is rewritten as luminance (and
+   its PFM removed) once read. */
+static int read_chunk(const char *lum_path, const char *pfm_path, uint32_t w, uint32_t h, double *lum)
+{
+    if (file_exists(lum_path)) return read_lum_gz(lum_path, w, h, lum);
+    return read_pfm_luminance(pfm_path, w, h, lum) && write_lum_gz(lum_path, lum, w, h) &&
+           remove(pfm_path) == 0;
 }
 
 /* The "iterations" value of a chunk's JSON (ours or picvr-render --json). */
@@ -66,8 +134,9 @@ static long read_chunk_iterations(const char *path)
 
 /* ---- reference ------------------------------------------------------------------------------ */
 
-static void chunk_paths(const reference *r, uint32_t k, char *pfm, char *json)
+static void chunk_paths(const reference *r, uint32_t k, char *lum, char *pfm, char *json)
 {
+    snprintf(lum, PATH_LEN, "%s/chunk_%u.lum.gz", r->dir, REF_SEED0 + k);
     snprintf(pfm, PATH_LEN, "%s/chunk_%u.pfm", r->dir, REF_SEED0 + k);
     snprintf(json, PATH_LEN, "%s/chunk_%u.json", r->dir, REF_SEED0 + k);
 }
@@ -76,14 +145,14 @@ static void chunk_paths(const reference *r, uint32_t k, char *pfm, char *json)
 static int ref_accumulate(reference *r, double *s1, double *s2, double *chunk)
 {
     size_t n = (size_t)r->width * r->height;
-    char pfm[PATH_LEN], json[PATH_LEN];
+    char lum[PATH_LEN], pfm[PATH_LEN], json[PATH_LEN];
     r->chunks = 0;
     r->iterations = 0;
     for (;; r->chunks++) {
-        chunk_paths(r, r->chunks, pfm, json);
+        chunk_paths(r, r->chunks, lum, pfm, json);
         long it = read_chunk_iterations(json);
-        if (it <= 0 || !file_exists(pfm)) break;
-        if (!read_pfm_luminance(pfm, r->width, r->height, chunk)) return 0;
+        if (it <= 0 || (!file_exists(lum) && !file_exists(pfm))) break;
+        if (!read_chunk(lum, pfm, r->width, r->height, chunk)) return 0;
         for (size_t i = 0; i < n; i++) {
             s1[i] += it * chunk[i];
             s2[i] += it * chunk[i] * chunk[i];
@@ -115,7 +184,7 @@ void ref_finish(reference *r, const double *s1, const double *s2)
     r->rel_rmse = sqrt(sr / n);
 }
 
-static int ref_load(reference *r)
+int ref_load(reference *r)
 {
     size_t n = (size_t)r->width * r->height;
     double *s1 = calloc(n, sizeof *s1), *s2 = calloc(n, sizeof *s2);
@@ -173,20 +242,22 @@ static int render_chunk_time(const options *o, const scene *s, picvr_context *ct
     return 1;
 }
 
-/* Chunk k's files: the linear image (written to a temporary name first, so that a
-   chunk is never half there) and its JSON. */
+/* Chunk k's files: its luminance and its JSON. */
 static int write_chunk(const reference *r, uint32_t k, picvr_context *ctx)
 {
     picvr_stats st;
     size_t n = (size_t)r->width * r->height;
-    float *rgba = malloc(n * 16);
-    char pfm[PATH_LEN], json[PATH_LEN], tmp[PATH_LEN];
-    chunk_paths(r, k, pfm, json);
-    snprintf(tmp, sizeof tmp, "%s.tmp", pfm);
-    int ok = rgba && pvc_check(picvr_get_stats(ctx, &st), "picvr_get_stats") &&
-             pvc_check(picvr_read_rgba32f(ctx, rgba, n * 16), "picvr_read_rgba32f") &&
-             pvc_write_pfm(tmp, rgba, r->width, r->height) && rename(tmp, pfm) == 0;
+    float *rgba = malloc(n * 16), *lumf = malloc(n * sizeof *lumf);
+    double *lum = malloc(n * sizeof *lum);
+    char lum_path[PATH_LEN], pfm[PATH_LEN], json[PATH_LEN];
+    chunk_paths(r, k, lum_path, pfm, json);
+    int ok = rgba && lumf && lum && pvc_check(picvr_get_stats(ctx, &st), "picvr_get_stats") &&
+             read_luminance(ctx, r->width, r->height, rgba, lumf);
+    for (size_t i = 0; ok && i < n; i++) lum[i] = lumf[i];
+    ok = ok && write_lum_gz(lum_path, lum, r->width, r->height);
     free(rgba);
+    free(lumf);
+    free(lum);
     FILE *f = ok ? fopen(json, "w") : NULL;
     if (!f) return 0;
     fprintf(f, "{\"iterations\": %u, \"elapsed_ms\": %.3f, \"seed\": %u}\n", st.iterations,

@@ -223,6 +223,50 @@ static int self_test_pfm(void)
            expect(read_be, "a big-endian PFM is read wrongly");
 }
 
+/* A reference of two chunks in the older RGB format: loading it gives the chunks'
+   iteration-weighted mean luminance, rewrites each chunk as luminance (removing the
+   PFM), and loading again from the luminance files gives the same reference. */
+static int self_test_chunk_formats(void)
+{
+    reference r = {0};
+    double lum[2], var[2], first[2];
+    char path[PATH_LEN];
+    r.width = 2;
+    r.height = 1;
+    r.lum = lum;
+    r.var = var;
+    snprintf(r.dir, sizeof r.dir, "/tmp/picvr-bench-self-test-ref-%ld", (long)getpid());
+    int made = make_dirs(r.dir);
+    for (int k = 0; made && k < 2; k++) {
+        const float grey = k ? 3.0f : 1.0f;    /* luminance of a grey pixel is its value */
+        const float rgba[8] = {grey, grey, grey, 1, 2 * grey, 2 * grey, 2 * grey, 1};
+        snprintf(path, sizeof path, "%s/chunk_%u.pfm", r.dir, REF_SEED0 + k);
+        made = pvc_write_pfm(path, rgba, 2, 1);
+        snprintf(path, sizeof path, "%s/chunk_%u.json", r.dir, REF_SEED0 + k);
+        FILE *f = made ? fopen(path, "w") : NULL;
+        made = f && fprintf(f, "{\"iterations\": %d}\n", k ? 30 : 10) > 0 && fclose(f) == 0;
+    }
+    int loaded = made && ref_load(&r) && r.chunks == 2 && r.iterations == 40;
+    memcpy(first, lum, sizeof first);
+    snprintf(path, sizeof path, "%s/chunk_%u.pfm", r.dir, REF_SEED0);
+    int converted = loaded && !file_exists(path);
+    snprintf(path, sizeof path, "%s/chunk_%u.lum.gz", r.dir, REF_SEED0 + 1);
+    converted = converted && file_exists(path);
+    int again = converted && ref_load(&r) && r.chunks == 2 && !memcmp(first, lum, sizeof first);
+    for (int k = 0; k < 2; k++) {
+        const char *ext[] = {"pfm", "lum.gz", "json"};
+        for (int e = 0; e < 3; e++) {
+            snprintf(path, sizeof path, "%s/chunk_%u.%s", r.dir, REF_SEED0 + k, ext[e]);
+            remove(path);
+        }
+    }
+    rmdir(r.dir);
+    return expect(loaded && fabs(first[0] - 2.5) < 1e-6 && fabs(first[1] - 5.0) < 1e-6,
+                  "an RGB reference chunk is loaded wrongly") &&
+           expect(converted, "an RGB reference chunk is not rewritten as luminance") &&
+           expect(again, "a luminance reference chunk does not load as it was written");
+}
+
 /* Without options every setting is its documented default (--help). */
 static int self_test_defaults(void)
 {
@@ -244,7 +288,7 @@ int self_test(void)
 {
     int ok = self_test_ratio() & self_test_worst() & self_test_reference() & self_test_compare() &
              self_test_signature() & self_test_defaults() & self_test_pfm() &
-             self_test_fingerprint();
+             self_test_fingerprint() & self_test_chunk_formats();
     fprintf(stderr, PROGRAM ": self-test %s\n", ok ? "passed" : "FAILED");
     return ok;
 }
