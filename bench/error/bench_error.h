@@ -65,7 +65,7 @@ typedef struct options {
                                   medium_model (--medium) and the numbers of
                                   --cache-param (presets.h); zero: the library's
                                   defaults.  The mode comes from the condition */
-    int repeats, ref_max_chunks;
+    int repeats, ref_min_chunks, ref_max_chunks;
     double ref_factor;         /* --ref-factor: the reference's error this far below the runs' */
     int list;                  /* --list: print the scenes and their reference folders */
     int self_test;             /* --self-test: check the harness and exit */

@@ -5,7 +5,7 @@
  *       [--datasets bonsai,engine] [--lights paper1,paper3-bg] [--size 128x128]
  *       [--conditions plain,object,object-noprio,screen,screen-noprio,plain-prio,auto]
  *       [--time MS] [--slice MS] [--repeats N] [--rotate MS] [--after MS]
- *       [--ref-chunk MS] [--ref-max-chunks N] [--bias bonsai] [--fig10 bonsai]
+ *       [--ref-chunk MS] [--ref-min-chunks N] [--ref-max-chunks N] [--bias bonsai] [--fig10 bonsai]
  *       [--out bench/results] [--refs bench/refs]
  *
  * For every dataset x light set-up of the matrix ("scene"):
@@ -98,6 +98,9 @@ static void print_help(FILE *f)
         "                       radius_min_voxels, radius_max_voxels, update_threshold\n"
         "                       (repeatable; default: the library's, picvr.h)\n"
         "  --ref-chunk MS       time per reference chunk (default 60000)\n"
+        "  --ref-min-chunks N   render at least N chunks before the runs (default 4, at\n"
+        "                       least 4): for long runs, so that the reference need not\n"
+        "                       grow after them (which repeats the runs)\n"
         "  --ref-max-chunks N   refuse a reference that needs more (default 200)\n"
         "  --ref-factor F       the reference's RMSE at least F times below the smallest\n"
         "                       error measured against it (default 10; the errors have\n"
@@ -116,7 +119,7 @@ static const pvc_option OPTIONS[] = {
     {"bias", 1}, {"fig10", 1}, {"out", 1}, {"refs", 1}, {"size", 1}, {"time", 1},
     {"slice", 1}, {"rotate", 1}, {"after", 1}, {"ref-chunk", 1}, {"bias-time", 1},
     {"bias-warm", 1}, {"curvature", 1}, {"medium", 1}, {"cache-param", 1}, {"repeats", 1},
-    {"ref-max-chunks", 1}, {"ref-factor", 1}, {NULL, 0}};
+    {"ref-min-chunks", 1}, {"ref-max-chunks", 1}, {"ref-factor", 1}, {NULL, 0}};
 
 /* The options that name files, folders and selections of the matrix. */
 static int apply_name_option(void *target, const char *name, const char *value)
@@ -156,6 +159,11 @@ static int apply_count_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "repeats")) {
         if (!pvc_parse_u32(value, 1, MAX_REPEATS, &n)) return 0;
         o->repeats = (int)n;
+        return 1;
+    }
+    if (!strcmp(name, "ref-min-chunks")) {
+        if (!pvc_parse_u32(value, REF_MIN_CHUNKS, INT32_MAX, &n)) return 0;
+        o->ref_min_chunks = (int)n;
         return 1;
     }
     if (!strcmp(name, "ref-max-chunks")) {
@@ -206,7 +214,8 @@ static int apply_option(void *target, const char *name, const char *value)
 static int options_consistent(const options *o)
 {
     if (o->run_ms <= 0 || o->slice_ms <= 0 || o->repeats < 1 || o->repeats > MAX_REPEATS ||
-        o->ref_chunk_ms <= 0 || o->ref_max_chunks < REF_MIN_CHUNKS || o->rotate_ms < 0 ||
+        o->ref_chunk_ms <= 0 || o->ref_min_chunks < REF_MIN_CHUNKS ||
+        o->ref_max_chunks < o->ref_min_chunks || o->rotate_ms < 0 ||
         o->after_ms < 0 || o->bias_ms < 0 || o->warm_ms < 0) {
         pvc_fail("an option is out of range");
         return 0;
@@ -226,7 +235,8 @@ int parse_args(int argc, char **argv, options *o)
                    .bias = "bonsai", .fig10 = "bonsai", .width = 128, .height = 128,
                    .run_ms = 10000, .slice_ms = 200, .rotate_ms = 4000, .after_ms = 6000,
                    .ref_chunk_ms = 60000, .cache = {0}, .repeats = 2,
-                   .ref_max_chunks = 200, .ref_factor = 10.0};
+                   .ref_min_chunks = REF_MIN_CHUNKS, .ref_max_chunks = 200,
+                   .ref_factor = 10.0};
     int status = pvc_parse_options(argc, argv, OPTIONS, apply_option, o, print_help);
     if (status < 0 && !options_consistent(o)) return EXIT_USAGE;
     return status;

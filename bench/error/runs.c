@@ -451,7 +451,8 @@ int run_scene(const options *o, const scene *s, const picvr_io_volume *vol, scen
 {
     reference ref;
     int ok = ref_open(o, s, &ref);
-    if (ok && ref.chunks < REF_MIN_CHUNKS) ok = ref_grow(o, s, vol, &ref, REF_MIN_CHUNKS);
+    uint32_t min_chunks = (uint32_t)o->ref_min_chunks;
+    if (ok && ref.chunks < min_chunks) ok = ref_grow(o, s, vol, &ref, min_chunks);
     ok = ok && run_converged(o, s, vol, &ref, res);
     int bias = !res->refused && pvc_in_list(o->bias, s->ds->name);
     if (ok && !res->refused && o->rotate_ms > 0 && pvc_in_list(o->fig10, s->ds->name))

@@ -278,7 +278,7 @@ static int self_test_defaults(void)
     return expect(parsed, "no options are refused") &&
            expect(!strcmp(cache, "medium default; curvature default"),
                   "the cache options are not the library's defaults") &&
-           expect(o.repeats == 2 && o.ref_max_chunks == 200 && o.run_ms == 10000 &&
+           expect(o.repeats == 2 && o.ref_min_chunks == 4 && o.ref_max_chunks == 200 && o.run_ms == 10000 &&
                   o.slice_ms == 200 && o.ref_chunk_ms == 60000 && o.warm_ms == 0 &&
                   o.bias_ms == 0 && o.width == 128 && o.height == 128,
                   "the defaults differ from --help");
