@@ -202,8 +202,9 @@ clean:
 
 # ---- error against run time ---------------------------------------------------------
 # bench/error/ (main.c says what it measures); scenes in bench/scenes.txt; references
-# in bench/refs/ (committed: luminance only, compressed, a few MB); results (CSV, Markdown, gnuplot scripts and
-# PNGs) in bench/results/ for `make bench` and bench/results/full/ for `make bench-full`.
+# in bench/refs/ (committed: luminance only, compressed, a few MB); results (CSV,
+# Markdown, gnuplot scripts and PNGs) in bench/results/ for `make bench`,
+# bench/results/full/ for `make bench-full` and bench/results/best/ for `make bench-best`.
 # Both resume: finished runs (bench/results/**/runs/) and reference chunks are reused.
 # Exit status 3: a reference was not converged enough and its scene was left out.
 .PHONY: bench bench-full bench-best bench-bias
@@ -223,8 +224,9 @@ BENCH_FULL_ARGS ?= --size 320x180 --time 30000 --slice 500 --repeats 1 --rotate 
               --ref-max-chunks 12 --bias none
 # The paper's best case on this machine: large intense lights with a background light
 # (bonsai, paper3-bg), 300 s per run at 320x180, plain, the object-space cache and the
-# automatic mode; the reference (16 chunks, 14 min) is rendered before the runs, so
-# that it need not grow after them.  About 30 minutes with the reference committed.
+# automatic mode; the reference (16 chunks, 910 s; committed) is rendered before the
+# runs, so that it need not grow after them.  About 16 minutes with the committed
+# reference, 30 without.
 BENCH_BEST_OUT ?= bench/results/best
 BENCH_BEST_ARGS ?= --datasets bonsai --lights paper3-bg --size 320x180 --time 300000 \
               --slice 2000 --repeats 1 --rotate 0 --conditions plain,object,auto --ref-chunk 60000 \
