@@ -7,8 +7,9 @@ usage: bench/bias_split.py REF_DIR RUN.lum|RUN.pfm [RUN ...]
 REF_DIR: a reference folder of picvr-bench-error (bench/refs/<key>/: chunk_*.lum.gz,
 gzip-compressed grayscale PFMs of the chunks' luminance, or chunk_*.pfm, RGB); RUN: the
 final images of runs of one condition with different seeds, at least two: luminance
-(bench/results/<out>/runs/*_r?_warm.lum, float32, rows top to bottom) or picvr-render's --out-float images (RUN.pfm).  The reference is the
-mean of its chunks, reduced to luminance with the weights bench/error/ uses.
+(bench/results/<out>/runs/*_r?_warm.lum, float32, rows top to bottom) or picvr-render's
+--out-float images (RUN.pfm).  The reference is the mean of its chunks, reduced to
+luminance with the weights bench/error/ uses.
 
 Pixels: those whose reference differs from the image's most common value (the
 background, which every run renders exactly where no ray meets the volume).
