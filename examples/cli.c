@@ -296,16 +296,30 @@ int pvc_in_list(const char *list, const char *name)
 
 #define FLOAT_CHUNK 1024
 
+void pvc_floats_to_le(const float *v, size_t n, unsigned char *bytes)
+{
+    for (size_t i = 0; i < n; i++) {
+        uint32_t u;
+        memcpy(&u, &v[i], 4);
+        for (int b = 0; b < 4; b++) bytes[4 * i + b] = (unsigned char)(u >> (8 * b));
+    }
+}
+
+void pvc_floats_from_bytes(const unsigned char *bytes, size_t n, int big_endian, float *v)
+{
+    for (size_t i = 0; i < n; i++) {
+        uint32_t u = 0;
+        for (int b = 0; b < 4; b++) u |= (uint32_t)bytes[4 * i + (big_endian ? 3 - b : b)] << (8 * b);
+        memcpy(&v[i], &u, 4);
+    }
+}
+
 int pvc_write_floats_le(FILE *f, const float *v, size_t n)
 {
     unsigned char bytes[4 * FLOAT_CHUNK];
     for (size_t done = 0; done < n;) {
         size_t k = n - done < FLOAT_CHUNK ? n - done : FLOAT_CHUNK;
-        for (size_t i = 0; i < k; i++) {
-            uint32_t u;
-            memcpy(&u, &v[done + i], 4);
-            for (int b = 0; b < 4; b++) bytes[4 * i + b] = (unsigned char)(u >> (8 * b));
-        }
+        pvc_floats_to_le(v + done, k, bytes);
         if (fwrite(bytes, 4, k, f) != k) return 0;
         done += k;
     }
@@ -319,12 +333,7 @@ static int read_floats(FILE *f, float *v, size_t n, int big_endian)
     for (size_t done = 0; done < n;) {
         size_t k = n - done < FLOAT_CHUNK ? n - done : FLOAT_CHUNK;
         if (fread(bytes, 4, k, f) != k) return 0;
-        for (size_t i = 0; i < k; i++) {
-            uint32_t u = 0;
-            for (int b = 0; b < 4; b++)
-                u |= (uint32_t)bytes[4 * i + (big_endian ? 3 - b : b)] << (8 * b);
-            memcpy(&v[done + i], &u, 4);
-        }
+        pvc_floats_from_bytes(bytes, k, big_endian, v + done);
         done += k;
     }
     return 1;

@@ -138,6 +138,10 @@ int pvc_in_list(const char *list, const char *name);
 /* n floats as IEEE-754 little-endian bytes, whatever the host's byte order. */
 int pvc_write_floats_le(FILE *f, const float *v, size_t n);
 int pvc_read_floats_le(FILE *f, float *v, size_t n);
+/* The same packing in memory: n floats to 4 n little-endian bytes, and 4 n bytes of the
+   given order (1: big-endian) to n floats. */
+void pvc_floats_to_le(const float *v, size_t n, unsigned char *bytes);
+void pvc_floats_from_bytes(const unsigned char *bytes, size_t n, int big_endian, float *v);
 
 /* Writes rgba (width * height RGBA floats, rows top to bottom) as an RGB PFM: "PF",
    the size, scale -1 (little-endian), rows bottom to top.  Reports a failure. */

@@ -60,7 +60,7 @@ static int read_pfm_luminance(const char *path, uint32_t w, uint32_t h, double *
 /* Writes a w x h luminance image (rows top down) as a gzip-compressed grayscale PFM
    ("Pf", little endian, rows bottom up as PFM has them), first to a temporary name so
    that a chunk is never half there. */
-static int write_lum_gz(const char *path, const double *lum, uint32_t w, uint32_t h)
+static int write_lum_gz(const char *path, const float *lum, uint32_t w, uint32_t h)
 {
     char tmp[PATH_LEN];
     snprintf(tmp, sizeof tmp, "%s.tmp", path);
@@ -70,12 +70,7 @@ static int write_lum_gz(const char *path, const double *lum, uint32_t w, uint32_
     int len = snprintf(head, sizeof head, "Pf\n%u %u\n-1.0\n", w, h);
     int ok = f && row && gzwrite(f, head, (unsigned)len) == len;
     for (uint32_t y = h; ok && y-- > 0;) {
-        for (uint32_t x = 0; x < w; x++) {
-            float v = (float)lum[(size_t)y * w + x];
-            uint32_t u;
-            memcpy(&u, &v, 4);
-            for (int b = 0; b < 4; b++) row[4 * x + b] = (unsigned char)(u >> (8 * b));
-        }
+        pvc_floats_to_le(lum + (size_t)y * w, w, row);
         ok = gzwrite(f, row, w * 4) == (int)(w * 4);
     }
     if (f && gzclose(f) != Z_OK) ok = 0;
@@ -85,27 +80,27 @@ static int write_lum_gz(const char *path, const double *lum, uint32_t w, uint32_
     return ok;
 }
 
-/* Reads what write_lum_gz wrote; any other size or format is an error. */
+/* Reads what write_lum_gz wrote; any other size or format, or a value that is not
+   finite, is an error. */
 static int read_lum_gz(const char *path, uint32_t w, uint32_t h, double *lum)
 {
     gzFile f = gzopen(path, "rb");
     unsigned char *row = malloc((size_t)w * 4);
+    float *v = malloc((size_t)w * sizeof *v);
     char head[64] = {0}, expect[64];
     int len = snprintf(expect, sizeof expect, "Pf\n%u %u\n-1.0\n", w, h);
-    int ok = f && row && gzread(f, head, (unsigned)len) == len && !memcmp(head, expect, (size_t)len);
+    int ok = f && row && v && gzread(f, head, (unsigned)len) == len && !memcmp(head, expect, (size_t)len);
     for (uint32_t y = h; ok && y-- > 0;) {
         ok = gzread(f, row, w * 4) == (int)(w * 4);
+        if (ok) pvc_floats_from_bytes(row, w, 0, v);
         for (uint32_t x = 0; ok && x < w; x++) {
-            uint32_t u = 0;
-            float v;
-            for (int b = 0; b < 4; b++) u |= (uint32_t)row[4 * x + b] << (8 * b);
-            memcpy(&v, &u, 4);
-            ok = isfinite(v);
-            lum[(size_t)y * w + x] = v;
+            ok = isfinite(v[x]);
+            lum[(size_t)y * w + x] = v[x];
         }
     }
     if (f) gzclose(f);
     free(row);
+    free(v);
     if (!ok) pvc_fail("%s is not a %ux%u luminance chunk", path, w, h);
     return ok;
 }
@@ -115,8 +110,13 @@ static int read_lum_gz(const char *path, uint32_t w, uint32_t h, double *lum)
 static int read_chunk(const char *lum_path, const char *pfm_path, uint32_t w, uint32_t h, double *lum)
 {
     if (file_exists(lum_path)) return read_lum_gz(lum_path, w, h, lum);
-    return read_pfm_luminance(pfm_path, w, h, lum) && write_lum_gz(lum_path, lum, w, h) &&
-           remove(pfm_path) == 0;
+    size_t n = (size_t)w * h;
+    float *lumf = malloc(n * sizeof *lumf);
+    int ok = lumf && read_pfm_luminance(pfm_path, w, h, lum);
+    for (size_t i = 0; ok && i < n; i++) lumf[i] = (float)lum[i];
+    ok = ok && write_lum_gz(lum_path, lumf, w, h) && remove(pfm_path) == 0;
+    free(lumf);
+    return ok;
 }
 
 /* The "iterations" value of a chunk's JSON (ours or picvr-render --json). */
@@ -247,16 +247,13 @@ static int write_chunk(const reference *r, uint32_t k, picvr_context *ctx)
 {
     picvr_stats st;
     size_t n = (size_t)r->width * r->height;
-    float *rgba = malloc(n * 16), *lumf = malloc(n * sizeof *lumf);
-    double *lum = malloc(n * sizeof *lum);
+    float *rgba = malloc(n * 16), *lum = malloc(n * sizeof *lum);
     char lum_path[PATH_LEN], pfm[PATH_LEN], json[PATH_LEN];
     chunk_paths(r, k, lum_path, pfm, json);
-    int ok = rgba && lumf && lum && pvc_check(picvr_get_stats(ctx, &st), "picvr_get_stats") &&
-             read_luminance(ctx, r->width, r->height, rgba, lumf);
-    for (size_t i = 0; ok && i < n; i++) lum[i] = lumf[i];
+    int ok = rgba && lum && pvc_check(picvr_get_stats(ctx, &st), "picvr_get_stats") &&
+             read_luminance(ctx, r->width, r->height, rgba, lum);
     ok = ok && write_lum_gz(lum_path, lum, r->width, r->height);
     free(rgba);
-    free(lumf);
     free(lum);
     FILE *f = ok ? fopen(json, "w") : NULL;
     if (!f) return 0;
