@@ -6,7 +6,7 @@ set key autotitle columnhead top right
 set logscale y
 set grid
 set xlabel 'time in picvr_step (s)'
-set multiplot layout 1,2 title 'aneurism paper4 320x180: error from an empty cache, static camera (mean of 3 seeds)'
+set multiplot layout 1,2 title 'aneurism paper4 320x180: error from an empty cache, static camera (mean of 5 seeds)'
 set ylabel 'true RMSE of luminance vs reference'
 plot for [i=2:3] 'fig11_aneurism_paper4_320x180.dat' using 1:i with lines lw 2
 set ylabel 'estimate: stats.est_error (Eq. 5)'
