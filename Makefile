@@ -38,7 +38,7 @@ help:
 	@echo "make bench        error against run time, reduced (bonsai, 128x128; minutes)"
 	@echo "make bench-full   error against run time, the reduced matrix (~1.7 h; resumable)"
 	@echo "make bench-best   the paper's best case (paper3-bg) over 300 s (~30 min)"
-	@echo "make bench-auto   auto against plain over the reduced matrix, five seeds (~2 h after bench-full)"
+	@echo "make bench-auto   auto against plain over the reduced matrix, five seeds (~1.7 h after bench-full)"
 	@echo "make bench-bias   bias of the cache when full: default, paper model, curvature limit (~55 min)"
 
 # Debian packages, installed only when missing (apt-get as root or via sudo).
@@ -205,7 +205,8 @@ clean:
 # bench/error/ (main.c says what it measures); scenes in bench/scenes.txt; references
 # in bench/refs/ (committed: luminance only, compressed, a few MB); results (CSV,
 # Markdown, gnuplot scripts and PNGs) in bench/results/ for `make bench`,
-# bench/results/full/ for `make bench-full` and bench/results/best/ for `make bench-best`.
+# bench/results/full/ for `make bench-full`, bench/results/best/ for `make bench-best` and
+# bench/results/auto/ for `make bench-auto`.
 # Both resume: finished runs (bench/results/**/runs/) and reference chunks are reused.
 # Exit status 3: a reference was not converged enough and its scene was left out.
 .PHONY: bench bench-full bench-best bench-bias bench-auto
