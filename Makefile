@@ -39,6 +39,7 @@ help:
 	@echo "make bench-full   error against run time, the reduced matrix (~1.7 h; resumable)"
 	@echo "make bench-best   the paper's best case (paper3-bg) over 300 s (~30 min)"
 	@echo "make bench-auto   auto against plain over the reduced matrix, five seeds (~1.7 h after bench-full)"
+	@echo "make bench-ms     the multiply scattered cache against plain path tracing on the cloud"
 	@echo "make bench-bias   bias of the cache when full: default, paper model, curvature limit (~55 min)"
 
 # Debian packages, installed only when missing (apt-get as root or via sudo).
@@ -206,10 +207,10 @@ clean:
 # in bench/refs/ (committed: luminance only, compressed, a few MB); results (CSV,
 # Markdown, gnuplot scripts and PNGs) in bench/results/ for `make bench`,
 # bench/results/full/ for `make bench-full`, bench/results/best/ for `make bench-best` and
-# bench/results/auto/ for `make bench-auto`.
+# bench/results/auto/ for `make bench-auto`, bench/results/ms/ for `make bench-ms`.
 # Both resume: finished runs (bench/results/**/runs/) and reference chunks are reused.
 # Exit status 3: a reference was not converged enough and its scene was left out.
-.PHONY: bench bench-full bench-best bench-bias bench-auto
+.PHONY: bench bench-full bench-best bench-bias bench-auto bench-ms
 BENCH_NICE ?= nice -n 15
 BENCH_OUT ?= bench/results
 BENCH_ARGS ?= --datasets bonsai --lights paper1 --size 128x128 --time 10000 --slice 200 \
@@ -241,6 +242,15 @@ BENCH_BEST_ARGS ?= --datasets bonsai --lights paper3-bg --size 320x180 --time 30
 BENCH_AUTO_OUT ?= bench/results/auto
 BENCH_AUTO_ARGS ?= --size 320x180 --time 30000 --slice 500 --repeats 5 --rotate 0 \
               --conditions plain,auto --ref-chunk 30000 --ref-factor 1.5 --ref-max-chunks 12 --bias none
+
+# The multiply scattered cache (bench/scenes_ms.txt: the cloud as its preset renders it,
+# albedo 0.99, g 0.8, unlimited bounces, sun and sky): plain path tracing against the
+# object-space cache, 60 s per run at 320x180, two seeds; bench/results/ms_cache.csv
+# sums it up (bench/ms_cache_csv.py).
+BENCH_MS_OUT ?= bench/results/ms
+BENCH_MS_ARGS ?= --scenes bench/scenes_ms.txt --size 320x180 --time 60000 --slice 1000 --repeats 2 \
+              --rotate 0 --conditions plain,object --ref-chunk 60000 --ref-factor 1.5 \
+              --ref-max-chunks 30 --bias cloud-ms
 
 # The library's sources as one checksum: the bench's run files carry it, so that a run
 # made with other library code is never reused (bench/error/runs.c, run_signature).
@@ -274,6 +284,10 @@ bench-full: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
 
 bench-best: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
 	@$(call run_bench,$(BENCH_BEST_ARGS),$(BENCH_BEST_OUT))
+
+bench-ms: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
+	@$(call run_bench,$(BENCH_MS_ARGS),$(BENCH_MS_OUT))
+	python3 bench/ms_cache_csv.py $(BENCH_MS_OUT) > bench/results/ms_cache.csv
 
 bench-auto: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
 	@mkdir -p $(BENCH_AUTO_OUT)/runs && cp -u $(BENCH_FULL_OUT)/runs/*_plain_r0.csv $(BENCH_FULL_OUT)/runs/*_auto_r0.csv $(BENCH_AUTO_OUT)/runs/ 2>/dev/null; \

@@ -594,9 +594,17 @@ typedef struct picvr_scattering {
    its throughput) (what a survivor gathers later is divided by the survival
    probability: unbiased).  A path is bounded
    by llvmpipe's loop limit: past PICVR_PATH_STEPS tracking steps in all it ends (biased,
-   counted in stats.truncated_paths).  The irradiance cache serves single scattering
-   with an isotropic phase function only: with max_bounces > 0, any g != 0 or a second
-   lobe, picvr_step renders by plain Monte Carlo and the cache idles. */
+   counted in stats.truncated_paths).  The irradiance cache, when on: with
+   max_bounces = 0 it holds the single-scattered light and serves an isotropic phase
+   function only (with any g != 0 or a second lobe the cache idles and picvr_step renders
+   by plain Monte Carlo); with max_bounces > 0 it holds the multiply scattered light (the
+   fluence of light that scattered at least once before reaching a point): at a camera
+   ray's scatter event a hit adds the event's direct light by next-event estimation and
+   the cached part, weighted isotropically whatever the phase function (its error for an
+   anisotropic one: docs/cache.md), and the path ends there; a miss traces the path.
+   Entries are estimated by path tracing, and with unlimited bounces their paths end at
+   the cache's earlier entries.  On a CPU device such an entry takes at most 256 samples
+   per point (stats.cache_max_samples). */
 picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *scattering);
 #define PICVR_PATH_STEPS 49152u
 

@@ -103,12 +103,39 @@ static int picvr_use_hg(const picvr_context *ctx) {
     return ctx->scene.tf_has_g || (sc->back_weight > 0.0f && sc->back_g != 0.0f);
 }
 
-/* Whether the cache serves the scene: it holds single-scattered light for an isotropic
-   phase function, so with more scatter events or an anisotropic phase function it idles
-   (the rendering variant queues every event for plain shading, shaders/render_track.glsl,
-   and the rounds plan no creation or update). */
+/* Whether the cache serves the scene.  With bounces it holds the multiply scattered
+   light (a fluence: any phase function); without, the single-scattered light for an
+   isotropic phase function, so with an anisotropic one alone it idles (the rendering
+   variant queues every event for plain shading, shaders/render_track.glsl, and the
+   rounds plan no creation or update). */
+static int picvr_cache_multiple(const picvr_context *ctx) {
+    return ctx->cache.on && ctx->scene.scattering.max_bounces > 0;
+}
 static int picvr_cache_serves(const picvr_context *ctx) {
-    return ctx->cache.on && ctx->scene.scattering.max_bounces == 0 && !picvr_use_hg(ctx);
+    return picvr_cache_multiple(ctx) || (ctx->cache.on && !picvr_use_hg(ctx));
+}
+
+/* Creation's rounds per point (CREATE_MAX_ROUNDS): cache.max_samples / 128, and with the
+   multiply scattered cache on a CPU device at most PICVR_CACHE_MS_ROUNDS_CPU. */
+static uint32_t picvr_create_rounds(const picvr_context *ctx) {
+    uint32_t rounds = ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP;
+    if (picvr_cache_multiple(ctx) && picvr_on_cpu_device(ctx) && rounds > PICVR_CACHE_MS_ROUNDS_CPU)
+        rounds = PICVR_CACHE_MS_ROUNDS_CPU;
+    return rounds;
+}
+
+/* The loop iterations one multiply scattered creation sample may take
+   (CREATE_SAMPLE_STEPS, shaders/cache_create.comp).  On a CPU device a thread's
+   7 * rounds samples share llvmpipe's 65535 less 1000 for the rest of the kernel: a
+   sample of S takes at most S/2 tracking steps (each scatter event charged
+   vertex_cost >= 64 of them), ray marching's order loops (at most 2 * 16 per event, so
+   S/4), S/4 ray-marching steps and a lookup of S/8 references (two iterations each)
+   plus its candidates and levels (at most 100), so 5S/4 + 100 in all.  A GPU has no
+   such cap. */
+static uint32_t picvr_create_sample_steps(const picvr_context *ctx) {
+    if (!picvr_on_cpu_device(ctx)) return PICVR_PATH_STEPS;
+    uint32_t samples = 7u * picvr_create_rounds(ctx);
+    return (65535u - 1000u - 100u * samples) * 4u / (5u * samples);
 }
 
 /* The key of procedure proc's variant for the current scene.  Only the constants a
@@ -132,7 +159,11 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain)
                      (picvr_use_hg(ctx) ? PICVR_KEY_HG : 0u) |
                      (ctx->sched.cfg.temporal_reuse == PICVR_SWITCH_ON ? PICVR_KEY_REUSE : 0u);
     uint32_t clip = ctx->scene.gpu.clip_count ? PICVR_KEY_CLIP : 0u;   /* every procedure tracks rays */
-    if (proc == PICVR_PROC_CREATE) return mis | fine | env | clip;
+    /* multiply scattered: creation traces paths; the fluence's colour is no longer the
+       lights' (the albedo tints it at every event), so every channel is extrapolated */
+    uint32_t create_paths = picvr_cache_multiple(ctx) ? paths & (PICVR_KEY_BOUNCES | PICVR_KEY_HG) : 0u;
+    if (picvr_cache_multiple(ctx)) mono = 3u << PICVR_KEY_MONO_SHIFT;
+    if (proc == PICVR_PROC_CREATE) return mis | fine | env | clip | create_paths;
     if (proc == PICVR_PROC_UPDATE) return fine | mono | qmc | clip;
     if (!ctx->cache.on) return mis | fine | residual | equi | qmc | env | paths | clip;
     if (plain) return mis | fine | residual | equi | qmc | env | paths | clip | PICVR_KEY_PLAIN;
@@ -145,7 +176,7 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain)
    creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
    MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR, 8 USE_RESIDUAL, 9 USE_QMC, 10
    USE_BOUNCES, 11 USE_HG, 12 USE_ENV_MAP, 13 USE_REUSE and 14 USE_CLIP from the key, 15
-   CACHE_BLEND fixed per context. */
+   CACHE_BLEND fixed per context, 16 CREATE_SAMPLE_STEPS. */
 static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
@@ -156,14 +187,15 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
         mod[PICVR_KERNEL_SHADE] = ctx->pipes.shade_module;
         if (ctx->cache.on && !plain) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
     }
-    uint32_t value[PICVR_SPEC_CONSTANTS] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP,
+    uint32_t value[PICVR_SPEC_CONSTANTS] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, picvr_create_rounds(ctx),
                          (key & PICVR_KEY_DEBUG_VIEW) != 0, (key >> PICVR_KEY_MONO_SHIFT) & 3u,
                          ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE,
                          ctx->cache.on ? ctx->cache.cfg.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS,
                          (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0,
                          (key & PICVR_KEY_QMC) != 0, (key & PICVR_KEY_BOUNCES) != 0,
                          (key & PICVR_KEY_HG) != 0, (key & PICVR_KEY_ENV_MAP) != 0,
-                         (key & PICVR_KEY_REUSE) != 0, (key & PICVR_KEY_CLIP) != 0, picvr_blend_on(ctx) != 0};
+                         (key & PICVR_KEY_REUSE) != 0, (key & PICVR_KEY_CLIP) != 0, picvr_blend_on(ctx) != 0,
+                         picvr_create_sample_steps(ctx)};
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;

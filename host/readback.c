@@ -147,7 +147,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_gain = ctx->sched.auto_mode.gain;
             st.auto_efficiency = picvr_auto_efficiency(&ctx->sched.auto_mode);
         }
-        st.cache_max_samples = ctx->cache.cfg.max_samples;
+        st.cache_max_samples = picvr_create_rounds(ctx) * PICVR_CACHE_CREATE_GROUP;
         picvr_sched_shares(&ctx->sched, &st);
         if (!ctx->cache.on) st.auto_cached_share = 0.0;
         memcpy(st.kernel_ms_plain, ctx->rounds.kernel_ms[0], sizeof st.kernel_ms_plain);

@@ -178,7 +178,10 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
     if (cached) {
         /* creation: one workgroup per request queued by the previous round */
         vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_pipeline(ctx, PICVR_PROC_CREATE));
-        picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->create_budget, 0);
+        /* the entries complete before this round, for creation's own lookups */
+        uint32_t trusted = ctx->cache.counts.entry_count < ctx->cache.cfg.max_entries
+                         ? ctx->cache.counts.entry_count : ctx->cache.cfg.max_entries;
+        picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->create_budget, trusted);
         vkCmdDispatchIndirect(ctx->vk.cmd, ctx->cache.counters.buf, 0);
         picvr_barrier_all(ctx);
         vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.counters.buf, offsetof(picvr_cache_counters, dispatch), 4, 0);

@@ -225,6 +225,15 @@ uint child_containing(uint ch, vec3 x, inout vec3 lo, inout vec3 size) {
 // missed the entries past a per-node bound created redundant ones (docs/cache.md,
 // "Long lists").
 layout(constant_id = 6) const uint CACHE_MAX_LOOKUP_REFS = 8192u;
+// A walk's bound (at most CACHE_MAX_LOOKUP_REFS; creation's lookups take a smaller one out
+// of their sample's loop budget) and the entries a lookup may use: those below
+// lookup_entry_limit.  Rendering and update read the cache after a barrier and use all;
+// creation looks up while other workgroups of its dispatch insert, so it uses only the
+// entries of earlier rounds (complete before its submission) and a walk may follow a
+// reference being pushed (push_ref): its stale `next` is an old reference or NIL, so the
+// walk stays bounded and only visits entries whose zone test decides, as for any other.
+uint walk_cap = CACHE_MAX_LOOKUP_REFS;
+uint lookup_entry_limit = 0xffffffffu;
 struct CacheWalk { uint node; uint ref; uint visited; vec3 lo; vec3 size; };
 
 CacheWalk walk_start() {
@@ -254,7 +263,7 @@ bool walk_next(inout CacheWalk w, vec3 x, out uint e) {
     for (uint d = 0u; d <= CACHE_MAX_DEPTH && w.ref == CACHE_NIL; d++)
         if (!walk_descend(w, x)) return false;
     if (w.ref == CACHE_NIL) return false;
-    if (w.visited == CACHE_MAX_LOOKUP_REFS) {
+    if (w.visited >= walk_cap) {
         atomicAdd(cache_counters.lookups_cut, 1u);
         w.ref = CACHE_NIL;
         return false;
@@ -296,7 +305,7 @@ bool zone_candidates(vec3 x, inout CacheWalk w, out uint candidate[LOOKUP_CANDID
     bool spilled = false;
     while (walk_next(w, x, next)) {
         if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE) near_centre = near_centre || near_entry_centre(next, x);
-        if (!sphere_holds(next, x)) continue;
+        if (next >= lookup_entry_limit || !sphere_holds(next, x)) continue;
         if (n == LOOKUP_CANDIDATES) { spilled = true; break; }
         candidate[n++] = next;
     }
@@ -322,7 +331,7 @@ bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
     if (spilled)
         do {
             if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE) near_centre = near_centre || near_entry_centre(e, x);
-            eval_entry(e, x, sum_w, sum_wlog);
+            if (e < lookup_entry_limit) eval_entry(e, x, sum_w, sum_wlog);
         } while (walk_next(w, x, e));
     deepest = walk_deepest(w, x);
     E = vec3(0.0);

@@ -4,7 +4,9 @@
 //
 // At a hit with cached radiance C (Eq. 7, 8, 11) a probe, drawn with probability q,
 // shades the same event by plain Monte Carlo, P (the random numbers after the hit's, so
-// independent of C).  The sample is
+// independent of C; plain_cached_part: with USE_BOUNCES C and P are the multiply
+// scattered part only, the event's direct light being shaded alike either way).  The
+// sample is
 //     Y = C + (w / q) 1[probe] (P - C),
 // with w and q fixed before the probe is drawn (from the pixel's earlier samples), so
 //     E[Y] = E[C] + w b,   b = E[P - C], the cache's bias at this pixel's hits:
@@ -104,7 +106,7 @@ vec3 blend_hit(inout ScatterEvent e, vec3 cached, float w) {
     vec4 s = cache_blend[e.idx];
     uint m = floatBitsToUint(s.z);
     if (rnd(e.rng) < q) {
-        vec3 diff = event_direct(e) - cached;
+        vec3 diff = plain_cached_part(e) - cached;
         float dl = luminance(diff);
         d = dl / q;
         if (isinf(d) || isnan(d)) return cached;

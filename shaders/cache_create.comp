@@ -1,6 +1,7 @@
 #version 450
 // cache_create.comp - the cache-entry creation procedure (paper §4.2, §7): one
-// workgroup of 128 threads per request.  Each thread estimates the irradiance (Eq. 4)
+// workgroup of 128 threads per request.  Each thread estimates the irradiance (Eq. 4;
+// with USE_BOUNCES the multiply scattered fluence, fluence_ms_sample below)
 // at the centre and at the six points offset by Delta along the local axes (at most two
 // mean free paths: entry_delta in cache_math.glsl), by Monte
 // Carlo with MIS (one light sample + one phase sample per point and round, transmittance
@@ -30,11 +31,81 @@ layout(local_size_x = 128) in;
 layout(constant_id = 2) const uint CREATE_MAX_ROUNDS = 6u;
 
 #include "common.glsl"
+#include "sampling_math.glsl"
+#include "distance.glsl"
+#include "path.glsl"
 #include "cache.glsl"
 
 // sched_round: the scheduler's round; budget: requests to turn into entries this round
-// (the §6 creation share); the other queued requests are dropped and their locks released.
-layout(push_constant) uniform Push { uint sched_round; uint seed; uint budget; uint pad; } pc;
+// (the §6 creation share); the other queued requests are dropped and their locks released;
+// trusted_entries: the entries complete before this round (the host's last count).
+layout(push_constant) uniform Push { uint sched_round; uint seed; uint budget; uint trusted_entries; } pc;
+
+// With USE_BOUNCES the cache holds the multiply scattered light (render_lookup.comp): at
+// x, the fluence of light that scattered at least once in the medium before reaching x,
+//     E_ms(x) = integral over the sphere of L_ind(x, w) dw,
+// L_ind the radiance arriving from w made of paths of two or more scatter events (x
+// the first).  One sample: w uniform on the sphere (pdf 1 / (4 pi)), delta tracking from x
+// along w to the next scatter event x' (it samples x' with density sigma_t T, leaving the
+// albedo sigma_s / sigma_t as the weight), whose light scattered back toward x, albedo
+// included, is the path tracer's from its second event on (path.glsl, scattered_radiance
+// with first = 2: the same bounce limit, roulette and next-event estimation as a camera
+// path): 4 pi times that, and 0 where the ray leaves the medium (what it sees there is
+// direct light, shaded at every event).  The field is positive and smooth, so Eq. 5-11
+// apply to it unchanged.  Without equiangular sampling along the first segment (its key
+// leaves it out): unbiased all the same, with the variance near point lights that it
+// would remove.
+//
+// Recursive use (final gathering): with unlimited bounces, where the cache already
+// covers x' (entries of earlier rounds, pc.trusted_entries) the sample ends there: x''s
+// direct light by next-event estimation plus its cached E_ms(x') / (4 pi), albedo
+// included, as a camera path's hit is shaded (render_lookup.comp).  A sample then costs
+// one free flight, one shadow ray and one lookup instead of a whole path, so the cache
+// converges progressively.  Its bias: an entry's error is the albedo-weighted mean of
+// the cache's errors at its samples' hits, plus its own noise; so with errors of at most
+// b at the hits and albedo a, an entry made from them errs by at most a * b in the
+// cached part (the part the hits carry), and the errors do not grow from generation to
+// generation; the blend (cache_blend.glsl) removes what reaches the image.  With a bounce
+// limit the entries of x' would hold one event too many, so a path is traced in full.
+//
+// Loop budget on a CPU device: each sample's tracking loops take at most
+// CREATE_SAMPLE_STEPS / 2 from path_pool, its ray-marched transmittances a quarter from
+// rm_pool and its lookup's walk a quarter (walk_cap, two iterations per reference), so
+// that a thread's 7 * CREATE_MAX_ROUNDS samples stay within llvmpipe's cap (the host
+// sets it: picvr_create_sample_steps; on a GPU, which has no such cap, PATH_STEPS).  A
+// path that runs dry is cut (path.glsl: biased toward dark, counted in
+// cache_samples_truncated).
+layout(constant_id = 16) const uint CREATE_SAMPLE_STEPS = PATH_STEPS;
+
+vec3 fluence_ms_sample(vec3 x, inout Rng rng, inout bool truncated) {
+    path_pool = CREATE_SAMPLE_STEPS / 2u;
+    rm_pool = CREATE_SAMPLE_STEPS / 4u;
+    walk_cap = min(CACHE_MAX_LOOKUP_REFS, CREATE_SAMPLE_STEPS / 8u);
+    float u1 = rnd(rng), u2 = rnd(rng);
+    vec3 w = uniform_sphere(u1, u2);
+    float t_light, t0 = 0.0, t1 = 0.0;
+    nearest_area_light(x, w, 1e30, t_light);
+    if (!box_interval(x, w, t0, t1)) return vec3(0.0);
+    t1 = min(t1, t_light);
+    if (!(t1 > t0)) return vec3(0.0);
+    bool cut = false;
+    float t = delta_track(x, w, t0, t1, rng, cut);
+    truncated = truncated || cut;
+    if (t < 0.0) return vec3(0.0);
+    vec3 x1 = x + w * t;
+    if (scene.max_bounces == BOUNCES_UNLIMITED && pc.trusted_entries > 0u) {
+        vec3 E;
+        uint node;
+        bool near_centre;
+        if (cache_lookup(x1, E, node, near_centre))
+            return 4.0 * PI * albedo_at(x1) * (direct_light(x1, phase_at(x1, w), rng, truncated) + E * INV_4PI);
+    }
+    vec3 direct, indirect;
+    uint events;
+    scattered_radiance(x1, w, 2u, rng, truncated, direct, indirect, events);
+    return 4.0 * PI * (direct + indirect);
+}
+
 
 shared vec4 s_red[128];          // reduction scratch: (mean, m2, n) statistics or RGB sums
 shared bool s_done;
@@ -85,7 +156,8 @@ void main() {
         return;
     }
     vec3 x0 = requests[req].pos.xyz;
-    rm_pool = CREATE_MAX_ROUNDS * 7u * 2u * RM_POOL_PER_ESTIMATE;
+    rm_pool = CREATE_MAX_ROUNDS * 7u * 2u * RM_POOL_PER_ESTIMATE;   // with USE_BOUNCES: per sample
+    lookup_entry_limit = pc.trusted_entries;
 
     vec3 n = entry_normal(x0), t, b;
     basis(n, t, b);
@@ -148,7 +220,13 @@ void main() {
         for (uint k = 0u; k < 7u; k++) {
             if (s_point_done[k]) continue;           // uniform over the workgroup
             bool cut = false;
-            vec3 e = irradiance_sample(p[k], light_rng, phase_rng, cut);
+            vec3 e;
+            if (USE_BOUNCES) {
+                Rng path_rng = phase_rng;            // the same stream at every point
+                e = fluence_ms_sample(p[k], path_rng, cut);
+            } else {
+                e = irradiance_sample(p[k], light_rng, phase_rng, cut);
+            }
             if (cut) truncated++;
             // Rule: a non-finite sample (only from extreme input) counts as 0.
             if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);

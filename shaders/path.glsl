@@ -70,16 +70,19 @@ float segment_equiangular(vec3 x, vec3 w, float t0, float t1, float t_a, inout R
     return w_a;
 }
 
-// The light scattered at x (the first scatter event; the camera ray travels along d) toward
-// the camera, albedo included: `direct` the light of x's own next-event estimate (the
-// part the caller may weight against another strategy), `indirect` the light of the
-// events after x.  events: scatter events of the path (x counts 1).
-void scattered_radiance(vec3 x, vec3 d, inout Rng rng, inout bool truncated, out vec3 direct,
+// The light scattered at x (the path's scatter event number `first`: 1 for a camera
+// ray's; the ray arrives along d) back along the ray, albedo included: `direct` the light
+// of x's own next-event estimate (the part the caller may weight against another
+// strategy), `indirect` the light of the events after x.  events: the number of the
+// path's last scatter event (x counts `first`).  The bounce limit and Russian roulette
+// count events from the camera, so a path begun at event 2 (cache-entry creation,
+// cache_create.comp) ends where the camera path it stands for would.
+void scattered_radiance(vec3 x, vec3 d, uint first, inout Rng rng, inout bool truncated, out vec3 direct,
                         out vec3 indirect, out uint events) {
     vec3 beta = albedo_at(x);
     direct = vec3(0.0);
     indirect = vec3(0.0);
-    events = 1u;
+    events = first;
     float w_dir = 1.0;   // the weight of this event's direct light (the caller weights the first's)
     for (uint n = 0u; n < PATH_STEPS; n++) {
         float b_max = max(beta.r, max(beta.g, beta.b));
@@ -126,7 +129,7 @@ void scattered_radiance(vec3 x, vec3 d, inout Rng rng, inout bool truncated, out
                 indirect += beta / q * L_b;
             }
         }
-        if (events == 1u) direct = beta * L; else indirect += beta * w_dir * L;
+        if (events == first) direct = beta * L; else indirect += beta * w_dir * L;
         w_dir = w_next;
         if (end || t < 0.0) break;
         x += w * t;

@@ -110,8 +110,21 @@ vec3 event_radiance(inout ScatterEvent e, out vec3 direct, out uint events) {
         return direct;
     }
     vec3 indirect;
-    scattered_radiance(e.x, e.rd, e.rng, e.truncated, direct, indirect, events);
+    scattered_radiance(e.x, e.rd, 1u, e.rng, e.truncated, direct, indirect, events);
     return direct + indirect;
+}
+
+// A plain estimate of what the cache holds at the event e, albedo included, for the
+// consistent blend's probes and the cache-error view: the direct light (single
+// scattering), or with USE_BOUNCES the light of the path's later scatter events (the
+// multiply scattered part: the event's own direct light is shaded at every event, cached
+// or not, so it is left out of the difference).
+vec3 plain_cached_part(inout ScatterEvent e) {
+    if (!USE_BOUNCES) return event_direct(e);
+    vec3 direct, indirect;
+    uint events;
+    scattered_radiance(e.x, e.rd, 1u, e.rng, e.truncated, direct, indirect, events);
+    return indirect;
 }
 
 // Adds a path's scatter events to the counters of picvr_stats.mean_path_length: a 64-bit
@@ -200,12 +213,14 @@ CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, ino
     return c;
 }
 
-// The radiance of an equiangular camera sample; Ls_a is part A's in-scattered radiance
-// (its albedo included) when a_known, else A is shaded here by plain Monte Carlo (when
-// delta tracking collided).  B is shaded by plain Monte Carlo.  coverage: 1 - T^(t1) in
-// [0, 1], or delta tracking's 0/1 outcome (also unbiased) where part C is left out:
-// nothing but black is seen at the end of the segment.
-vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, out float coverage, out uint events) {
+// The radiance of an equiangular camera sample; when a_known, part A's scattered radiance
+// (albedo included) is Ls_a, its direct part (weighted against B), plus rest_a, the light
+// of later scatter events (weight 1: the multiply scattered cache's part); else A is
+// shaded here by plain Monte Carlo (when delta tracking collided).  B is shaded by plain
+// Monte Carlo.  coverage: 1 - T^(t1) in [0, 1], or delta tracking's 0/1 outcome (also
+// unbiased) where part C is left out: nothing but black is seen at the end of the segment.
+vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, vec3 rest_a, out float coverage,
+                          out uint events) {
     CameraSegment seg = camera_segment(e.rd);
     bool need_end = any(greaterThan(seg.end_radiance, vec3(0.0)));
     CameraSample c = camera_sample(e, seg, need_end, e.rng, e.truncated);
@@ -214,7 +229,7 @@ vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, out flo
     if (e.t >= 0.0) {
         // B estimates the direct part only, so only A's direct part is weighted against
         // it; the light of later scatter events has A alone as its estimator (weight 1).
-        vec3 all_a = Ls_a;
+        vec3 all_a = Ls_a + rest_a;
         if (!a_known) all_a = event_radiance(e, Ls_a, events);
         else events = 1u;
         L += c.w_a * Ls_a + (all_a - Ls_a);

@@ -1,11 +1,16 @@
 #version 450
 // render_lookup.comp - the rendering procedure's cache lookup (paper §4.1, §5; see
 // render.glsl): one thread per queued scatter event.  A covered event is shaded from
-// the extrapolated irradiance (Eq. 7, 8, 11) with the isotropic phase function, blended
+// the extrapolated fluence (Eq. 7, 8, 11) with the isotropic phase function, blended
 // with a plain estimate so that the image converges (CACHE_BLEND, cache_blend.glsl); a miss
 // requests a new entry under the context's locking (§5.1, §5.2) and is queued for
-// plain Monte-Carlo shading (render_shade.comp).  The debug views shade here, misses
-// too, in their own variant (USE_DEBUG_VIEW).
+// plain Monte-Carlo shading (render_shade.comp).  What the cache holds: the direct
+// (single-scattered) light, or with USE_BOUNCES the multiply scattered light, the fluence
+// of light that scattered at least once before reaching x (cache_create.comp); a hit then
+// shades the event's direct light by next-event estimation as plain shading does (sharp
+// shadows, the phase function's lobe toward the sun) and adds the cached part in place
+// of the rest of the path, which ends there.  The debug views shade here, misses too, in
+// their own variant (USE_DEBUG_VIEW).
 #extension GL_GOOGLE_include_directive : require
 #define PICVR_CACHE 1
 #include "render.glsl"
@@ -13,11 +18,11 @@
 #include "cache_blend.glsl"
 layout(local_size_x = EVENT_GROUP, local_size_y = 1) in;
 
-// PICVR_VIEW_CACHE_ERROR at a hit: (luminance of the cached shading, luminance of a plain
-// estimate at the same point, 1).  The plain sample uses the numbers after the hit's, so
-// it is independent of the choice of x and unbiased.
-vec3 cache_error_sample(vec3 x, vec3 cached, inout Rng rng, inout bool truncated) {
-    return vec3(luminance(cached), luminance(albedo_at(x) * direct_light(x, phase_at(x, vec3(0.0, 0.0, 1.0)), rng, truncated)), 1.0);
+// PICVR_VIEW_CACHE_ERROR at a hit: (luminance of the cached part, luminance of a plain
+// estimate of it at the same point, 1).  The plain sample uses the numbers after the
+// hit's, so it is independent of the choice of x and unbiased.
+vec3 cache_error_sample(inout ScatterEvent e, vec3 cached) {
+    return vec3(luminance(cached), luminance(plain_cached_part(e)), 1.0);
 }
 
 void main() {
@@ -36,9 +41,11 @@ void main() {
     bool hit = cache_lookup(e.x, E, node, near_centre);
     if (SCREEN_LOCKING) count_ray(e.px, !hit, pc.round);
     vec3 Ls;
+    vec3 direct = vec3(0.0);            // the event's own direct light, with USE_BOUNCES
     if (hit) {
         Ls = E * INV_4PI;                 // isotropic phase: L_s = E / (4 pi)
         atomicAdd(cache_counters.hits, 1u);
+        if (USE_BOUNCES) direct = event_direct(e);
     } else {
         cache_request(e.x, node, e.px, pc.round, rnd(e.rng), pc.request_cap);
         atomicAdd(cache_counters.misses, 1u);
@@ -48,16 +55,19 @@ void main() {
         }
         Ls = direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
     }
-    vec3 radiance = albedo_at(e.x) * Ls;
-    if (blend && hit) radiance = blend_hit(e, radiance, w);
+    vec3 cached = albedo_at(e.x) * Ls;
+    if (blend && hit) cached = blend_hit(e, cached, w);
+    vec3 radiance = direct + cached;
     float coverage = 1.0;
     uint events;
+    // the part weighted against the camera ray's equiangular sample is the direct light
     if (USE_EQUIANGULAR && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE))
-        radiance = finish_camera_sample(e, true, radiance, coverage, events);
+        radiance = USE_BOUNCES ? finish_camera_sample(e, true, direct, cached, coverage, events)
+                               : finish_camera_sample(e, true, cached, vec3(0.0), coverage, events);
     if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE)
         radiance = near_centre ? vec3(1.0) : hit ? vec3(0.1, 0.8, 0.2) : vec3(0.8, 0.1, 0.1);
     if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE_ERROR)
-        radiance = hit ? cache_error_sample(e.x, radiance, e.rng, e.truncated) : vec3(0.0);
+        radiance = hit ? cache_error_sample(e, cached) : vec3(0.0);
     count_events(1u);
     accumulate_sample(e.idx, radiance, coverage, e.truncated);
     accumulate_depth(e.idx, e.t);

@@ -15,7 +15,7 @@ void main() {
     vec3 L;
     float coverage = 1.0;
     if (USE_EQUIANGULAR) {
-        L = finish_camera_sample(e, false, vec3(0.0), coverage, events);
+        L = finish_camera_sample(e, false, vec3(0.0), vec3(0.0), coverage, events);
     } else {
         vec3 direct;
         L = event_radiance(e, direct, events);

@@ -31,8 +31,9 @@ void main() {
     }
     if (t >= 0.0) {
 #ifdef PICVR_CACHE
-        // the cache serves isotropic single scattering only: otherwise it idles
-        if (USE_BOUNCES || USE_HG) { QUEUE_EVENT(shade_queue, idx, t, rng, truncated) return; }
+        // the cache serves multiple scattering (any phase function: it holds the fluence)
+        // and isotropic single scattering: with an anisotropic one alone it idles
+        if (!USE_BOUNCES && USE_HG) { QUEUE_EVENT(shade_queue, idx, t, rng, truncated) return; }
         QUEUE_EVENT(lookup_queue, idx, t, rng, truncated)
 #else
         QUEUE_EVENT(shade_queue, idx, t, rng, truncated)

@@ -160,8 +160,11 @@ static int set_look(const scene *s, session *ss)
     if (ps != PVP_OK) { pvc_fail("tf %s: %s", s->ds->tf, pvp_status_string(ps)); return 0; }
     ps = pvp_lights_preset(s->lights, ss->box_min, ss->box_max, &ss->camera, &lights);
     if (ps != PVP_OK) { pvc_fail("lights %s: %s", s->lights, pvp_status_string(ps)); return 0; }
+    /* the scattering the preset is made for (cloud: unlimited bounces) */
+    picvr_scattering scattering = {tf.max_bounces, 0.0f, 0.0f};
     return pvc_check(picvr_set_transfer_function(ss->ctx, tf.points, tf.count, tf.density),
                  "picvr_set_transfer_function") &&
+           pvc_check(picvr_set_scattering(ss->ctx, &scattering), "picvr_set_scattering") &&
            pvc_check(picvr_set_lights(ss->ctx, lights.lights, lights.count, &lights.background),
                  "picvr_set_lights");
 }
