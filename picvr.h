@@ -603,7 +603,7 @@ typedef struct picvr_scattering {
    the cached part, weighted isotropically whatever the phase function (its error for an
    anisotropic one: docs/cache.md), and the path ends there; a miss traces the path.
    Entries are estimated by path tracing, and with unlimited bounces their paths end at
-   the cache's earlier entries.  On a CPU device such an entry takes at most 256 samples
+   the cache's earlier entries.  On a CPU device such an entry takes at most 128 samples
    per point (stats.cache_max_samples). */
 picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *scattering);
 #define PICVR_PATH_STEPS 49152u

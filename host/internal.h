@@ -90,9 +90,9 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_SPEC_CONSTANTS 17u   /* 15 CACHE_BLEND: fixed per context; 16 CREATE_SAMPLE_STEPS */
 /* The multiply scattered cache on a CPU device (llvmpipe's loop cap of 65535 per
    invocation): a creation thread traces one whole path per point and round, so it takes
-   at most this many rounds (256 samples per point) and each sample's loops share
+   at most this many rounds (128 samples per point) and each sample's loops share
    picvr_create_sample_steps of them. */
-#define PICVR_CACHE_MS_ROUNDS_CPU 2u
+#define PICVR_CACHE_MS_ROUNDS_CPU 1u
 /* Clip planes the kernels test: the user's and the six faces of the clip box. */
 #define PICVR_GPU_CLIP_PLANES (PICVR_MAX_CLIP_PLANES + 6)
 

@@ -130,12 +130,12 @@ static uint32_t picvr_create_rounds(const picvr_context *ctx) {
    sample of S takes at most S/2 tracking steps (each scatter event charged
    vertex_cost >= 64 of them), ray marching's order loops (at most 2 * 16 per event, so
    S/4), S/4 ray-marching steps and a lookup of S/8 references (two iterations each)
-   plus its candidates and levels (at most 100), so 5S/4 + 100 in all.  A GPU has no
-   such cap. */
+   plus its two passes over at most 64 candidates, their predictions and the levels (at
+   most 400), so 5S/4 + 400 in all.  A GPU has no such cap. */
 static uint32_t picvr_create_sample_steps(const picvr_context *ctx) {
     if (!picvr_on_cpu_device(ctx)) return PICVR_PATH_STEPS;
     uint32_t samples = 7u * picvr_create_rounds(ctx);
-    return (65535u - 1000u - 100u * samples) * 4u / (5u * samples);
+    return (65535u - 1000u - 400u * samples) * 4u / (5u * samples);
 }
 
 /* The key of procedure proc's variant for the current scene.  Only the constants a

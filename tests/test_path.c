@@ -1248,7 +1248,7 @@ void test_path_default_scattering_bit_identical(void **state) {
    Tolerances: z = 5 on the statistical error (pixels and the walk) plus an allowance for
    the cache's bias.  Isotropic (g = 0): 2 % of the mean, with the blend off (the paper's
    estimator: the cached part alone at a hit) and on (at 192 passes its weight has not
-   yet removed the whole bias): the entries hold at most 256 path samples each, a noise
+   yet removed the whole bias): the entries hold at most 128 path samples each, a noise
    of several per cent per entry that the pixels share (so the pixels' spread does not
    show it), averaged over the some 190 entries the hits draw on, and extrapolated
    across 2 voxels.  g = 0.8: 5 %: the cache holds a fluence, and a hit weights it

@@ -194,6 +194,7 @@
     X(test_sweep_cameras_and_image_sizes)                           \
     X(test_sweep_long_run_precision_1e6)                            \
     X(test_sweep_clip_and_placement)                                \
+    X(test_sweep_ms_cache_furnace_thickness)                        \
     /* test_engine.c */                                             \
     X(test_frames_leave_no_hole)                                    \
     X(test_frames_turned_on_later)                                  \
