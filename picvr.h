@@ -246,7 +246,7 @@ typedef struct picvr_cache_config {
     float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */
     uint32_t superpixel_size;  /* screen-space locking: side of a square superpixel in
                                   pixels; 0: 32 */
-    uint32_t max_entries;      /* entry pool; 0: 65536 (144 bytes each).  Large images on a
+    uint32_t max_entries;      /* entry pool; 0: 65536 (160 bytes each).  Large images on a
                                   fast GPU fill it: stats.cache_full says so */
     uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries */
     uint32_t max_refs;         /* reference pool; 0: 16 * max_entries */
@@ -600,8 +600,9 @@ typedef struct picvr_scattering {
    by plain Monte Carlo); with max_bounces > 0 it holds the multiply scattered light (the
    fluence of light that scattered at least once before reaching a point): at a camera
    ray's scatter event a hit adds the event's direct light by next-event estimation and
-   the cached part, weighted isotropically whatever the phase function (its error for an
-   anisotropic one: docs/cache.md), and the path ends there; a miss traces the path.
+   the cached part, weighted by the phase function to first order in direction (each
+   entry also holds the fluence's first moment; docs/cache.md), and the path ends there;
+   a miss traces the path.
    Entries are estimated by path tracing, and with unlimited bounces their paths end at
    the cache's earlier entries.  On a CPU device such an entry takes at most 128 samples
    per point (stats.cache_max_samples). */
@@ -800,8 +801,9 @@ typedef struct picvr_stats {
     uint64_t cache_samples;      /* irradiance samples the stored entries took (each of an
                                     entry's seven points: 128 per round until its own
                                     Eq. 5 holds or the cap; each sample has a light and a
-                                    phase ray) */
-    uint64_t cache_samples_truncated; /* of those, samples whose transmittance estimate was
+                                    phase ray, with bounces a path) */
+    uint64_t cache_samples_truncated; /* of those, samples whose transmittance estimate (with
+                                    bounces: or path) was
                                     cut at its loop bound (biased, like truncated_paths; a
                                     share above ~1e-4 says the rays are too long for the
                                     creation procedure's budget) */
@@ -815,7 +817,8 @@ typedef struct picvr_stats {
                                     evaluated one at a time (the same result, slower on
                                     SIMD hardware; rare) */
     uint32_t cache_max_samples;  /* that cap in force: cache.max_samples after its default
-                                    and the rounding to a multiple of 128 */
+                                    and the rounding to a multiple of 128; with bounces on
+                                    a CPU device at most 128 (picvr_set_scattering) */
     uint32_t cache_requests;     /* creation requests issued in the last step */
     uint32_t cache_pending;      /* creation requests the last round queued, each holding
                                     its lock, for the next round's creation procedure */

@@ -45,7 +45,7 @@
 #define PICVR_CACHE_NODE_BYTES 16u       /* struct Node */
 #define PICVR_CACHE_REF_BYTES 8u         /* struct Ref */
 #define PICVR_CACHE_REQUEST_BYTES 32u    /* struct Request */
-#define PICVR_CACHE_ENTRY_BYTES 144u     /* struct Entry */
+#define PICVR_CACHE_ENTRY_BYTES 160u     /* struct Entry */
 
 /* Eq. 5's sample cap (cache.max_samples; its limits PICVR_CACHE_MAX_SAMPLES and
    PICVR_CACHE_MAX_SAMPLES_CPU are in picvr.h): rounds of the 128-thread creation

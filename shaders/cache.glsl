@@ -32,6 +32,9 @@ struct Entry {
     uint radius[6];       // per half-axis, world units, as float bits: positive floats
                           // order like their bits, so the update procedure can shrink
                           // a radius with atomicMin
+    vec4 aniso;           // multiply scattered entries: xyz the fluence's first moment over
+                          // the fluence at the centre, a = F / E (luminance; |a| <= 1), for
+                          // anisotropic phase functions (ms_inscattered); w unused
 };
 
 struct Node { uint children; uint refs; uint lock; uint pad; };  // children: first of 8
@@ -194,11 +197,26 @@ Prediction predict(uint e, vec3 x) {
 }
 
 // Adds entry e's extrapolation at x to the log-space weighted sums of Eq. 11.
-void eval_entry(uint e, vec3 x, inout float sum_w, inout vec3 sum_wlog) {
+// With USE_BOUNCES also the weighted sum of the entries' first moments (sum_wa).
+void eval_entry(uint e, vec3 x, inout float sum_w, inout vec3 sum_wlog, inout vec3 sum_wa) {
     Prediction pr = predict(e, x);
     if (!(pr.w > 0.0)) return;
     sum_w += pr.w;
     sum_wlog += pr.w * pr.lnE;
+    if (USE_BOUNCES) sum_wa += pr.w * entries[e].aniso.xyz;
+}
+
+// The multiply scattered radiance scattered at x toward -d (d the direction the ray
+// arrives in) from the fluence E and its first moment over it, a = F / E: with the
+// radiance arriving from w taken to first order, L(w) = (E + 3 F . w) / (4 pi), and a
+// phase function of mean cosine g_bar (both lobes), integral p L = (E + 3 g_bar F . d)
+// / (4 pi) = E (1 + 3 g_bar a . d) / (4 pi).  Rule: a first-order radiance can go
+// negative where the field is strongly directional; the factor is clamped at 0 (never
+// negative light; its bias is the blend's to remove).  Isotropic (g_bar = 0): E / (4 pi).
+vec3 ms_inscattered(vec3 E, vec3 a, Phase ph) {
+    if (!USE_HG) return E * INV_4PI;
+    float g_bar = mix(ph.g, scene.back_g, scene.back_weight);
+    return E * INV_4PI * max(0.0, 1.0 + 3.0 * g_bar * dot(a, ph.d));
 }
 
 // One step down the octree: the child of first-child index ch whose octant of the
@@ -319,24 +337,28 @@ bool zone_candidates(vec3 x, inout CacheWalk w, out uint candidate[LOOKUP_CANDID
 
 // Looks x up in the octree: true and the extrapolated irradiance when entries cover
 // it (Eq. 11); always returns the deepest existing node enclosing x (for locking).
-bool cache_lookup(vec3 x, out vec3 E, out uint deepest, out bool near_centre) {
+// aniso: with USE_BOUNCES the weighted mean of the covering entries' first moments
+// (Eq. 11's weights, linear: a is bounded and smooth).
+bool cache_lookup(vec3 x, out vec3 E, out vec3 aniso, out uint deepest, out bool near_centre) {
     near_centre = false;
     float sum_w = 0.0;
-    vec3 sum_wlog = vec3(0.0);
+    vec3 sum_wlog = vec3(0.0), sum_wa = vec3(0.0);
+    aniso = vec3(0.0);
     CacheWalk w = walk_start();
     uint candidate[LOOKUP_CANDIDATES];
     uint n, e;
     bool spilled = zone_candidates(x, w, candidate, n, e, near_centre);
-    for (uint i = 0u; i < n; i++) eval_entry(candidate[i], x, sum_w, sum_wlog);
+    for (uint i = 0u; i < n; i++) eval_entry(candidate[i], x, sum_w, sum_wlog, sum_wa);
     if (spilled)
         do {
             if (USE_DEBUG_VIEW && scene.debug_view == VIEW_CACHE) near_centre = near_centre || near_entry_centre(e, x);
-            if (e < lookup_entry_limit) eval_entry(e, x, sum_w, sum_wlog);
+            if (e < lookup_entry_limit) eval_entry(e, x, sum_w, sum_wlog, sum_wa);
         } while (walk_next(w, x, e));
     deepest = walk_deepest(w, x);
     E = vec3(0.0);
     if (!CM_FN(log_average_valid)(sum_w)) return false;
     for (uint c = 0u; c < 3u; c++) E[c] = CM_FN(log_average_finalize)(sum_wlog[c], sum_w);
+    if (USE_BOUNCES) aniso = sum_wa / sum_w;   // sum_w valid (> 0, finite) here
     return true;
 }
 

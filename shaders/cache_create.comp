@@ -77,12 +77,13 @@ layout(push_constant) uniform Push { uint sched_round; uint seed; uint budget; u
 // cache_samples_truncated).
 layout(constant_id = 16) const uint CREATE_SAMPLE_STEPS = PATH_STEPS;
 
-vec3 fluence_ms_sample(vec3 x, inout Rng rng, inout bool truncated) {
+// w: the sample's direction (the first moment's sample is the returned value times w).
+vec3 fluence_ms_sample(vec3 x, inout Rng rng, inout bool truncated, out vec3 w) {
     path_pool = CREATE_SAMPLE_STEPS / 2u;
     rm_pool = CREATE_SAMPLE_STEPS / 4u;
     walk_cap = min(CACHE_MAX_LOOKUP_REFS, CREATE_SAMPLE_STEPS / 8u);
     float u1 = rnd(rng), u2 = rnd(rng);
-    vec3 w = uniform_sphere(u1, u2);
+    w = uniform_sphere(u1, u2);
     float t_light, t0 = 0.0, t1 = 0.0;
     nearest_area_light(x, w, 1e30, t_light);
     if (!box_interval(x, w, t0, t1)) return vec3(0.0);
@@ -94,11 +95,13 @@ vec3 fluence_ms_sample(vec3 x, inout Rng rng, inout bool truncated) {
     if (t < 0.0) return vec3(0.0);
     vec3 x1 = x + w * t;
     if (scene.max_bounces == BOUNCES_UNLIMITED && pc.trusted_entries > 0u) {
-        vec3 E;
+        vec3 E, aniso;
         uint node;
         bool near_centre;
-        if (cache_lookup(x1, E, node, near_centre))
-            return 4.0 * PI * albedo_at(x1) * (direct_light(x1, phase_at(x1, w), rng, truncated) + E * INV_4PI);
+        if (cache_lookup(x1, E, aniso, node, near_centre)) {
+            Phase ph = phase_at(x1, w);
+            return 4.0 * PI * albedo_at(x1) * (direct_light(x1, ph, rng, truncated) + ms_inscattered(E, aniso, ph));
+        }
     }
     vec3 direct, indirect;
     uint events;
@@ -115,6 +118,7 @@ shared vec3 s_E[7];
 shared uint s_entry;             // the stored entry's index and radii, for the inserters
 shared float s_radius[6];
 shared vec2 s_f;                 // medium fraction of +n, -n
+shared vec3 s_aniso;             // with USE_BOUNCES: the centre's F / E (Entry.aniso)
 
 // Sums s_red over the workgroup into s_red[0].
 void reduce_red() {
@@ -201,6 +205,7 @@ void main() {
     float lmean[7], lm2[7];
     for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lmean[k] = 0.0; lm2[k] = 0.0; }
     uint truncated = 0u;             // this thread's samples with a truncated estimate
+    vec3 moment = vec3(0.0);         // with USE_BOUNCES: the centre's first-moment sum
     bool converged = false;
     float gamma = scene.gamma;
     uint point_rounds[7];            // rounds each point took (uniform over the workgroup)
@@ -223,7 +228,9 @@ void main() {
             vec3 e;
             if (USE_BOUNCES) {
                 Rng path_rng = phase_rng;            // the same stream at every point
-                e = fluence_ms_sample(p[k], path_rng, cut);
+                vec3 w;
+                e = fluence_ms_sample(p[k], path_rng, cut, w);
+                if (k == 0u && !(any(isnan(e)) || any(isinf(e)))) moment += luminance(e) * w;
             } else {
                 e = irradiance_sample(p[k], light_rng, phase_rng, cut);
             }
@@ -265,6 +272,20 @@ void main() {
         if (lid == 0u) s_E[k] = max(s_red[0].xyz / N, vec3(0.0));
         barrier();
     }
+    // The centre's first moment over its fluence, a = F / E in luminance.  Rules: E = 0
+    // gives a = 0 (nothing to weight); |a| > 1, possible only from noise (|F| <= E for
+    // any radiance), is scaled back to 1.
+    if (USE_BOUNCES) {
+        s_red[lid] = vec4(moment, 0.0);
+        reduce_red();
+        if (lid == 0u) {
+            float N = float(point_rounds[0] * 128u), E_lum = luminance(s_E[0]);
+            vec3 a = E_lum > 0.0 ? s_red[0].xyz / (N * E_lum) : vec3(0.0);
+            float len = length(a);
+            s_aniso = len > 1.0 ? a / len : (isnan(len) ? vec3(0.0) : a);
+        }
+        barrier();
+    }
 
     if (lid == 0u) {
         uint e = atomicAdd(cache_counters.entry_count, 1u);
@@ -302,6 +323,7 @@ void main() {
                 rmax = max(rmax, r);
             }
             entries[e].e0 = vec4(s_E[0], delta);         // w: the entry's own Delta
+            entries[e].aniso = vec4(USE_BOUNCES ? s_aniso : vec3(0.0), 0.0);
             entries[e].normal = n;
             entries[e].medium_f = packUnorm2x16(vec2(1.0) - s_f);
             entries[e].pos_rmax = vec4(x0, rmax);

@@ -35,15 +35,16 @@ void main() {
         QUEUE_EVENT(shade_queue, e.idx, e.t, e.rng, e.truncated)
         return;
     }
-    vec3 E;
+    vec3 E, aniso;
     uint node;
     bool near_centre;
-    bool hit = cache_lookup(e.x, E, node, near_centre);
+    bool hit = cache_lookup(e.x, E, aniso, node, near_centre);
     if (SCREEN_LOCKING) count_ray(e.px, !hit, pc.round);
     vec3 Ls;
     vec3 direct = vec3(0.0);            // the event's own direct light, with USE_BOUNCES
     if (hit) {
-        Ls = E * INV_4PI;                 // isotropic phase: L_s = E / (4 pi)
+        // isotropic phase: L_s = E / (4 pi); multiply scattered: to first order in direction
+        Ls = USE_BOUNCES ? ms_inscattered(E, aniso, phase_at(e.x, e.rd)) : E * INV_4PI;
         atomicAdd(cache_counters.hits, 1u);
         if (USE_BOUNCES) direct = event_direct(e);
     } else {

@@ -1251,11 +1251,11 @@ void test_path_default_scattering_bit_identical(void **state) {
    yet removed the whole bias): the entries hold at most 128 path samples each, a noise
    of several per cent per entry that the pixels share (so the pixels' spread does not
    show it), averaged over the some 190 entries the hits draw on, and extrapolated
-   across 2 voxels.  g = 0.8: 5 %: the cache holds a fluence, and a hit weights it
-   isotropically instead of by the phase function (picvr.h, picvr_set_scattering), which
-   in this cube under-weights the brighter multiply scattered light from ahead of the
-   camera ray.  The cache must serve: at least 30 % of the scatter events in the last
-   pass are hits. */
+   across 2 voxels.  g = 0.8: 3 %: a hit weights the cached fluence by the phase function
+   to first order in direction (the entries' F / E; cache.glsl, ms_inscattered), so the
+   higher orders of the multiply scattered light's directional structure, which
+   Henyey-Greenstein's g^2, g^3 ... terms would weight, are left out.  The cache must
+   serve: at least 30 % of the scatter events in the last pass are hits. */
 static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t seed) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
@@ -1297,7 +1297,7 @@ static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t seed) {
         print_message("    %s: the cache does not serve (hit rate %.3f)\n", what, st.cache_hit_rate);
         ok = 0;
     }
-    double allow = g == 0.0f ? 0.02 : 0.05;
+    double allow = g == 0.0f ? 0.02 : 0.03;
     for (int c = 0; c < 3; c++) {
         double *v = channel(img, W, H, c);
         char label[128];
