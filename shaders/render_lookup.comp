@@ -41,12 +41,15 @@ void main() {
     bool hit = cache_lookup(e.x, E, aniso, node, near_centre);
     if (SCREEN_LOCKING) count_ray(e.px, !hit, pc.round);
     vec3 Ls;
+    vec3 albedo = albedo_at(e.x);
     vec3 direct = vec3(0.0);            // the event's own direct light, with USE_BOUNCES
     if (hit) {
-        // isotropic phase: L_s = E / (4 pi); multiply scattered: to first order in direction
-        Ls = USE_BOUNCES ? ms_inscattered(E, aniso, phase_at(e.x, e.rd)) : E * INV_4PI;
         atomicAdd(cache_counters.hits, 1u);
-        if (USE_BOUNCES) direct = event_direct(e);
+        // isotropic phase: L_s = E / (4 pi); multiply scattered: to first order in
+        // direction, and the event's direct light as event_direct shades it
+        Phase ph = phase_at(e.x, e.rd);
+        Ls = USE_BOUNCES ? ms_inscattered(E, aniso, ph) : E * INV_4PI;
+        if (USE_BOUNCES) direct = albedo * direct_light(e.x, ph, e.rng, e.truncated);
     } else {
         cache_request(e.x, node, e.px, pc.round, rnd(e.rng), pc.request_cap);
         atomicAdd(cache_counters.misses, 1u);
@@ -56,7 +59,7 @@ void main() {
         }
         Ls = direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
     }
-    vec3 cached = albedo_at(e.x) * Ls;
+    vec3 cached = albedo * Ls;
     if (blend && hit) cached = blend_hit(e, cached, w);
     vec3 radiance = direct + cached;
     float coverage = 1.0;
