@@ -250,7 +250,7 @@ BENCH_AUTO_ARGS ?= --size 320x180 --time 30000 --slice 500 --repeats 5 --rotate 
 BENCH_MS_OUT ?= bench/results/ms
 BENCH_MS_ARGS ?= --scenes bench/scenes_ms.txt --size 320x180 --time 60000 --slice 1000 --repeats 2 \
               --rotate 0 --conditions plain,object --ref-chunk 60000 --ref-factor 1.5 \
-              --ref-max-chunks 30 --bias cloud-ms
+              --ref-max-chunks 30 --bias cloud-ms,bonsai-ms,engine-ms
 
 # The library's sources as one checksum: the bench's run files carry it, so that a run
 # made with other library code is never reused (bench/error/runs.c, run_signature).

@@ -605,7 +605,9 @@ typedef struct picvr_scattering {
    a miss traces the path.
    Entries are estimated by path tracing, and with unlimited bounces their paths end at
    the cache's earlier entries.  On a CPU device such an entry takes at most 128 samples
-   per point (stats.cache_max_samples). */
+   per point at creation (stats.cache_max_samples); then part of creation's share of the
+   time refines existing entries (128 more samples per point each time), so the cache's
+   error keeps falling as the image renders. */
 picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *scattering);
 #define PICVR_PATH_STEPS 49152u
 
@@ -801,7 +803,8 @@ typedef struct picvr_stats {
     uint64_t cache_samples;      /* irradiance samples the stored entries took (each of an
                                     entry's seven points: 128 per round until its own
                                     Eq. 5 holds or the cap; each sample has a light and a
-                                    phase ray, with bounces a path) */
+                                    phase ray, with bounces a path; with bounces also the
+                                    samples refinement added) */
     uint64_t cache_samples_truncated; /* of those, samples whose transmittance estimate (with
                                     bounces: or path) was
                                     cut at its loop bound (biased, like truncated_paths; a

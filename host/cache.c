@@ -157,9 +157,17 @@ static picvr_status picvr_cache_clear(picvr_context *ctx) {
     ctx->cache.counts = counters;
     ctx->cache.point_rounds = ctx->cache.truncated = ctx->cache.lookups_cut = ctx->cache.lookups_spilled = 0;
     ctx->cache.requests_pending = 0;
+    ctx->cache.refine_cursor = 0;
     ctx->cache.since_rebuild_ms = 0.0;
     picvr_sched_forget_hits(&ctx->sched, ctx->cache.on);
     return s;
+}
+
+/* The entries complete before the next round (the host's last count, within the pool):
+   those creation may look up and refinement may take (cache_create.comp). */
+static uint32_t picvr_cache_trusted(const picvr_context *ctx) {
+    uint32_t n = ctx->cache.counts.entry_count, cap = ctx->cache.cfg.max_entries;
+    return n < cap ? n : cap;
 }
 
 /* The cache counters a round left: the 64-bit sums of the wrapping ones, the requests. */

@@ -93,6 +93,13 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
    at most this many rounds (128 samples per point) and each sample's loops share
    picvr_create_sample_steps of them. */
 #define PICVR_CACHE_MS_ROUNDS_CPU 1u
+/* The multiply scattered cache's progressive refinement (cache_create.comp, refine_main):
+   the share of creation's work packages that refine existing entries while requests
+   wait (all of them when none wait), and the flag its dispatch sets in the push
+   constant `budget`. */
+#define PICVR_REFINE_SHARE 0.5
+#define PICVR_REFINE_PASS_DIVISOR 64u   /* picvr_step_iterations: entries / this per pass */
+#define PICVR_REFINE_FLAG 0x80000000u
 /* Clip planes the kernels test: the user's and the six faces of the clip box. */
 #define PICVR_GPU_CLIP_PLANES (PICVR_MAX_CLIP_PLANES + 6)
 
@@ -352,6 +359,7 @@ typedef struct picvr_cache {
     double since_rebuild_ms;
     uint32_t requests_issued;        /* by the rounds of the last step */
     uint32_t requests_pending;       /* valid requests the last round queued (each holds a lock) */
+    uint32_t refine_cursor;          /* the next entry to refine (multiply scattered cache) */
     picvr_cache_counters counts;     /* as read after the last round */
     uint64_t point_rounds;           /* counts.point_rounds, .truncated, .lookups_cut and */
     uint64_t truncated;              /* .lookups_spilled wrap at 2^32 on the device; */
@@ -394,6 +402,7 @@ typedef struct picvr_round_plan {
     uint32_t create_budget;   /* queued requests that become entries this round */
     uint32_t request_cap;     /* requests this round's rendering may queue */
     uint32_t update_groups;   /* update work packages */
+    uint32_t refine_groups;   /* entries refined (multiply scattered cache), creation's packages */
     int rebuild;              /* rebuild the octree */
     int plain;                /* PICVR_CACHE_AUTO: a plain round (no cache procedure, no lookup) */
 } picvr_round_plan;
@@ -486,6 +495,7 @@ struct picvr_context {
 typedef struct picvr_plan_inputs {
     int cache_on;
     uint32_t requests_pending;    /* requests the last round queued: creation's work */
+    uint32_t refinable;           /* entries refinement may take (0: no refinement) */
     uint32_t max_requests;
     int rebuild_due;              /* the octree rebuild interval has passed */
     uint32_t block_total;

@@ -156,7 +156,8 @@ static void picvr_record_render(picvr_context *ctx, const picvr_round_plan *p) {
    per request. */
 static void picvr_note_dispatches(picvr_context *ctx, const picvr_round_plan *p) {
     int cached = picvr_round_cached(ctx, p);
-    int runs[3] = {cached && ctx->cache.requests_pending > 0, cached && p->update_groups > 0, p->render_blocks > 0};
+    int runs[3] = {cached && (ctx->cache.requests_pending > 0 || p->refine_groups > 0), cached && p->update_groups > 0,
+                   p->render_blocks > 0};
     for (int i = 0; i < 3; i++) {
         if (!runs[i]) {
             ctx->sched.first_dispatch[i] = 0;
@@ -179,11 +180,21 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
         /* creation: one workgroup per request queued by the previous round */
         vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_pipeline(ctx, PICVR_PROC_CREATE));
         /* the entries complete before this round, for creation's own lookups */
-        uint32_t trusted = ctx->cache.counts.entry_count < ctx->cache.cfg.max_entries
-                         ? ctx->cache.counts.entry_count : ctx->cache.cfg.max_entries;
-        picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->create_budget, trusted);
+        uint32_t trusted = picvr_cache_trusted(ctx);
+        /* the budget below PICVR_REFINE_FLAG (requests never reach it) */
+        uint32_t budget = p->create_budget < PICVR_REFINE_FLAG ? p->create_budget : PICVR_REFINE_FLAG - 1;
+        picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, budget, trusted);
         vkCmdDispatchIndirect(ctx->vk.cmd, ctx->cache.counters.buf, 0);
         picvr_barrier_all(ctx);
+        if (p->refine_groups > 0) {
+            /* refinement (multiply scattered cache): entries cursor.. of the trusted ones,
+               after creation so that no workgroup inserts while it looks up */
+            uint32_t first = ctx->cache.refine_cursor % trusted;
+            picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, PICVR_REFINE_FLAG | first, trusted);
+            vkCmdDispatch(ctx->vk.cmd, p->refine_groups, 1, 1);
+            picvr_barrier_all(ctx);
+            ctx->cache.refine_cursor = (uint32_t)(((uint64_t)first + p->refine_groups) % trusted);
+        }
         vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.counters.buf, offsetof(picvr_cache_counters, dispatch), 4, 0);
         vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.counters.buf, offsetof(picvr_cache_counters, request_count), 4, 0);
         picvr_barrier_all(ctx);
@@ -243,7 +254,7 @@ static picvr_status picvr_round_device_ms(picvr_context *ctx, const picvr_round_
     if (!ctx->rounds.timestamps) {
         /* Rule without timestamps: split the wall time by the planned costs. */
         const double *cost = ctx->sched.cost;
-        double plan[3] = {created * cost[PICVR_PROC_CREATE], p->update_groups * cost[PICVR_PROC_UPDATE],
+        double plan[3] = {(created + p->refine_groups) * cost[PICVR_PROC_CREATE], p->update_groups * cost[PICVR_PROC_UPDATE],
                           blocks * cost[PICVR_PROC_RENDER]};
         double sum = plan[0] + plan[1] + plan[2];
         for (int i = 0; i < 3; i++) dev[i] = sum > 0.0 ? wall_ms * plan[i] / sum : (i == PICVR_PROC_RENDER ? wall_ms : 0.0);
@@ -285,13 +296,15 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
         picvr_status s = picvr_round_device_ms(ctx, p, 0.0, created, blocks, dev, &rebuild_ms, 0);
         if (s) return s;
         const double *cost = ctx->sched.cost;
-        double planned = created * cost[PICVR_PROC_CREATE] + p->update_groups * cost[PICVR_PROC_UPDATE] +
+        double planned = (created + p->refine_groups) * cost[PICVR_PROC_CREATE] + p->update_groups * cost[PICVR_PROC_UPDATE] +
                          blocks * cost[PICVR_PROC_RENDER];
         wall_ms = (ctx->rounds.timestamps ? dev[0] + dev[1] + dev[2] : planned) + ctx->sched.overhead_ms;
     }
     picvr_status s = picvr_round_device_ms(ctx, p, wall_ms, created, blocks, dev, &rebuild_ms, 1);
     if (s) return s;
-    picvr_sched_account(&ctx->sched, dev, rebuild_ms, created, p->update_groups, blocks, wall_ms, picvr_round_cached(ctx, p));
+    /* creation's packages: the entries made and those refined */
+    picvr_sched_account(&ctx->sched, dev, rebuild_ms, created + p->refine_groups, p->update_groups, blocks, wall_ms,
+                        picvr_round_cached(ctx, p));
     ctx->image.block_samples += blocks;
     if (blocks > 0) ctx->image.has_samples = 1;
     ctx->image.scatter_events += (uint64_t)events[1] << 32 | events[0];

@@ -98,7 +98,16 @@ static picvr_round_plan picvr_sched_plan(const picvr_sched *sc, double round_ms,
     const double *cost = sc->cost;
     if (in->cache_on) {
         double create_ms = sc->target[PICVR_PROC_CREATE] * avail, update_ms = sc->target[PICVR_PROC_UPDATE] * avail;
-        p.create_budget = picvr_sched_packages(sc, PICVR_PROC_CREATE, create_ms, in->requests_pending, sc->create_batch);
+        /* Creation's packages: new entries for the queued requests, and with the multiply
+           scattered cache refinement of existing ones (PICVR_REFINE_SHARE of them while
+           requests wait, every package when none do). */
+        uint64_t work = (uint64_t)in->requests_pending + in->refinable;
+        uint32_t packages = picvr_sched_packages(sc, PICVR_PROC_CREATE, create_ms,
+                                                 work > UINT32_MAX ? UINT32_MAX : (uint32_t)work, sc->create_batch);
+        uint32_t refine = in->refinable && in->requests_pending ? (uint32_t)(PICVR_REFINE_SHARE * packages) : packages;
+        if (refine > in->refinable) refine = in->refinable;
+        p.create_budget = packages - refine < in->requests_pending ? packages - refine : in->requests_pending;
+        p.refine_groups = packages - p.create_budget < in->refinable ? packages - p.create_budget : in->refinable;
         p.update_groups = picvr_sched_packages(sc, PICVR_PROC_UPDATE, update_ms, UINT32_MAX, 1);
         /* requests for the next round: what its creation share can take, at least one batch */
         double next = cost[PICVR_PROC_CREATE] > 0.0 ? ceil(create_ms / cost[PICVR_PROC_CREATE]) : 4.0;
@@ -106,7 +115,7 @@ static picvr_round_plan picvr_sched_plan(const picvr_sched *sc, double round_ms,
         p.request_cap = next > in->max_requests ? in->max_requests : (uint32_t)next;
         p.rebuild = in->rebuild_due;
         /* Work conserving: time creation and update cannot use goes to rendering. */
-        left -= p.create_budget * cost[PICVR_PROC_CREATE] + p.update_groups * cost[PICVR_PROC_UPDATE];
+        left -= (p.create_budget + p.refine_groups) * cost[PICVR_PROC_CREATE] + p.update_groups * cost[PICVR_PROC_UPDATE];
     }
     double blocks = cost[PICVR_PROC_RENDER] > 0.0 ? left / cost[PICVR_PROC_RENDER] : 32.0;
     p.render_blocks = blocks < 1.0 ? 1 : blocks > 64.0 * in->block_total ? 64 * in->block_total : (uint32_t)blocks;

@@ -31,6 +31,7 @@ static picvr_plan_inputs picvr_plan_inputs_now(const picvr_context *ctx) {
     picvr_plan_inputs in;
     in.cache_on = picvr_cache_serves(ctx);
     in.requests_pending = ctx->cache.requests_pending;
+    in.refinable = picvr_cache_multiple(ctx) ? picvr_cache_trusted(ctx) : 0;
     in.max_requests = ctx->cache.cfg.max_requests;
     in.rebuild_due = ctx->cache.since_rebuild_ms >= ctx->cache.cfg.rebuild_interval_ms;
     in.block_total = ctx->image.block_total;
@@ -120,6 +121,9 @@ static picvr_status picvr_step_passes(picvr_context *ctx, uint32_t passes) {
             p.create_budget = UINT32_MAX;
             p.request_cap = picvr_pass_request_cap(ctx);
             p.update_groups = (ctx->image.block_total + 15) / 16;
+            /* the multiply scattered cache: a sixteenth of the entries refined per pass */
+            if (picvr_cache_multiple(ctx))
+                p.refine_groups = (picvr_cache_trusted(ctx) + PICVR_REFINE_PASS_DIVISOR - 1) / PICVR_REFINE_PASS_DIVISOR;
             p.rebuild = ctx->cache.since_rebuild_ms >= ctx->cache.cfg.rebuild_interval_ms;
         } else if (ctx->sched.cost[PICVR_PROC_RENDER] > 0.0) {
             double fit = PICVR_BATCH_TARGET_MS / (ctx->sched.cost[PICVR_PROC_RENDER] * ctx->image.block_total);

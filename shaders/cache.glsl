@@ -34,7 +34,8 @@ struct Entry {
                           // a radius with atomicMin
     vec4 aniso;           // multiply scattered entries: xyz the fluence's first moment over
                           // the fluence at the centre, a = F / E (luminance; |a| <= 1), for
-                          // anisotropic phase functions (ms_inscattered); w unused
+                          // anisotropic phase functions (ms_inscattered); w the centre's
+                          // sample count (cache_create.comp, refine_main)
 };
 
 struct Node { uint children; uint refs; uint lock; uint pad; };  // children: first of 8

@@ -39,7 +39,10 @@ layout(constant_id = 2) const uint CREATE_MAX_ROUNDS = 6u;
 // sched_round: the scheduler's round; budget: requests to turn into entries this round
 // (the §6 creation share); the other queued requests are dropped and their locks released;
 // trusted_entries: the entries complete before this round (the host's last count).
+// budget with REFINE_FLAG set: a refinement dispatch (refine_main), budget's other bits
+// the first entry to refine.
 layout(push_constant) uniform Push { uint sched_round; uint seed; uint budget; uint trusted_entries; } pc;
+const uint REFINE_FLAG = 0x80000000u;
 
 // With USE_BOUNCES the cache holds the multiply scattered light (render_lookup.comp): at
 // x, the fluence of light that scattered at least once in the medium before reaching x,
@@ -144,7 +147,96 @@ void reduce_stats() {
     barrier();
 }
 
+// Progressive refinement of multiply scattered entries (USE_BOUNCES; the host dispatches
+// it only then): workgroup i adds one creation round, 128 samples of fluence_ms_sample,
+// at each of the seven points of entry (first + i) mod trusted_entries to their running
+// means, with creation's common random numbers, and recomputes Eq. 6's sigma_v from them;
+// the centre's first moment a likewise.  Entry.aniso.w holds the sample count N.  The
+// offset points' old means come back from the stored values exactly:
+// E_delta = E_0 exp(-sigma_v delta) (Eq. 6 inverted, in logs).  The radii stay as
+// creation and the update procedure left them, so the octree is untouched.  The entry's
+// noise falls as 1 / sqrt(N), in its value and in its gradients, whose noise the
+// exponential extrapolation of Eq. 7 turns into a bias (E_0 exp(-sigma_v x) is convex in
+// sigma_v); so the cache converges with time and the image's cached part with it.
+// Refinement's samples gather from the cache as creation's do (a sample ending at a hit
+// costs a flight, a shadow ray and a lookup, a whole path in a cloud of albedo 0.99 tens
+// of events).  So what a lookup gets wrong is fed back into the entries: with lookups
+// biased by b and a share s = albedo x (the part of a sample's light taken from hits),
+// repeated refinement tends to entries biased by about b s / (1 - s).  b, the
+// extrapolation's error, falls as the entries' noise does; what is left reaches the image
+// only through the cached part, which the blend corrects.  A lookup may read an entry
+// while another workgroup of the dispatch writes it: a mix of its old and new fields,
+// each an estimate of the same quantity between the two.  Rules: an entry with
+// N >= REFINE_MAX_SAMPLES (float counts stay exact) is left as it is; N counts the centre's samples and is taken for every point (on a CPU
+// device every point takes one round at creation; on a GPU Eq. 5 may stop a point
+// earlier, which only weights its old mean a little too much); a non-finite sample counts
+// as 0 and a negative mean is stored as 0, as in creation; |a| > 1 is scaled back to 1.
+const float REFINE_MAX_SAMPLES = 16777216.0;
+void refine_main() {
+    uint lid = gl_LocalInvocationID.x;
+    uint e = ((pc.budget & ~REFINE_FLAG) + gl_WorkGroupID.x) % max(pc.trusted_entries, 1u);
+    float N_old = entries[e].aniso.w;
+    if (!(N_old < REFINE_MAX_SAMPLES)) return;                // uniform over the workgroup
+    lookup_entry_limit = pc.trusted_entries;
+    vec3 x0 = entries[e].pos_rmax.xyz, n = entries[e].normal, t, b;
+    float delta = entries[e].e0.w;
+    basis(n, t, b);
+    vec3 axis[3] = vec3[3](t, b, n);
+    vec3 sum[7], moment = vec3(0.0);
+    uint truncated = 0u;
+    Rng stream = rng_init(e * 128u + lid, pc.sched_round, pc.seed ^ 0x68e31da4u);
+    for (uint k = 0u; k < 7u; k++) {                          // creation's loop budget: 7 samples
+        vec3 p = k == 0u ? x0 : x0 + ((k & 1u) == 1u ? delta : -delta) * axis[(k - 1u) / 2u];
+        Rng rng = stream;                                     // common random numbers
+        bool cut = false;
+        vec3 w;
+        vec3 s = fluence_ms_sample(p, rng, cut, w);
+        if (cut) truncated++;
+        if (any(isnan(s)) || any(isinf(s))) s = vec3(0.0);
+        sum[k] = s;
+        if (k == 0u) moment = luminance(s) * w;
+    }
+    if (lid == 0u) s_truncated = 0u;
+    barrier();
+    if (truncated > 0u) atomicAdd(s_truncated, truncated);
+    float n_new = 128.0, N = N_old + n_new;
+    for (uint k = 0u; k < 7u; k++) {
+        s_red[lid] = vec4(sum[k], 0.0);
+        reduce_red();
+        if (lid == 0u) {
+            vec3 E_old = entries[e].e0.xyz;
+            if (k > 0u)
+                for (uint c = 0u; c < 3u; c++)
+                    E_old[c] = CM_FN(irradiance_from_ln)(CM_FN(ln_irradiance)(E_old[c]) -
+                                                         entries[e].sigma_v[(k - 1u) * 3u + c] * delta);
+            s_E[k] = max((E_old * N_old + s_red[0].xyz) / N, vec3(0.0));
+        }
+        barrier();
+    }
+    s_red[lid] = vec4(moment, 0.0);
+    reduce_red();
+    if (lid == 0u) {
+        vec3 E_old = entries[e].e0.xyz;
+        float E_lum = luminance(s_E[0]);
+        vec3 F = entries[e].aniso.xyz * luminance(E_old) * N_old + s_red[0].xyz;   // sums of F
+        vec3 a = E_lum > 0.0 ? F / (N * E_lum) : vec3(0.0);
+        float len = length(a);
+        a = len > 1.0 ? a / len : (isnan(len) ? vec3(0.0) : a);
+        for (uint h = 0u; h < 6u; h++)
+            for (uint c = 0u; c < 3u; c++)
+                entries[e].sigma_v[h * 3u + c] = CM_FN(sigma_v)(s_E[0][c], s_E[1u + h][c], delta);   // Eq. 6
+        entries[e].e0.xyz = s_E[0];
+        entries[e].aniso = vec4(a, N);
+        atomicAdd(cache_counters.point_rounds, 7u);
+        if (s_truncated > 0u) atomicAdd(cache_counters.truncated, s_truncated);
+    }
+}
+
 void main() {
+    if (USE_BOUNCES && (pc.budget & REFINE_FLAG) != 0u) {
+        refine_main();
+        return;
+    }
     uint req = gl_WorkGroupID.x;
     uint lid = gl_LocalInvocationID.x;
     // The indirect dispatch has one workgroup per valid request (dispatch_x).
@@ -323,7 +415,8 @@ void main() {
                 rmax = max(rmax, r);
             }
             entries[e].e0 = vec4(s_E[0], delta);         // w: the entry's own Delta
-            entries[e].aniso = vec4(USE_BOUNCES ? s_aniso : vec3(0.0), 0.0);
+            // w: the centre's sample count (refine_main)
+            entries[e].aniso = vec4(USE_BOUNCES ? s_aniso : vec3(0.0), float(point_rounds[0] * 128u));
             entries[e].normal = n;
             entries[e].medium_f = packUnorm2x16(vec2(1.0) - s_f);
             entries[e].pos_rmax = vec4(x0, rmax);

@@ -111,13 +111,38 @@ void scene_init(scene *s, const dataset_spec *ds, const char *lights,
     snprintf(s->id, sizeof s->id, "%s_%s_%ux%u", ds->name, lights, s->width, s->height);
 }
 
+/* Whether a scene's transfer function names a file (".tf", pvp_tf_load) rather than a
+   preset. */
+static int tf_is_file(const char *tf)
+{
+    size_t n = strlen(tf);
+    return n > 3 && !strcmp(tf + n - 3, ".tf");
+}
+
+/* The hash of a transfer-function file's bytes (0 when it cannot be read), so that a
+   reference follows the file's content, not only its name. */
+static uint64_t tf_file_hash(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    char buf[8192];
+    size_t n = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    return fnv1a_bytes(buf, n);
+}
+
 /* The key of the scene's reference folder: the scene description and the plain
-   renderer's fingerprint. */
+   renderer's fingerprint (with a transfer-function file, its content's hash too). */
 void scene_key(scene *s, uint64_t fingerprint)
 {
+    char tf[NAME_LEN + 24];
+    if (tf_is_file(s->ds->tf))
+        snprintf(tf, sizeof tf, "%s#%016llx", s->ds->tf, (unsigned long long)tf_file_hash(s->ds->tf));
+    else
+        snprintf(tf, sizeof tf, "%s", s->ds->tf);
     snprintf(s->key, sizeof s->key,
              "picvr-bench-ref v3|plain=%016llx|%s|tf=%s|spacing=%g|lights=%s|%ux%u|"
-             "camera=%g,%g,%g,%g", (unsigned long long)fingerprint, s->ds->file, s->ds->tf,
+             "camera=%g,%g,%g,%g", (unsigned long long)fingerprint, s->ds->file, tf,
              s->ds->spacing, s->lights, s->width, s->height, s->camera[0], s->camera[1],
              s->camera[2], s->camera[3]);
     snprintf(s->hash, sizeof s->hash, "%016llx", (unsigned long long)fnv1a(s->key));
@@ -156,8 +181,10 @@ static int set_look(const scene *s, session *ss)
 {
     pvp_tf tf;
     pvp_lights lights;
-    pvp_status ps = pvp_tf_preset(s->ds->tf, &tf);
-    if (ps != PVP_OK) { pvc_fail("tf %s: %s", s->ds->tf, pvp_status_string(ps)); return 0; }
+    char err[256] = "";
+    pvp_status ps = tf_is_file(s->ds->tf) ? pvp_tf_load(s->ds->tf, &tf, err, sizeof err)
+                                          : pvp_tf_preset(s->ds->tf, &tf);
+    if (ps != PVP_OK) { pvc_fail("tf %s: %s %s", s->ds->tf, pvp_status_string(ps), err); return 0; }
     ps = pvp_lights_preset(s->lights, ss->box_min, ss->box_max, &ss->camera, &lights);
     if (ps != PVP_OK) { pvc_fail("lights %s: %s", s->lights, pvp_status_string(ps)); return 0; }
     /* the scattering the preset is made for (cloud: unlimited bounces) */
