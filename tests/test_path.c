@@ -1256,20 +1256,29 @@ void test_path_default_scattering_bit_identical(void **state) {
    higher orders of the multiply scattered light's directional structure, which
    Henyey-Greenstein's g^2, g^3 ... terms would weight, are left out.  The cache must
    serve: at least 30 % of the scatter events in the last pass are hits. */
-static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t seed) {
+/* The cube of the multiply scattered cache's tests: a context with the object-space
+   cache (blend as given), the 16^3 cube of sigma D (bmin, bmax its box), albedo a, HG g,
+   a constant white background, unlimited bounces. */
+static picvr_context *ms_cube(float a, float g, picvr_switch blend, uint32_t seed, float D, double bmin[3],
+                              double bmax[3]) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
     cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
     cfg.cache.blend = blend;
     picvr_context *ctx = tu_create_config(&cfg);
-    double bmin[3], bmax[3];
     upload_cube(ctx, 16, bmin, bmax);
-    const float D = 0.125f;
     tf_const_g(ctx, a, a, a, g, D);
     const float white[3] = {1, 1, 1};
     set_background(ctx, white, 1.0f, NULL, 0, 0, 0);
     set_scattering(ctx, PICVR_BOUNCES_UNLIMITED, 0, 0);
+    return ctx;
+}
+
+static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t seed) {
+    double bmin[3], bmax[3];
+    const float D = 0.125f;
+    picvr_context *ctx = ms_cube(a, g, blend, seed, D, bmin, bmax);
     const uint32_t W = 32, H = 32, N = 192;
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
     walk_ref ref;
@@ -1349,18 +1358,8 @@ static double furnace_block_rms(const float *img, uint32_t W, uint32_t H) {
      cache it is mostly the entries' error shared by neighbouring pixels). */
 void test_path_cache_ms_refines(void **state) {
     (void)state;
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 131;
-    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
-    cfg.cache.blend = PICVR_SWITCH_OFF;
-    picvr_context *ctx = tu_create_config(&cfg);
     double bmin[3], bmax[3];
-    upload_cube(ctx, 16, bmin, bmax);
-    tf_const_g(ctx, 1.0f, 1.0f, 1.0f, 0.0f, 0.125f);
-    const float white[3] = {1, 1, 1};
-    set_background(ctx, white, 1.0f, NULL, 0, 0, 0);
-    set_scattering(ctx, PICVR_BOUNCES_UNLIMITED, 0, 0);
+    picvr_context *ctx = ms_cube(1.0f, 0.0f, PICVR_SWITCH_OFF, 131, 0.125f, bmin, bmax);
     const uint32_t W = 32, H = 32;
     tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
     TU_OK(picvr_step_iterations(ctx, 48));
