@@ -1351,7 +1351,7 @@ static double furnace_block_rms(const float *img, uint32_t W, uint32_t H) {
      run is refined about three times or more);
    - the image mean is within 5 standard errors + 1.5 % of 1: refinement moves entries
      toward their true values, so the allowance is below the creation-only cases' 2 %
-     (measured: -0.3 % to -0.5 %), and a refinement that mis-weighted old and new means
+     (docs/cache.md has the measured values), and a refinement that mis-weighted old and new means
      or mis-inverted Eq. 6 for the offset points would show here (the stored value moves
      by a sample's share every time);
    - the blocks' RMS error does not grow from pass 48 to pass 384 (printed: with the
