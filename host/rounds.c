@@ -245,16 +245,17 @@ static void picvr_note_kernel_times(picvr_context *ctx, const picvr_round_plan *
 }
 
 /* The device time of each procedure in the round just finished (dev[PROC_*]) and the
-   octree rebuild's part of it, from the round's timestamps. */
+   octree rebuild's part of it, from the round's timestamps; packages: creation's (entries
+   made and refined), for the split without timestamps. */
 static picvr_status picvr_round_device_ms(picvr_context *ctx, const picvr_round_plan *p, double wall_ms,
-                                          uint32_t created, uint32_t blocks, double dev[3], double *rebuild_ms,
+                                          uint32_t packages, uint32_t blocks, double dev[3], double *rebuild_ms,
                                           int note_kernels) {
     dev[0] = dev[1] = dev[2] = 0.0;
     *rebuild_ms = 0.0;
     if (!ctx->rounds.timestamps) {
         /* Rule without timestamps: split the wall time by the planned costs. */
         const double *cost = ctx->sched.cost;
-        double plan[3] = {(created + p->refine_groups) * cost[PICVR_PROC_CREATE], p->update_groups * cost[PICVR_PROC_UPDATE],
+        double plan[3] = {packages * cost[PICVR_PROC_CREATE], p->update_groups * cost[PICVR_PROC_UPDATE],
                           blocks * cost[PICVR_PROC_RENDER]};
         double sum = plan[0] + plan[1] + plan[2];
         for (int i = 0; i < 3; i++) dev[i] = sum > 0.0 ? wall_ms * plan[i] / sum : (i == PICVR_PROC_RENDER ? wall_ms : 0.0);
@@ -289,21 +290,21 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
     memcpy(&blocks, rb + sizeof(picvr_cache_counters), sizeof blocks);
     memcpy(events, rb + sizeof(picvr_cache_counters) + 4, sizeof events);
     double dev[3], rebuild_ms;
+    uint32_t packages = created + p->refine_groups;   /* creation's: entries made and refined */
     if (wall_ms < 0.0) {
         /* Rule: a step the application ended after it had finished has no measured wall
            time; it is taken as the device time (timestamps, else the cost model) plus
            the modelled overhead, so that the cost model learns nothing false from it. */
-        picvr_status s = picvr_round_device_ms(ctx, p, 0.0, created, blocks, dev, &rebuild_ms, 0);
+        picvr_status s = picvr_round_device_ms(ctx, p, 0.0, packages, blocks, dev, &rebuild_ms, 0);
         if (s) return s;
         const double *cost = ctx->sched.cost;
-        double planned = (created + p->refine_groups) * cost[PICVR_PROC_CREATE] + p->update_groups * cost[PICVR_PROC_UPDATE] +
+        double planned = packages * cost[PICVR_PROC_CREATE] + p->update_groups * cost[PICVR_PROC_UPDATE] +
                          blocks * cost[PICVR_PROC_RENDER];
         wall_ms = (ctx->rounds.timestamps ? dev[0] + dev[1] + dev[2] : planned) + ctx->sched.overhead_ms;
     }
-    picvr_status s = picvr_round_device_ms(ctx, p, wall_ms, created, blocks, dev, &rebuild_ms, 1);
+    picvr_status s = picvr_round_device_ms(ctx, p, wall_ms, packages, blocks, dev, &rebuild_ms, 1);
     if (s) return s;
-    /* creation's packages: the entries made and those refined */
-    picvr_sched_account(&ctx->sched, dev, rebuild_ms, created + p->refine_groups, p->update_groups, blocks, wall_ms,
+    picvr_sched_account(&ctx->sched, dev, rebuild_ms, packages, p->update_groups, blocks, wall_ms,
                         picvr_round_cached(ctx, p));
     ctx->image.block_samples += blocks;
     if (blocks > 0) ctx->image.has_samples = 1;

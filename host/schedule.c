@@ -104,9 +104,9 @@ static picvr_round_plan picvr_sched_plan(const picvr_sched *sc, double round_ms,
         uint64_t work = (uint64_t)in->requests_pending + in->refinable;
         uint32_t packages = picvr_sched_packages(sc, PICVR_PROC_CREATE, create_ms,
                                                  work > UINT32_MAX ? UINT32_MAX : (uint32_t)work, sc->create_batch);
-        uint32_t refine = in->refinable && in->requests_pending ? (uint32_t)(PICVR_REFINE_SHARE * packages) : packages;
-        if (refine > in->refinable) refine = in->refinable;
-        p.create_budget = packages - refine < in->requests_pending ? packages - refine : in->requests_pending;
+        uint32_t reserved = in->requests_pending ? (uint32_t)(PICVR_REFINE_SHARE * packages) : packages;
+        uint32_t create = packages - (reserved < in->refinable ? reserved : in->refinable);
+        p.create_budget = create < in->requests_pending ? create : in->requests_pending;
         p.refine_groups = packages - p.create_budget < in->refinable ? packages - p.create_budget : in->refinable;
         p.update_groups = picvr_sched_packages(sc, PICVR_PROC_UPDATE, update_ms, UINT32_MAX, 1);
         /* requests for the next round: what its creation share can take, at least one batch */

@@ -121,7 +121,7 @@ static picvr_status picvr_step_passes(picvr_context *ctx, uint32_t passes) {
             p.create_budget = UINT32_MAX;
             p.request_cap = picvr_pass_request_cap(ctx);
             p.update_groups = (ctx->image.block_total + 15) / 16;
-            /* the multiply scattered cache: a sixteenth of the entries refined per pass */
+            /* the multiply scattered cache: 1/PICVR_REFINE_PASS_DIVISOR of the entries refined per pass */
             if (picvr_cache_multiple(ctx))
                 p.refine_groups = (picvr_cache_trusted(ctx) + PICVR_REFINE_PASS_DIVISOR - 1) / PICVR_REFINE_PASS_DIVISOR;
             p.rebuild = ctx->cache.since_rebuild_ms >= ctx->cache.cfg.rebuild_interval_ms;

@@ -167,8 +167,8 @@ void reduce_stats() {
 // only through the cached part, which the blend corrects.  A lookup may read an entry
 // while another workgroup of the dispatch writes it: a mix of its old and new fields,
 // each an estimate of the same quantity between the two.  Rules: an entry with
-// N >= REFINE_MAX_SAMPLES (float counts stay exact) is left as it is; N counts the centre's samples and is taken for every point (on a CPU
-// device every point takes one round at creation; on a GPU Eq. 5 may stop a point
+// N >= REFINE_MAX_SAMPLES (float counts stay exact) is left as it is; N counts the
+// centre's samples and is taken for every point (on a CPU device every point takes one round at creation; on a GPU Eq. 5 may stop a point
 // earlier, which only weights its old mean a little too much); a non-finite sample counts
 // as 0 and a negative mean is stored as 0, as in creation; |a| > 1 is scaled back to 1.
 const float REFINE_MAX_SAMPLES = 16777216.0;
