@@ -246,8 +246,9 @@ typedef struct picvr_cache_config {
     float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */
     uint32_t superpixel_size;  /* screen-space locking: side of a square superpixel in
                                   pixels; 0: 32 */
-    uint32_t max_entries;      /* entry pool; 0: 65536 (160 bytes each).  Large images on a
-                                  fast GPU fill it: stats.cache_full says so */
+    uint32_t max_entries;      /* entry pool; 0: 65536 (144 bytes each, 160 with
+                                  bounces).  Large images on a fast GPU fill it:
+                                  stats.cache_full says so */
     uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries */
     uint32_t max_refs;         /* reference pool; 0: 16 * max_entries */
     uint32_t max_requests;     /* creation requests in flight at most (the request queue;

@@ -44,6 +44,25 @@ static picvr_status picvr_resolve_cache_config(const picvr_cache_config *in, pic
     return PICVR_OK;
 }
 
+/* The entries' first moments (binding 22) as a cache with max_bounces needs them: one per
+   entry with bounces (the multiply scattered cache), a placeholder without, which no
+   kernel then reads.  Rule: on failure the old buffer stays, so the caller can refuse
+   the change and leave the context as it was. */
+static picvr_status picvr_cache_fit_moments(picvr_context *ctx, uint32_t max_bounces) {
+    if (!ctx->cache.on) return PICVR_OK;
+    uint64_t want = max_bounces > 0 ? (uint64_t)ctx->cache.cfg.max_entries * PICVR_CACHE_MOMENT_BYTES
+                                    : PICVR_PLACEHOLDER_BYTES;
+    if (ctx->cache.moments.buf && ctx->cache.moments.size == want) return PICVR_OK;
+    if (want > ctx->vk.props.limits.maxStorageBufferRange) return PICVR_ERROR_SIZE_OVERFLOW;
+    picvr_buffer b;
+    picvr_status s = picvr_buffer_create(ctx, &b, want, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, 0);
+    if (s) return s;
+    picvr_buffer_destroy(ctx, &ctx->cache.moments);
+    ctx->cache.moments = b;
+    ctx->pipes.descriptors_dirty = 1;
+    return PICVR_OK;
+}
+
 static picvr_status picvr_create_cache_buffers(picvr_context *ctx) {
     const picvr_cache_config *c = &ctx->cache.cfg;
     VkBufferUsageFlags st = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
@@ -60,7 +79,7 @@ static picvr_status picvr_create_cache_buffers(picvr_context *ctx) {
     if ((s = picvr_buffer_create(ctx, &ctx->cache.requests, (uint64_t)c->max_requests * PICVR_CACHE_REQUEST_BYTES, st, 0))) return s;
     if ((s = picvr_buffer_create(ctx, &ctx->cache.prebuilt_nodes, 4681u * PICVR_CACHE_NODE_BYTES,
                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0))) return s;
-    return PICVR_OK;
+    return picvr_cache_fit_moments(ctx, ctx->scene.scattering.max_bounces);
 }
 
 /* Entry creation runs one workgroup per entry, and a round's procedures are separated by
@@ -186,6 +205,7 @@ static void picvr_cache_take_counters(picvr_context *ctx, const picvr_cache_coun
 /* The cache's pools (zeroed buffers when the cache is off: no-ops). */
 static void picvr_cache_destroy(picvr_context *ctx) {
     picvr_buffer *b[] = {&ctx->cache.entries, &ctx->cache.nodes, &ctx->cache.refs, &ctx->cache.counters,
-                         &ctx->cache.requests, &ctx->cache.prebuilt_nodes, &ctx->cache.superpixels};
+                         &ctx->cache.requests, &ctx->cache.prebuilt_nodes, &ctx->cache.superpixels,
+                         &ctx->cache.moments};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) picvr_buffer_destroy(ctx, b[i]);
 }

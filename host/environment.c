@@ -180,10 +180,12 @@ picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *sc
     if (!sc) sc = &z;
     if (!isfinite(sc->back_g) || !isfinite(sc->back_weight)) return PICVR_ERROR_NON_FINITE;
     if (!(fabsf(sc->back_g) < 1.0f) || sc->back_weight < 0.0f || sc->back_weight >= 1.0f) return PICVR_ERROR_INVALID_ARGUMENT;
+    picvr_status s = picvr_cache_fit_moments(ctx, sc->max_bounces);   /* before any change */
+    if (s) return s;
     ctx->scene.scattering = *sc;
     ctx->scene.gpu.max_bounces = sc->max_bounces;
     ctx->scene.gpu.back_g = sc->back_g;
     ctx->scene.gpu.back_weight = sc->back_weight;
-    picvr_status s = picvr_cache_clear(ctx);
+    s = picvr_cache_clear(ctx);
     return s ? s : picvr_clear_accumulation(ctx);
 }

@@ -45,7 +45,9 @@
 #define PICVR_CACHE_NODE_BYTES 16u       /* struct Node */
 #define PICVR_CACHE_REF_BYTES 8u         /* struct Ref */
 #define PICVR_CACHE_REQUEST_BYTES 32u    /* struct Request */
-#define PICVR_CACHE_ENTRY_BYTES 160u     /* struct Entry */
+#define PICVR_CACHE_ENTRY_BYTES 144u     /* struct Entry */
+#define PICVR_CACHE_MOMENT_BYTES 16u     /* an entry's first moment and sample count
+                                            (CacheMoments; multiply scattered caches) */
 
 /* Eq. 5's sample cap (cache.max_samples; its limits PICVR_CACHE_MAX_SAMPLES and
    PICVR_CACHE_MAX_SAMPLES_CPU are in picvr.h): rounds of the 128-thread creation
@@ -352,6 +354,8 @@ typedef struct picvr_cache {
     picvr_cache_config cfg;          /* resolved: no zero fields */
     int on;
     picvr_buffer entries, nodes, refs, counters, requests;
+    picvr_buffer moments;            /* the entries' first moments: max_entries of them with
+                                        bounces (picvr_cache_fit_moments), else a placeholder */
     picvr_buffer prebuilt_nodes;     /* the pre-built top of the octree, copied on rebuild */
     picvr_buffer superpixels;        /* screen-space locking: locks + ray/miss counters */
     uint32_t superpixel_count;
@@ -475,9 +479,10 @@ struct picvr_context {
    14 superpixels (screen-space locking), 15 the rendering queue, 16 and 17 the rendering
    procedure's event queues for shading and for the cache lookup, 18 the phase function's
    g per transfer-function entry, 19 the environment map, 20 the depth plane (temporal
-   reuse), 21 the consistent blend's per-pixel sums (cache on). */
-#define PICVR_NUM_BINDINGS 22
-#define PICVR_PLACEHOLDER_BYTES 16u      /* bindings 18-20 when the scene needs none */
+   reuse), 21 the consistent blend's per-pixel sums (cache on), 22 the entries' first
+   moments (cache on; real with bounces). */
+#define PICVR_NUM_BINDINGS 23
+#define PICVR_PLACEHOLDER_BYTES 16u      /* bindings 18-22 when the scene needs none */
 #define PICVR_CACHE_PREBUILT_MAX_DEPTH 4u  /* levels of the octree's pre-built top (§4.4) */
 #define PICVR_CACHE_NODE_RADII 1.0f     /* as in shaders/cache.glsl (insertion_depth) */
 

@@ -27,8 +27,8 @@ static picvr_status picvr_create_pipeline(picvr_context *ctx, VkShaderModule mod
     return PICVR_OK;
 }
 
-/* The bindings only cached contexts write: 9-14 and 17. */
-static int picvr_cache_binding(uint32_t i) { return (i >= 9 && i < 15) || i == 17 || i == 21; }
+/* The bindings only cached contexts write: 9-14, 17, 21 and 22. */
+static int picvr_cache_binding(uint32_t i) { return (i >= 9 && i < 15) || i == 17 || i == 21 || i == 22; }
 
 static VkDescriptorType picvr_binding_type(uint32_t i) {
     return i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
@@ -387,7 +387,7 @@ static void picvr_update_descriptors(picvr_context *ctx) {
         {ctx->image.render_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->image.shade_queue.buf, 0, VK_WHOLE_SIZE},
         {ctx->image.lookup_queue.buf, 0, VK_WHOLE_SIZE}, {ctx->scene.tf_g.buf, 0, VK_WHOLE_SIZE},
         {ctx->scene.env.buf, 0, VK_WHOLE_SIZE}, {ctx->image.depth.buf, 0, VK_WHOLE_SIZE},
-        {ctx->image.blend.buf, 0, VK_WHOLE_SIZE}};
+        {ctx->image.blend.buf, 0, VK_WHOLE_SIZE}, {ctx->cache.moments.buf, 0, VK_WHOLE_SIZE}};
     VkWriteDescriptorSet w[PICVR_NUM_BINDINGS];
     memset(w, 0, sizeof w);
     uint32_t n = 0;

@@ -129,7 +129,8 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
             st.cache_pending = ctx->cache.requests_pending;
             st.cache_bytes = ctx->cache.entries.size + ctx->cache.nodes.size + ctx->cache.refs.size +
                              ctx->cache.counters.size + ctx->cache.requests.size + ctx->cache.prebuilt_nodes.size +
-                             ctx->cache.superpixels.size + ctx->image.lookup_queue.size + ctx->image.blend.size;
+                             ctx->cache.superpixels.size + ctx->image.lookup_queue.size + ctx->image.blend.size +
+                             ctx->cache.moments.size;
             st.cache_entries = c->entry_count < ctx->cache.cfg.max_entries ? c->entry_count : ctx->cache.cfg.max_entries;
             st.cache_nodes = c->node_count < ctx->cache.cfg.max_nodes ? c->node_count : ctx->cache.cfg.max_nodes;
             st.cache_refs = c->ref_count < ctx->cache.cfg.max_refs ? c->ref_count : ctx->cache.cfg.max_refs;

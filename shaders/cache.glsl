@@ -32,10 +32,6 @@ struct Entry {
     uint radius[6];       // per half-axis, world units, as float bits: positive floats
                           // order like their bits, so the update procedure can shrink
                           // a radius with atomicMin
-    vec4 aniso;           // multiply scattered entries: xyz the fluence's first moment over
-                          // the fluence at the centre, a = F / E (luminance; |a| <= 1), for
-                          // anisotropic phase functions (ms_inscattered); w the centre's
-                          // sample count (cache_create.comp, refine_main)
 };
 
 struct Node { uint children; uint refs; uint lock; uint pad; };  // children: first of 8
@@ -60,6 +56,12 @@ layout(set = 0, binding = 12, std430) coherent buffer CacheCounters {
     uint probes;          // probes whose gain was counted (count_gain)
     uint gain_lo, gain_hi; // their gain, 64 bits in units of 2^-16 (count_gain)
 } cache_counters;
+// Multiply scattered entries only (USE_BOUNCES; a 16-byte placeholder otherwise, which
+// no kernel then reads): entry e's moment, xyz the fluence's first moment over the
+// fluence at its centre, a = F / E (luminance; |a| <= 1), for anisotropic phase
+// functions (ms_inscattered); w the centre's sample count (cache_create.comp,
+// refine_main).
+layout(set = 0, binding = 22, std430) buffer CacheMoments { vec4 entry_moments[]; };
 layout(set = 0, binding = 13, std430) buffer CacheRequests { Request requests[]; };
 // Screen-space locking (§5.2): per superpixel a lock, then two sets of (rays, misses)
 // counters: round i counts into set i & 1 and reads the ratio of the other set (the
@@ -204,7 +206,7 @@ void eval_entry(uint e, vec3 x, inout float sum_w, inout vec3 sum_wlog, inout ve
     if (!(pr.w > 0.0)) return;
     sum_w += pr.w;
     sum_wlog += pr.w * pr.lnE;
-    if (USE_BOUNCES) sum_wa += pr.w * entries[e].aniso.xyz;
+    if (USE_BOUNCES) sum_wa += pr.w * entry_moments[e].xyz;
 }
 
 // The multiply scattered radiance scattered at x toward -d (d the direction the ray

@@ -121,7 +121,7 @@ shared vec3 s_E[7];
 shared uint s_entry;             // the stored entry's index and radii, for the inserters
 shared float s_radius[6];
 shared vec2 s_f;                 // medium fraction of +n, -n
-shared vec3 s_aniso;             // with USE_BOUNCES: the centre's F / E (Entry.aniso)
+shared vec3 s_aniso;             // with USE_BOUNCES: the centre's F / E (entry_moments)
 
 // Sums s_red over the workgroup into s_red[0].
 void reduce_red() {
@@ -147,11 +147,28 @@ void reduce_stats() {
     barrier();
 }
 
+// Point k of an entry centred at x0 with offset delta: the centre (k = 0), then the six
+// offset points in half-axis order +t, -t, +b, -b, +n, -n of the local frame.
+vec3 entry_point(vec3 x0, vec3 axis[3], float delta, uint k) {
+    return k == 0u ? x0 : x0 + ((k & 1u) == 1u ? delta : -delta) * axis[(k - 1u) / 2u];
+}
+
+// The centre's first moment over its fluence, a = F / E in luminance, from the sum of
+// the first-moment samples over n samples.  Rules: E = 0 gives a = 0 (nothing to
+// weight); |a| > 1, possible only from noise (|F| <= E for any radiance), is scaled back
+// to 1; a non-finite a (only from extreme input) is 0.
+vec3 first_moment(vec3 F_sum, float n, float E_lum) {
+    vec3 a = E_lum > 0.0 ? F_sum / (n * E_lum) : vec3(0.0);
+    float len = length(a);
+    if (!(len <= 1.0)) a = len < 3.0e38 ? a / len : vec3(0.0);
+    return a;
+}
+
 // Progressive refinement of multiply scattered entries (USE_BOUNCES; the host dispatches
 // it only then): workgroup i adds one creation round, 128 samples of fluence_ms_sample,
 // at each of the seven points of entry (first + i) mod trusted_entries to their running
 // means, with creation's common random numbers, and recomputes Eq. 6's sigma_v from them;
-// the centre's first moment a likewise.  Entry.aniso.w holds the sample count N.  The
+// the centre's first moment a likewise.  entry_moments[e].w holds the sample count N.  The
 // offset points' old means come back from the stored values exactly:
 // E_delta = E_0 exp(-sigma_v delta) (Eq. 6 inverted, in logs).  The radii stay as
 // creation and the update procedure left them, so the octree is untouched.  The entry's
@@ -175,7 +192,7 @@ const float REFINE_MAX_SAMPLES = 16777216.0;
 void refine_main() {
     uint lid = gl_LocalInvocationID.x;
     uint e = ((pc.budget & ~REFINE_FLAG) + gl_WorkGroupID.x) % max(pc.trusted_entries, 1u);
-    float N_old = entries[e].aniso.w;
+    float N_old = entry_moments[e].w;
     if (!(N_old < REFINE_MAX_SAMPLES)) return;                // uniform over the workgroup
     lookup_entry_limit = pc.trusted_entries;
     vec3 x0 = entries[e].pos_rmax.xyz, n = entries[e].normal, t, b;
@@ -186,7 +203,7 @@ void refine_main() {
     uint truncated = 0u;
     Rng stream = rng_init(e * 128u + lid, pc.sched_round, pc.seed ^ 0x68e31da4u);
     for (uint k = 0u; k < 7u; k++) {                          // creation's loop budget: 7 samples
-        vec3 p = k == 0u ? x0 : x0 + ((k & 1u) == 1u ? delta : -delta) * axis[(k - 1u) / 2u];
+        vec3 p = entry_point(x0, axis, delta, k);
         Rng rng = stream;                                     // common random numbers
         bool cut = false;
         vec3 w;
@@ -216,17 +233,14 @@ void refine_main() {
     s_red[lid] = vec4(moment, 0.0);
     reduce_red();
     if (lid == 0u) {
-        vec3 E_old = entries[e].e0.xyz;
-        float E_lum = luminance(s_E[0]);
-        vec3 F = entries[e].aniso.xyz * luminance(E_old) * N_old + s_red[0].xyz;   // sums of F
-        vec3 a = E_lum > 0.0 ? F / (N * E_lum) : vec3(0.0);
-        float len = length(a);
-        a = len > 1.0 ? a / len : (isnan(len) ? vec3(0.0) : a);
+        vec4 old = entry_moments[e];
+        vec3 F = old.xyz * luminance(entries[e].e0.xyz) * N_old + s_red[0].xyz;   // sums of F
+        vec3 a = first_moment(F, N, luminance(s_E[0]));
         for (uint h = 0u; h < 6u; h++)
             for (uint c = 0u; c < 3u; c++)
                 entries[e].sigma_v[h * 3u + c] = CM_FN(sigma_v)(s_E[0][c], s_E[1u + h][c], delta);   // Eq. 6
         entries[e].e0.xyz = s_E[0];
-        entries[e].aniso = vec4(a, N);
+        entry_moments[e] = vec4(a, N);
         atomicAdd(cache_counters.point_rounds, 7u);
         if (s_truncated > 0u) atomicAdd(cache_counters.truncated, s_truncated);
     }
@@ -267,8 +281,7 @@ void main() {
     }
     float delta = CM_FN(entry_delta)(scene.delta, sigma_local);
     vec3 p[7];
-    p[0] = x0;
-    for (uint k = 0u; k < 3u; k++) { p[1u + 2u * k] = x0 + delta * axis[k]; p[2u + 2u * k] = x0 - delta * axis[k]; }
+    for (uint k = 0u; k < 7u; k++) p[k] = entry_point(x0, axis, delta, k);
 
     // The medium fraction of the half-axes +n and -n (cache_math.glsl, medium_fraction):
     // how many of 8 probes, at the midpoints of eighths of Delta, lie in the medium.  1
@@ -364,18 +377,11 @@ void main() {
         if (lid == 0u) s_E[k] = max(s_red[0].xyz / N, vec3(0.0));
         barrier();
     }
-    // The centre's first moment over its fluence, a = F / E in luminance.  Rules: E = 0
-    // gives a = 0 (nothing to weight); |a| > 1, possible only from noise (|F| <= E for
-    // any radiance), is scaled back to 1.
+    // The centre's first moment over its fluence (first_moment).
     if (USE_BOUNCES) {
         s_red[lid] = vec4(moment, 0.0);
         reduce_red();
-        if (lid == 0u) {
-            float N = float(point_rounds[0] * 128u), E_lum = luminance(s_E[0]);
-            vec3 a = E_lum > 0.0 ? s_red[0].xyz / (N * E_lum) : vec3(0.0);
-            float len = length(a);
-            s_aniso = len > 1.0 ? a / len : (isnan(len) ? vec3(0.0) : a);
-        }
+        if (lid == 0u) s_aniso = first_moment(s_red[0].xyz, float(point_rounds[0] * 128u), luminance(s_E[0]));
         barrier();
     }
 
@@ -416,7 +422,7 @@ void main() {
             }
             entries[e].e0 = vec4(s_E[0], delta);         // w: the entry's own Delta
             // w: the centre's sample count (refine_main)
-            entries[e].aniso = vec4(USE_BOUNCES ? s_aniso : vec3(0.0), float(point_rounds[0] * 128u));
+            if (USE_BOUNCES) entry_moments[e] = vec4(s_aniso, float(point_rounds[0] * 128u));
             entries[e].normal = n;
             entries[e].medium_f = packUnorm2x16(vec2(1.0) - s_f);
             entries[e].pos_rmax = vec4(x0, rmax);

@@ -286,6 +286,42 @@ void test_pipelines_made_for_the_scene(void **state) {
     }
 }
 
+/* Leave out what a scene does not need: the entries' first moments (16 bytes per entry,
+   binding 22) exist only while the scene has bounces (the multiply scattered cache);
+   without, a 16-byte placeholder.  Exactly max_entries x 16 - 16 bytes come and go with
+   picvr_set_scattering, and the cache renders after each change (the validation layer
+   checks the descriptor that now points at another buffer). */
+void test_cache_moments_only_with_bounces(void **state) {
+    (void)state;
+    picvr_config cfg = cache_config(PICVR_CACHE_OBJECT_SPACE, 5);
+    cfg.cache.max_entries = 4096;
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_vol vol;
+    tu_sun_scene cube;
+    setup_cube(ctx, &vol, &cube);
+    tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, 16, 16);
+    TU_OK(picvr_step_iterations(ctx, 2));
+    uint64_t single = tu_stats_finite(ctx).cache_bytes;
+    picvr_scattering sc;
+    memset(&sc, 0, sizeof sc);
+    sc.max_bounces = PICVR_BOUNCES_UNLIMITED;
+    TU_OK(picvr_set_scattering(ctx, &sc));
+    TU_OK(picvr_step_iterations(ctx, 2));
+    picvr_stats st = tu_stats_finite(ctx);
+    uint64_t multiple = st.cache_bytes;
+    if (!(st.cache_entries > 0)) fail_msg("no multiply scattered entry was made");
+    sc.max_bounces = 0;
+    TU_OK(picvr_set_scattering(ctx, &sc));
+    TU_OK(picvr_step_iterations(ctx, 2));
+    uint64_t again = tu_stats_finite(ctx).cache_bytes;
+    print_message("    cache bytes: %llu single scattering, %llu with bounces, %llu after\n",
+                  (unsigned long long)single, (unsigned long long)multiple, (unsigned long long)again);
+    assert_true(multiple - single == 4096u * 16u - 16u);
+    assert_true(again == single);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+}
+
 /* The octree rebuild (§4.4) re-inserts every entry, also those that the same round's
    creation adds before it: with a rebuild in every round, every entry must hold a
    reference after every round.  An entry holds at least one (the cell of its centre)

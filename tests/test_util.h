@@ -72,6 +72,7 @@
     X(test_cache_one_chromaticity_suns_match_closed_form)           \
     X(test_cache_variants_switch_and_replace)                       \
     X(test_pipelines_made_for_the_scene)                            \
+    X(test_cache_moments_only_with_bounces)                         \
     X(test_cache_curvature_limit_matches_closed_form )               \
     X(test_cache_screen_space_locking_matches_closed_form)          \
     X(test_cache_invalidation_and_camera_keeps_cache)               \

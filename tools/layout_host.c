@@ -67,6 +67,7 @@ int main(void)
     PICVR_LIGHT(eq_pmf);
     PICVR_LIGHT(eq_cdf);
     printf("CacheEntries %u\n", PICVR_CACHE_ENTRY_BYTES);
+    printf("CacheMoments %u\n", PICVR_CACHE_MOMENT_BYTES);
     printf("CacheNodes %u\n", PICVR_CACHE_NODE_BYTES);
     printf("CacheRefs %u\n", PICVR_CACHE_REF_BYTES);
     printf("CacheRequests %u\n", PICVR_CACHE_REQUEST_BYTES);
