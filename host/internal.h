@@ -46,6 +46,8 @@
 #define PICVR_CACHE_REF_BYTES 8u         /* struct Ref */
 #define PICVR_CACHE_REQUEST_BYTES 32u    /* struct Request */
 #define PICVR_CACHE_ENTRY_BYTES 144u     /* struct Entry */
+#define PICVR_CACHE_MS_LANE_SAMPLES 8u   /* multiply scattered samples an invocation of
+                                            creation takes per round (MS_LANE_SAMPLES) */
 #define PICVR_CACHE_MOMENT_BYTES 16u     /* an entry's first moment and sample count
                                             (CacheMoments; multiply scattered caches) */
 

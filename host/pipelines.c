@@ -125,8 +125,9 @@ static uint32_t picvr_create_rounds(const picvr_context *ctx) {
 }
 
 /* The loop iterations one multiply scattered creation sample may take
-   (CREATE_SAMPLE_STEPS, shaders/cache_create.comp).  On a CPU device a thread's
-   7 * rounds samples share llvmpipe's 65535 less 1000 for the rest of the kernel: a
+   (CREATE_SAMPLE_STEPS, shaders/cache_create.comp).  On a CPU device an invocation's
+   PICVR_CACHE_MS_LANE_SAMPLES * rounds samples share llvmpipe's 65535 less 1000 for the
+   rest of the kernel: a
    sample of S takes at most S/2 tracking steps (each scatter event charged
    vertex_cost >= 64 of them), ray marching's order loops (at most 2 * 16 per event, so
    S/4), S/4 ray-marching steps and a lookup of S/8 references (two iterations each)
@@ -134,7 +135,7 @@ static uint32_t picvr_create_rounds(const picvr_context *ctx) {
    most 400), so 5S/4 + 400 in all.  A GPU has no such cap. */
 static uint32_t picvr_create_sample_steps(const picvr_context *ctx) {
     if (!picvr_on_cpu_device(ctx)) return PICVR_PATH_STEPS;
-    uint32_t samples = 7u * picvr_create_rounds(ctx);
+    uint32_t samples = PICVR_CACHE_MS_LANE_SAMPLES * picvr_create_rounds(ctx);
     return (65535u - 1000u - 400u * samples) * 4u / (5u * samples);
 }
 

@@ -1,7 +1,8 @@
 #version 450
 // cache_create.comp - the cache-entry creation procedure (paper §4.2, §7): one
-// workgroup of 128 threads per request.  Each thread estimates the irradiance (Eq. 4;
-// with USE_BOUNCES the multiply scattered fluence, fluence_ms_sample below)
+// workgroup of 128 threads per request.  Each thread estimates the irradiance (Eq. 4,
+// sample_points; with USE_BOUNCES the multiply scattered fluence, fluence_ms_sample
+// below, one point per lane: sample_points_ms)
 // at the centre and at the six points offset by Delta along the local axes (at most two
 // mean free paths: entry_delta in cache_math.glsl), by Monte
 // Carlo with MIS (one light sample + one phase sample per point and round, transmittance
@@ -71,19 +72,25 @@ const uint REFINE_FLAG = 0x80000000u;
 // generation; the blend (cache_blend.glsl) removes what reaches the image.  With a bounce
 // limit the entries of x' would hold one event too many, so a path is traced in full.
 //
-// Loop budget on a CPU device: each sample's tracking loops take at most
-// CREATE_SAMPLE_STEPS / 2 from path_pool, its ray-marched transmittances a quarter from
-// rm_pool and its lookup's walk a quarter (walk_cap, two iterations per reference), so
-// that a thread's 7 * CREATE_MAX_ROUNDS samples stay within llvmpipe's cap (the host
-// sets it: picvr_create_sample_steps; on a GPU, which has no such cap, PATH_STEPS).  A
-// path that runs dry is cut (path.glsl: biased toward dark, counted in
+// Loop budget on a CPU device: each sample adds CREATE_SAMPLE_STEPS / 2 to path_pool,
+// which its tracking loops draw from, a quarter to rm_pool, which its ray-marched
+// transmittances draw from, and its lookup's walk takes at most a quarter (walk_cap, two
+// iterations per reference), so that an invocation's MS_LANE_SAMPLES * CREATE_MAX_ROUNDS
+// samples (sample_points_ms, refine_main) stay within llvmpipe's cap (the host sets it:
+// picvr_create_sample_steps; on a GPU, which has no such cap, PATH_STEPS).  The pools
+// carry over from sample to sample (the caller empties them before an invocation's
+// first): what short paths leave, a long one later may use, and the sum stays within the
+// cap.  A path that still runs dry is cut (path.glsl: biased toward dark, counted in
 // cache_samples_truncated).
 layout(constant_id = 16) const uint CREATE_SAMPLE_STEPS = PATH_STEPS;
+// Multiply scattered samples an invocation takes per round (sample_points_ms; the host's
+// PICVR_CACHE_MS_LANE_SAMPLES, for CREATE_SAMPLE_STEPS).
+const uint MS_LANE_SAMPLES = 8u;
 
 // w: the sample's direction (the first moment's sample is the returned value times w).
 vec3 fluence_ms_sample(vec3 x, inout Rng rng, inout bool truncated, out vec3 w) {
-    path_pool = CREATE_SAMPLE_STEPS / 2u;
-    rm_pool = CREATE_SAMPLE_STEPS / 4u;
+    path_pool += CREATE_SAMPLE_STEPS / 2u;   // carried over: see the loop budget above
+    rm_pool += CREATE_SAMPLE_STEPS / 4u;
     walk_cap = min(CACHE_MAX_LOOKUP_REFS, CREATE_SAMPLE_STEPS / 8u);
     float u1 = rnd(rng), u2 = rnd(rng);
     w = uniform_sphere(u1, u2);
@@ -122,20 +129,23 @@ shared uint s_entry;             // the stored entry's index and radii, for the 
 shared float s_radius[6];
 shared vec2 s_f;                 // medium fraction of +n, -n
 shared vec3 s_aniso;             // with USE_BOUNCES: the centre's F / E (entry_moments)
+shared uint s_rounds[7];         // the rounds of 128 samples each point took
 
-// Sums s_red over the workgroup into s_red[0].
-void reduce_red() {
-    for (uint stride = 64u; stride > 0u; stride >>= 1u) {
+// Sums s_red over the workgroup: into s_red[0] with lanes = 1, or with lanes = 8 into
+// s_red[0..7], s_red[k] the sum over the invocations with lid & 7 == k (the multiply
+// scattered layout: sample_points_ms).
+void reduce_red(uint lanes) {
+    for (uint stride = 64u; stride >= lanes; stride >>= 1u) {
         barrier();
         if (gl_LocalInvocationID.x < stride) s_red[gl_LocalInvocationID.x] += s_red[gl_LocalInvocationID.x + stride];
     }
     barrier();
 }
 
-// Merges the sample statistics s_red = (mean, m2, n, -) over the workgroup into s_red[0]
-// (Chan et al.'s pairwise rule, cache_math.glsl).
-void reduce_stats() {
-    for (uint stride = 64u; stride > 0u; stride >>= 1u) {
+// Merges the sample statistics s_red = (mean, m2, n, -) over the workgroup (Chan et al.'s
+// pairwise rule, cache_math.glsl), into s_red[0] or s_red[0..7] as reduce_red does.
+void reduce_stats(uint lanes) {
+    for (uint stride = 64u; stride >= lanes; stride >>= 1u) {
         barrier();
         uint i = gl_LocalInvocationID.x;
         if (i < stride) {
@@ -164,6 +174,140 @@ vec3 first_moment(vec3 F_sum, float n, float E_lum) {
     return a;
 }
 
+// The single-scattered irradiance (Eq. 4) at the seven points p: every invocation
+// samples each point still sampling once per round (uniform over the workgroup).  Leaves
+// s_E, s_rounds and s_point_done.
+void sample_points(vec3 p[7], uint req) {
+    uint lid = gl_LocalInvocationID.x;
+    // Per point: the RGB sum (the stored mean) and, for Eq. 5, the luminance samples'
+    // running mean and m2 (Welford; cache_math.glsl, "Eq. 5's sample statistics").
+    // Eq. 5 is a rule per estimate, so a point stops sampling once its own estimate meets
+    // it (s_point_done) while the others go on: an entry costs fewer samples than when
+    // all seven wait for the last, at a hit rate per entry at least as high (docs/cache.md,
+    // "Eq. 5 per point").  The common random numbers (below) still tie the points that
+    // sample in a round; a stopped point shares with the others the rounds it took.
+    vec3 sum[7];
+    float lmean[7], lm2[7];
+    for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lmean[k] = 0.0; lm2[k] = 0.0; }
+    uint truncated = 0u;             // this thread's samples with a truncated estimate
+    bool converged = false;
+    float gamma = scene.gamma;
+    uint point_rounds[7];            // rounds each point took (uniform over the workgroup)
+    for (uint k = 0u; k < 7u; k++) point_rounds[k] = 0u;
+    for (uint round = 0u; round < CREATE_MAX_ROUNDS; round++) {
+        // Common random numbers: in one round a thread estimates every point still
+        // sampling with the same random streams (same light, point on it and phase
+        // direction), so the
+        // ratios E_Delta / E_0 of Eq. 6 and 10 are far less noisy than the points'
+        // errors and a smooth field is not mistaken for a steep one.  Each point's
+        // estimate stays unbiased.  Two streams, so that the phase sample does not
+        // depend on how many numbers the light sample's tracking consumed.
+        Rng light_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x5bd1e995u);
+        Rng phase_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u);
+        for (uint k = 0u; k < 7u; k++) {
+            if (s_point_done[k]) continue;           // uniform over the workgroup
+            bool cut = false;
+            vec3 e = irradiance_sample(p[k], light_rng, phase_rng, cut);
+            if (cut) truncated++;
+            // Rule: a non-finite sample (only from extreme input) counts as 0.
+            if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
+            float l = CM_FN(stat_sample)(luminance(e));
+            float n_before = float(point_rounds[k]);
+            point_rounds[k]++;
+            lm2[k] = CM_FN(stat_merge_m2)(n_before, lmean[k], lm2[k], 1.0, l, 0.0);
+            lmean[k] = CM_FN(stat_merge_mean)(n_before, lmean[k], 1.0, l);
+            sum[k] += e;
+        }
+        // Eq. 5 at every point still sampling: 1.96 sqrt(S^2(N)/N) <= gamma/(gamma+1) E(N),
+        // on the merged statistics (cache_math.glsl, eq5_met; rule: a point with E = 0 and
+        // S = 0, fully shadowed, passes); the entry is done when all seven are.
+        for (uint k = 0u; k < 7u; k++) {
+            if (s_point_done[k]) continue;           // uniform
+            s_red[lid] = vec4(lmean[k], lm2[k], float(point_rounds[k]), 0.0);
+            reduce_stats(1u);
+            bool ok = CM_FN(eq5_met)(s_red[0].z, s_red[0].x, s_red[0].y, gamma);
+            barrier();
+            if (lid == 0u && ok) s_point_done[k] = true;
+            barrier();
+        }
+        converged = true;
+        for (uint k = 0u; k < 7u; k++) converged = converged && s_point_done[k];
+        if (converged) break;
+    }
+    if (truncated > 0u) atomicAdd(s_truncated, truncated);   // rare: no reduction
+    // Mean RGB irradiance at the seven points.  Rule: a negative mean (ray marching's
+    // estimates may be negative; only a mean of noise about 0 could be) is stored as 0.
+    for (uint k = 0u; k < 7u; k++) {
+        float N = float(point_rounds[k] * 128u);
+        s_red[lid] = vec4(sum[k], 0.0);
+        reduce_red(1u);
+        if (lid == 0u) { s_E[k] = max(s_red[0].xyz / N, vec3(0.0)); s_rounds[k] = point_rounds[k]; }
+        barrier();
+    }
+}
+
+// The multiply scattered fluence at the seven points p, one point per lane: of each 8
+// consecutive invocations (a SIMD group on llvmpipe, subgroup size 8) lane k = lid & 7
+// samples point k (the eighth idles), and the 16 groups (slot = lid >> 3) take
+// MS_LANE_SAMPLES samples each per round: 128 per point and round, sample i = 8 slot + m
+// drawing the stream creation gives sample i at every point (the common random numbers
+// of Eq. 6).  So the lanes of a SIMD group follow nearly the same path from points Delta
+// apart and end together, where lanes of independent paths (an invocation running its
+// seven points in turn) would wait for the longest path of their group: a sample is a
+// whole path of tens of events in a cloud, and coherence is the main lever on this
+// driver (../shared/LAVAPIPE.md).  Eq. 5 per point as in sample_points; the lanes of a
+// finished point idle.  Leaves s_E, s_rounds, s_point_done and the first moment s_aniso.
+void sample_points_ms(vec3 p[7], uint req) {
+    uint lid = gl_LocalInvocationID.x, k = lid & 7u, slot = lid >> 3u;
+    vec3 sum = vec3(0.0), moment = vec3(0.0);   // moment: the centre's first-moment sum
+    float lmean = 0.0, lm2 = 0.0, n = 0.0;      // Eq. 5's statistics (Welford)
+    uint truncated = 0u, rounds = 0u;
+    path_pool = 0u;                             // fluence_ms_sample's pools start empty
+    rm_pool = 0u;
+    for (uint round = 0u; round < CREATE_MAX_ROUNDS; round++) {
+        if (k < 7u && !s_point_done[k]) {
+            rounds++;
+            for (uint m = 0u; m < MS_LANE_SAMPLES; m++) {
+                Rng rng = rng_init(req * 128u + slot * MS_LANE_SAMPLES + m,
+                                   pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u);
+                bool cut = false;
+                vec3 w;
+                vec3 e = fluence_ms_sample(p[k], rng, cut, w);
+                if (cut) truncated++;
+                // Rule: a non-finite sample (only from extreme input) counts as 0.
+                if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
+                if (k == 0u) moment += luminance(e) * w;
+                float l = CM_FN(stat_sample)(luminance(e));
+                lm2 = CM_FN(stat_merge_m2)(n, lmean, lm2, 1.0, l, 0.0);
+                lmean = CM_FN(stat_merge_mean)(n, lmean, 1.0, l);
+                n += 1.0;
+                sum += e;
+            }
+        }
+        s_red[lid] = vec4(lmean, lm2, n, 0.0);
+        reduce_stats(8u);
+        if (lid < 7u && !s_point_done[lid] && CM_FN(eq5_met)(s_red[lid].z, s_red[lid].x, s_red[lid].y, scene.gamma))
+            s_point_done[lid] = true;
+        barrier();
+        bool converged = true;
+        for (uint q = 0u; q < 7u; q++) converged = converged && s_point_done[q];
+        if (converged) break;                    // uniform
+    }
+    if (truncated > 0u) atomicAdd(s_truncated, truncated);   // rare: no reduction
+    // Rule: a negative mean is stored as 0, as in sample_points.
+    s_red[lid] = vec4(sum, 0.0);
+    reduce_red(8u);
+    if (lid < 7u) {
+        s_E[lid] = max(s_red[lid].xyz / float(rounds * 128u), vec3(0.0));
+        s_rounds[lid] = rounds;
+    }
+    barrier();
+    s_red[lid] = vec4(moment, 0.0);
+    reduce_red(8u);
+    if (lid == 0u) s_aniso = first_moment(s_red[0].xyz, float(rounds * 128u), luminance(s_E[0]));
+    barrier();
+}
+
 // Progressive refinement of multiply scattered entries (USE_BOUNCES; the host dispatches
 // it only then): workgroup i adds one creation round, 128 samples of fluence_ms_sample,
 // at each of the seven points of entry (first + i) mod trusted_entries to their running
@@ -190,7 +334,7 @@ vec3 first_moment(vec3 F_sum, float n, float E_lum) {
 // as 0 and a negative mean is stored as 0, as in creation; |a| > 1 is scaled back to 1.
 const float REFINE_MAX_SAMPLES = 16777216.0;
 void refine_main() {
-    uint lid = gl_LocalInvocationID.x;
+    uint lid = gl_LocalInvocationID.x, k = lid & 7u, slot = lid >> 3u;   // sample_points_ms' layout
     uint e = ((pc.budget & ~REFINE_FLAG) + gl_WorkGroupID.x) % max(pc.trusted_entries, 1u);
     float N_old = entry_moments[e].w;
     if (!(N_old < REFINE_MAX_SAMPLES)) return;                // uniform over the workgroup
@@ -199,39 +343,40 @@ void refine_main() {
     float delta = entries[e].e0.w;
     basis(n, t, b);
     vec3 axis[3] = vec3[3](t, b, n);
-    vec3 sum[7], moment = vec3(0.0);
+    vec3 sum = vec3(0.0), moment = vec3(0.0);
     uint truncated = 0u;
-    Rng stream = rng_init(e * 128u + lid, pc.sched_round, pc.seed ^ 0x68e31da4u);
-    for (uint k = 0u; k < 7u; k++) {                          // creation's loop budget: 7 samples
-        vec3 p = entry_point(x0, axis, delta, k);
-        Rng rng = stream;                                     // common random numbers
-        bool cut = false;
-        vec3 w;
-        vec3 s = fluence_ms_sample(p, rng, cut, w);
-        if (cut) truncated++;
-        if (any(isnan(s)) || any(isinf(s))) s = vec3(0.0);
-        sum[k] = s;
-        if (k == 0u) moment = luminance(s) * w;
-    }
     if (lid == 0u) s_truncated = 0u;
     barrier();
+    if (k < 7u) {
+        vec3 p = entry_point(x0, axis, delta, k);
+        path_pool = 0u;                                       // creation's loop budget
+        rm_pool = 0u;
+        for (uint m = 0u; m < MS_LANE_SAMPLES; m++) {
+            Rng rng = rng_init(e * 128u + slot * MS_LANE_SAMPLES + m, pc.sched_round, pc.seed ^ 0x68e31da4u);
+            bool cut = false;
+            vec3 w;
+            vec3 s = fluence_ms_sample(p, rng, cut, w);
+            if (cut) truncated++;
+            if (any(isnan(s)) || any(isinf(s))) s = vec3(0.0);
+            sum += s;
+            if (k == 0u) moment += luminance(s) * w;
+        }
+    }
     if (truncated > 0u) atomicAdd(s_truncated, truncated);
     float n_new = 128.0, N = N_old + n_new;
-    for (uint k = 0u; k < 7u; k++) {
-        s_red[lid] = vec4(sum[k], 0.0);
-        reduce_red();
-        if (lid == 0u) {
-            vec3 E_old = entries[e].e0.xyz;
-            if (k > 0u)
-                for (uint c = 0u; c < 3u; c++)
-                    E_old[c] = CM_FN(irradiance_from_ln)(CM_FN(ln_irradiance)(E_old[c]) -
-                                                         entries[e].sigma_v[(k - 1u) * 3u + c] * delta);
-            s_E[k] = max((E_old * N_old + s_red[0].xyz) / N, vec3(0.0));
-        }
-        barrier();
+    s_red[lid] = vec4(sum, 0.0);
+    reduce_red(8u);
+    if (lid < 7u) {
+        vec3 E_old = entries[e].e0.xyz;
+        if (lid > 0u)
+            for (uint c = 0u; c < 3u; c++)
+                E_old[c] = CM_FN(irradiance_from_ln)(CM_FN(ln_irradiance)(E_old[c]) -
+                                                     entries[e].sigma_v[(lid - 1u) * 3u + c] * delta);
+        s_E[lid] = max((E_old * N_old + s_red[lid].xyz) / N, vec3(0.0));
     }
+    barrier();
     s_red[lid] = vec4(moment, 0.0);
-    reduce_red();
+    reduce_red(8u);
     if (lid == 0u) {
         vec4 old = entry_moments[e];
         vec3 F = old.xyz * luminance(entries[e].e0.xyz) * N_old + s_red[0].xyz;   // sums of F
@@ -299,90 +444,15 @@ void main() {
     }
     barrier();
 
-    // Per point: the RGB sum (the stored mean) and, for Eq. 5, the luminance samples'
-    // running mean and m2 (Welford; cache_math.glsl, "Eq. 5's sample statistics").
-    // Eq. 5 is a rule per estimate, so a point stops sampling once its own estimate meets
-    // it (s_point_done) while the others go on: an entry costs fewer samples than when
-    // all seven wait for the last, at a hit rate per entry at least as high (docs/cache.md,
-    // "Eq. 5 per point").  The common random numbers (below) still tie the points that
-    // sample in a round; a stopped point shares with the others the rounds it took.
-    vec3 sum[7];
-    float lmean[7], lm2[7];
-    for (uint k = 0u; k < 7u; k++) { sum[k] = vec3(0.0); lmean[k] = 0.0; lm2[k] = 0.0; }
-    uint truncated = 0u;             // this thread's samples with a truncated estimate
-    vec3 moment = vec3(0.0);         // with USE_BOUNCES: the centre's first-moment sum
-    bool converged = false;
-    float gamma = scene.gamma;
-    uint point_rounds[7];            // rounds each point took (uniform over the workgroup)
-    for (uint k = 0u; k < 7u; k++) point_rounds[k] = 0u;
     if (lid < 7u) s_point_done[lid] = false;
     barrier();
-    for (uint round = 0u; round < CREATE_MAX_ROUNDS; round++) {
-        // Common random numbers: in one round a thread estimates every point still
-        // sampling with the same random streams (same light, point on it and phase
-        // direction), so the
-        // ratios E_Delta / E_0 of Eq. 6 and 10 are far less noisy than the points'
-        // errors and a smooth field is not mistaken for a steep one.  Each point's
-        // estimate stays unbiased.  Two streams, so that the phase sample does not
-        // depend on how many numbers the light sample's tracking consumed.
-        Rng light_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x5bd1e995u);
-        Rng phase_rng = rng_init(req * 128u + lid, pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u);
-        for (uint k = 0u; k < 7u; k++) {
-            if (s_point_done[k]) continue;           // uniform over the workgroup
-            bool cut = false;
-            vec3 e;
-            if (USE_BOUNCES) {
-                Rng path_rng = phase_rng;            // the same stream at every point
-                vec3 w;
-                e = fluence_ms_sample(p[k], path_rng, cut, w);
-                if (k == 0u && !(any(isnan(e)) || any(isinf(e)))) moment += luminance(e) * w;
-            } else {
-                e = irradiance_sample(p[k], light_rng, phase_rng, cut);
-            }
-            if (cut) truncated++;
-            // Rule: a non-finite sample (only from extreme input) counts as 0.
-            if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
-            float l = CM_FN(stat_sample)(luminance(e));
-            float n_before = float(point_rounds[k]);
-            point_rounds[k]++;
-            lm2[k] = CM_FN(stat_merge_m2)(n_before, lmean[k], lm2[k], 1.0, l, 0.0);
-            lmean[k] = CM_FN(stat_merge_mean)(n_before, lmean[k], 1.0, l);
-            sum[k] += e;
-        }
-        // Eq. 5 at every point still sampling: 1.96 sqrt(S^2(N)/N) <= gamma/(gamma+1) E(N),
-        // on the merged statistics (cache_math.glsl, eq5_met; rule: a point with E = 0 and
-        // S = 0, fully shadowed, passes); the entry is done when all seven are.
-        for (uint k = 0u; k < 7u; k++) {
-            if (s_point_done[k]) continue;           // uniform
-            s_red[lid] = vec4(lmean[k], lm2[k], float(point_rounds[k]), 0.0);
-            reduce_stats();
-            bool ok = CM_FN(eq5_met)(s_red[0].z, s_red[0].x, s_red[0].y, gamma);
-            barrier();
-            if (lid == 0u && ok) s_point_done[k] = true;
-            barrier();
-        }
-        converged = true;
-        for (uint k = 0u; k < 7u; k++) converged = converged && s_point_done[k];
-        if (converged) break;
-    }
-    if (truncated > 0u) atomicAdd(s_truncated, truncated);   // rare: no reduction
-    // Mean RGB irradiance at the seven points.  Rule: a negative mean (ray marching's
-    // estimates may be negative; only a mean of noise about 0 could be) is stored as 0.
+    if (USE_BOUNCES) sample_points_ms(p, req);
+    else sample_points(p, req);
+    bool converged = true;           // every point met Eq. 5
     uint point_rounds_sum = 0u;
     for (uint k = 0u; k < 7u; k++) {
-        point_rounds_sum += point_rounds[k];
-        float N = float(point_rounds[k] * 128u);
-        s_red[lid] = vec4(sum[k], 0.0);
-        reduce_red();
-        if (lid == 0u) s_E[k] = max(s_red[0].xyz / N, vec3(0.0));
-        barrier();
-    }
-    // The centre's first moment over its fluence (first_moment).
-    if (USE_BOUNCES) {
-        s_red[lid] = vec4(moment, 0.0);
-        reduce_red();
-        if (lid == 0u) s_aniso = first_moment(s_red[0].xyz, float(point_rounds[0] * 128u), luminance(s_E[0]));
-        barrier();
+        converged = converged && s_point_done[k];
+        point_rounds_sum += s_rounds[k];
     }
 
     if (lid == 0u) {
@@ -422,7 +492,7 @@ void main() {
             }
             entries[e].e0 = vec4(s_E[0], delta);         // w: the entry's own Delta
             // w: the centre's sample count (refine_main)
-            if (USE_BOUNCES) entry_moments[e] = vec4(s_aniso, float(point_rounds[0] * 128u));
+            if (USE_BOUNCES) entry_moments[e] = vec4(s_aniso, float(s_rounds[0] * 128u));
             entries[e].normal = n;
             entries[e].medium_f = packUnorm2x16(vec2(1.0) - s_f);
             entries[e].pos_rmax = vec4(x0, rmax);

@@ -10,7 +10,8 @@
 #   constants:     the VIEW_* numbers of shaders/common.glsl against picvr.h's
 #                  picvr_debug_view, CACHE_NODE_RADII of shaders/cache.glsl against
 #                  host/internal.h's, EVENT_WORDS and EVENT_GROUP of shaders/render.glsl
-#                  (the rendering procedure's event queues) against host/internal.h's.
+#                  (the rendering procedure's event queues) and MS_LANE_SAMPLES of
+#                  shaders/cache_create.comp against host/internal.h's.
 # usage: tools/check_layout.sh HOST_PRINTER (the built tools/layout_host.c)
 set -eu
 HOST=$1
@@ -35,6 +36,7 @@ for v in EVENT_WORDS EVENT_GROUP; do
     sed -n "s/^#define $v \([0-9]*\)u.*/$v \1/p" shaders/render.glsl
 done >> "$tmp/shader"
 sed -n "s/^#define PATH_STEPS \([0-9]*\)u.*/PATH_STEPS \1/p" shaders/common.glsl >> "$tmp/shader"
+sed -n "s/^const uint MS_LANE_SAMPLES = \([0-9]*\)u;.*/MS_LANE_SAMPLES \1/p" shaders/cache_create.comp >> "$tmp/shader"
 fail=0
 while read -r name value; do
     got=$(awk -v n="$name" '$1 == n { print $2 }' "$tmp/shader")

@@ -68,6 +68,7 @@ int main(void)
     PICVR_LIGHT(eq_cdf);
     printf("CacheEntries %u\n", PICVR_CACHE_ENTRY_BYTES);
     printf("CacheMoments %u\n", PICVR_CACHE_MOMENT_BYTES);
+    printf("MS_LANE_SAMPLES %u\n", PICVR_CACHE_MS_LANE_SAMPLES);
     printf("CacheNodes %u\n", PICVR_CACHE_NODE_BYTES);
     printf("CacheRefs %u\n", PICVR_CACHE_REF_BYTES);
     printf("CacheRequests %u\n", PICVR_CACHE_REQUEST_BYTES);
