@@ -1354,8 +1354,11 @@ static double furnace_block_rms(const float *img, uint32_t W, uint32_t H) {
      (docs/cache.md has the measured values), and a refinement that mis-weighted old and new means
      or mis-inverted Eq. 6 for the offset points would show here (the stored value moves
      by a sample's share every time);
-   - the blocks' RMS error does not grow from pass 48 to pass 384 (printed: with the
-     cache it is mostly the entries' error shared by neighbouring pixels). */
+   - the blocks' RMS error does not grow from pass 48 to pass 384 by more than 25 %
+     (printed: with the cache it is mostly the entries' error shared by neighbouring
+     pixels, and by pass 48 it is near its floor, the extrapolation's error, so between
+     runs it moves up or down by some 10 %; entries drifting under refinement would
+     multiply it). */
 void test_path_cache_ms_refines(void **state) {
     (void)state;
     double bmin[3], bmax[3];
@@ -1383,7 +1386,7 @@ void test_path_cache_ms_refines(void **state) {
     if (!(st.cache_hit_rate >= 0.5)) fail_msg("the cache does not serve (hit rate %.3f)", st.cache_hit_rate);
     if (!(per_entry >= 2.0 * 896.0)) fail_msg("entries were not refined: %.0f samples per entry", per_entry);
     if (!ok) fail_msg("the refined cache's furnace is not L");
-    if (!(r2 <= r1)) fail_msg("the cached furnace's block error grew: %.5f -> %.5f", r1, r2);
+    if (!(r2 <= 1.25 * r1)) fail_msg("the cached furnace's block error grew: %.5f -> %.5f", r1, r2);
 }
 
 void test_path_cache_ms_albedo_09_match_reference(void **state) {
