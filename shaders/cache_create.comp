@@ -246,6 +246,20 @@ void sample_points(vec3 p[7], uint req) {
     }
 }
 
+// One multiply scattered sample of a lane (sample_points_ms, refine_main) at p from
+// random stream `stream` of rng_init(stream, key, salt).  Rule: a non-finite sample (only
+// from extreme input) counts as 0.  The centre's lanes add its first-moment sample.
+vec3 ms_lane_sample(vec3 p, uint stream, uint key, uint salt, bool centre, inout uint truncated, inout vec3 moment) {
+    Rng rng = rng_init(stream, key, salt);
+    bool cut = false;
+    vec3 w;
+    vec3 e = fluence_ms_sample(p, rng, cut, w);
+    if (cut) truncated++;
+    if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
+    if (centre) moment += luminance(e) * w;
+    return e;
+}
+
 // The multiply scattered fluence at the seven points p, one point per lane: of each 8
 // consecutive invocations (a SIMD group on llvmpipe, subgroup size 8) lane k = lid & 7
 // samples point k (the eighth idles), and the 16 groups (slot = lid >> 3) take
@@ -268,15 +282,9 @@ void sample_points_ms(vec3 p[7], uint req) {
         if (k < 7u && !s_point_done[k]) {
             rounds++;
             for (uint m = 0u; m < MS_LANE_SAMPLES; m++) {
-                Rng rng = rng_init(req * 128u + slot * MS_LANE_SAMPLES + m,
-                                   pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u);
-                bool cut = false;
-                vec3 w;
-                vec3 e = fluence_ms_sample(p[k], rng, cut, w);
-                if (cut) truncated++;
-                // Rule: a non-finite sample (only from extreme input) counts as 0.
-                if (any(isnan(e)) || any(isinf(e))) e = vec3(0.0);
-                if (k == 0u) moment += luminance(e) * w;
+                vec3 e = ms_lane_sample(p[k], req * 128u + slot * MS_LANE_SAMPLES + m,
+                                        pc.sched_round * CREATE_MAX_ROUNDS + round, pc.seed ^ 0x2545f491u,
+                                        k == 0u, truncated, moment);
                 float l = CM_FN(stat_sample)(luminance(e));
                 lm2 = CM_FN(stat_merge_m2)(n, lmean, lm2, 1.0, l, 0.0);
                 lmean = CM_FN(stat_merge_mean)(n, lmean, 1.0, l);
@@ -329,8 +337,9 @@ void sample_points_ms(vec3 p[7], uint req) {
 // while another workgroup of the dispatch writes it: a mix of its old and new fields,
 // each an estimate of the same quantity between the two.  Rules: an entry with
 // N >= REFINE_MAX_SAMPLES (float counts stay exact) is left as it is; N counts the
-// centre's samples and is taken for every point (on a CPU device every point takes one round at creation; on a GPU Eq. 5 may stop a point
-// earlier, which only weights its old mean a little too much); a non-finite sample counts
+// centre's samples and is taken for every point (on a CPU device every point takes one
+// round at creation; on a GPU Eq. 5 may stop a point earlier, which only weights its
+// old mean a little too much); a non-finite sample counts
 // as 0 and a negative mean is stored as 0, as in creation; |a| > 1 is scaled back to 1.
 const float REFINE_MAX_SAMPLES = 16777216.0;
 void refine_main() {
@@ -351,16 +360,9 @@ void refine_main() {
         vec3 p = entry_point(x0, axis, delta, k);
         path_pool = 0u;                                       // creation's loop budget
         rm_pool = 0u;
-        for (uint m = 0u; m < MS_LANE_SAMPLES; m++) {
-            Rng rng = rng_init(e * 128u + slot * MS_LANE_SAMPLES + m, pc.sched_round, pc.seed ^ 0x68e31da4u);
-            bool cut = false;
-            vec3 w;
-            vec3 s = fluence_ms_sample(p, rng, cut, w);
-            if (cut) truncated++;
-            if (any(isnan(s)) || any(isinf(s))) s = vec3(0.0);
-            sum += s;
-            if (k == 0u) moment += luminance(s) * w;
-        }
+        for (uint m = 0u; m < MS_LANE_SAMPLES; m++)
+            sum += ms_lane_sample(p, e * 128u + slot * MS_LANE_SAMPLES + m, pc.sched_round, pc.seed ^ 0x68e31da4u,
+                                  k == 0u, truncated, moment);
     }
     if (truncated > 0u) atomicAdd(s_truncated, truncated);
     float n_new = 128.0, N = N_old + n_new;
