@@ -193,10 +193,11 @@ typedef struct picvr_allocator {
     void *user;
 } picvr_allocator;
 
-/* The limits of cache.max_samples and cache.max_lookup_refs (below). */
+/* The limits of cache.max_samples, cache.max_lookup_refs and cache.lookup_event (below). */
 #define PICVR_CACHE_MAX_SAMPLES 8192u
 #define PICVR_CACHE_MAX_SAMPLES_CPU 768u
 #define PICVR_CACHE_MAX_LOOKUP_REFS 8192u
+#define PICVR_CACHE_MAX_LOOKUP_EVENT 8u
 
 /* The irradiance cache (paper §4-5).  Zero fields mean the Table 1 values. */
 typedef enum picvr_cache_mode {
@@ -296,6 +297,17 @@ typedef struct picvr_cache_config {
     float probe_fraction;      /* with blend: the least probability of a probe at a hit;
                                   0: 0.125; (0, 1].  Higher finds the bias sooner and
                                   costs more shadow rays */
+    uint32_t lookup_event;     /* the multiply scattered cache (max_bounces unlimited): the
+                                  scatter event k of a camera path at which the cache is
+                                  looked up; 0: 1, the first.  With k > 1 a path is traced
+                                  plainly to its k-th event, every event with its direct
+                                  light, and takes the cache there: a pixel's samples then
+                                  meet many entries, which averages their errors, at the
+                                  cost of k - 1 more events per sample.  At most
+                                  PICVR_CACHE_MAX_LOOKUP_EVENT
+                                  (PICVR_ERROR_INVALID_ARGUMENT beyond).  With a bounce
+                                  limit or single scattering the lookup is at the first
+                                  event; the debug views show the first event's lookup */
     picvr_cache_mode mode;     /* DEFAULT: NONE */
 } picvr_cache_config;
 

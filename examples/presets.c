@@ -846,13 +846,15 @@ done:
     return PVP_OK;
 }
 
-static const struct { const char *name; size_t offset; } cache_params[] = {
-    {"gamma", offsetof(picvr_cache_config, gamma)},
-    {"epsilon", offsetof(picvr_cache_config, epsilon)},
-    {"delta_voxels", offsetof(picvr_cache_config, delta_voxels)},
-    {"radius_min_voxels", offsetof(picvr_cache_config, radius_min_voxels)},
-    {"radius_max_voxels", offsetof(picvr_cache_config, radius_max_voxels)},
-    {"update_threshold", offsetof(picvr_cache_config, update_threshold)},
+/* uint: a uint32_t field (a whole number), else a float. */
+static const struct { const char *name; size_t offset; int uint; } cache_params[] = {
+    {"gamma", offsetof(picvr_cache_config, gamma), 0},
+    {"epsilon", offsetof(picvr_cache_config, epsilon), 0},
+    {"delta_voxels", offsetof(picvr_cache_config, delta_voxels), 0},
+    {"radius_min_voxels", offsetof(picvr_cache_config, radius_min_voxels), 0},
+    {"radius_max_voxels", offsetof(picvr_cache_config, radius_max_voxels), 0},
+    {"update_threshold", offsetof(picvr_cache_config, update_threshold), 0},
+    {"lookup_event", offsetof(picvr_cache_config, lookup_event), 1},
 };
 #define CACHE_PARAMS (sizeof cache_params / sizeof cache_params[0])
 
@@ -864,11 +866,19 @@ const char *pvp_cache_param_name(size_t index)
 float pvp_cache_param_get(const picvr_cache_config *c, size_t index)
 {
     if (!c || index >= CACHE_PARAMS) return 0.0f;
+    const char *field = (const char *)c + cache_params[index].offset;
+    if (cache_params[index].uint) {
+        uint32_t u;
+        memcpy(&u, field, sizeof u);
+        return (float)u;
+    }
     float v;
-    memcpy(&v, (const char *)c + cache_params[index].offset, sizeof v);
+    memcpy(&v, field, sizeof v);
     return v;
 }
 
+/* Rule: values must be positive and finite (0 is each field's default: leave the name
+   out); a uint field takes whole numbers up to UINT32_MAX, which the library validates. */
 pvp_status pvp_cache_param_set(picvr_cache_config *c, const char *name_value)
 {
     if (!c || !name_value) return PVP_ERROR_NULL_POINTER;
@@ -881,8 +891,15 @@ pvp_status pvp_cache_param_set(picvr_cache_config *c, const char *name_value)
         char *end;
         double v = strtod(eq + 1, &end);
         if (end == eq + 1 || *end || !(v > 0.0) || v > FLT_MAX) return PVP_ERROR_BAD_ARGUMENT;
+        char *field = (char *)c + cache_params[i].offset;
+        if (cache_params[i].uint) {
+            if (v != floor(v) || v > (double)UINT32_MAX) return PVP_ERROR_BAD_ARGUMENT;
+            uint32_t u = (uint32_t)v;
+            memcpy(field, &u, sizeof u);
+            return PVP_OK;
+        }
         float f = (float)v;
-        memcpy((char *)c + cache_params[i].offset, &f, sizeof f);
+        memcpy(field, &f, sizeof f);
         return PVP_OK;
     }
     return PVP_ERROR_UNKNOWN_NAME;

@@ -39,6 +39,8 @@ static picvr_status picvr_resolve_cache_config(const picvr_cache_config *in, pic
     c->max_samples = (c->max_samples + PICVR_CACHE_CREATE_GROUP - 1) / PICVR_CACHE_CREATE_GROUP * PICVR_CACHE_CREATE_GROUP;
     if (!c->max_lookup_refs) c->max_lookup_refs = PICVR_CACHE_MAX_LOOKUP_REFS;
     if (c->max_lookup_refs > PICVR_CACHE_MAX_LOOKUP_REFS) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (!c->lookup_event) c->lookup_event = 1;
+    if (c->lookup_event > PICVR_CACHE_MAX_LOOKUP_EVENT) return PICVR_ERROR_INVALID_ARGUMENT;
     if (c->max_nodes < 4681 || c->max_refs < 2 || c->max_nodes > (1u << 28) || c->max_refs > (1u << 28))
         return PICVR_ERROR_INVALID_ARGUMENT;
     return PICVR_OK;

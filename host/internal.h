@@ -91,7 +91,8 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_REUSE 2048u       /* constant 13 USE_REUSE */
 #define PICVR_KEY_CLIP 4096u        /* constant 14 USE_CLIP */
 #define PICVR_KEY_PLAIN 8192u       /* PICVR_CACHE_AUTO's plain rounds: the plain tracking module */
-#define PICVR_SPEC_CONSTANTS 17u   /* 15 CACHE_BLEND: fixed per context; 16 CREATE_SAMPLE_STEPS */
+#define PICVR_KEY_LOOKUP_SHIFT 14u  /* constant 17 LOOKUP_EVENT - 1: 3 bits (render_shade_cache.comp) */
+#define PICVR_SPEC_CONSTANTS 18u   /* 15 CACHE_BLEND: fixed per context; 16 CREATE_SAMPLE_STEPS; 17 LOOKUP_EVENT */
 /* The multiply scattered cache on a CPU device (llvmpipe's loop cap of 65535 per
    invocation): a creation thread traces one whole path per point and round, so it takes
    at most this many rounds (128 samples per point) and each sample's loops share
@@ -264,6 +265,7 @@ typedef struct picvr_pipelines {
     VkDescriptorSet set;
     int descriptors_dirty;           /* a bound buffer or image changed */
     VkShaderModule track_module, shade_module, lookup_module; /* the rendering kernels; lookup: cached */
+    VkShaderModule shade_cache_module;   /* cached: shading that looks up at a later event */
     VkShaderModule plain_track_module; /* PICVR_CACHE_AUTO's plain rounds (VK_NULL_HANDLE otherwise) */
     VkShaderModule stats_module, create_module, update_module, rebuild_module;
     VkShaderModule select_module, priority_module;

@@ -115,6 +115,15 @@ static int picvr_cache_serves(const picvr_context *ctx) {
     return picvr_cache_multiple(ctx) || (ctx->cache.on && !picvr_use_hg(ctx));
 }
 
+/* The scatter event at which a camera path takes the cache (LOOKUP_EVENT): cache.lookup_event
+   for the multiply scattered cache with unlimited bounces, else 1 (with a bounce limit an
+   entry holds the light of more events than a later event may still have). */
+_Static_assert(PICVR_CACHE_MAX_LOOKUP_EVENT - 1u <= 7u, "LOOKUP_EVENT - 1 takes 3 bits of the variant key");
+static uint32_t picvr_lookup_event(const picvr_context *ctx) {
+    return picvr_cache_multiple(ctx) && ctx->scene.scattering.max_bounces == PICVR_BOUNCES_UNLIMITED
+           ? ctx->cache.cfg.lookup_event : 1u;
+}
+
 /* Creation's rounds per point (CREATE_MAX_ROUNDS): cache.max_samples / 128, and with the
    multiply scattered cache on a CPU device at most PICVR_CACHE_MS_ROUNDS_CPU. */
 static uint32_t picvr_create_rounds(const picvr_context *ctx) {
@@ -168,7 +177,9 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain)
     if (proc == PICVR_PROC_UPDATE) return fine | mono | qmc | clip;
     if (!ctx->cache.on) return mis | fine | residual | equi | qmc | env | paths | clip;
     if (plain) return mis | fine | residual | equi | qmc | env | paths | clip | PICVR_KEY_PLAIN;
-    return mis | fine | mono | residual | equi | qmc | env | paths | clip | (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
+    uint32_t lookup = (picvr_lookup_event(ctx) - 1u) << PICVR_KEY_LOOKUP_SHIFT;
+    return mis | fine | mono | residual | equi | qmc | env | paths | clip | lookup |
+           (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
 }
 
 /* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
@@ -177,7 +188,8 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain)
    creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
    MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR, 8 USE_RESIDUAL, 9 USE_QMC, 10
    USE_BOUNCES, 11 USE_HG, 12 USE_ENV_MAP, 13 USE_REUSE and 14 USE_CLIP from the key, 15
-   CACHE_BLEND fixed per context, 16 CREATE_SAMPLE_STEPS. */
+   CACHE_BLEND fixed per context, 16 CREATE_SAMPLE_STEPS, 17 LOOKUP_EVENT from the key
+   (with LOOKUP_EVENT > 1 the shading kernel is render_shade_cache.comp). */
 static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
@@ -185,7 +197,8 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
     else {
         int plain = (key & PICVR_KEY_PLAIN) != 0;
         mod[PICVR_KERNEL_MAIN] = plain ? ctx->pipes.plain_track_module : ctx->pipes.track_module;
-        mod[PICVR_KERNEL_SHADE] = ctx->pipes.shade_module;
+        int later = !plain && ((key >> PICVR_KEY_LOOKUP_SHIFT) & 7u) != 0;   /* lookup_event > 1 */
+        mod[PICVR_KERNEL_SHADE] = later ? ctx->pipes.shade_cache_module : ctx->pipes.shade_module;
         if (ctx->cache.on && !plain) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
     }
     uint32_t value[PICVR_SPEC_CONSTANTS] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, picvr_create_rounds(ctx),
@@ -196,7 +209,7 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
                          (key & PICVR_KEY_QMC) != 0, (key & PICVR_KEY_BOUNCES) != 0,
                          (key & PICVR_KEY_HG) != 0, (key & PICVR_KEY_ENV_MAP) != 0,
                          (key & PICVR_KEY_REUSE) != 0, (key & PICVR_KEY_CLIP) != 0, picvr_blend_on(ctx) != 0,
-                         picvr_create_sample_steps(ctx)};
+                         picvr_create_sample_steps(ctx), ((key >> PICVR_KEY_LOOKUP_SHIFT) & 7u) + 1u};
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;
@@ -338,6 +351,9 @@ static picvr_status picvr_create_pipelines(picvr_context *ctx) {
         ? picvr_create_shader(ctx, picvr_spv_render_track_cache, sizeof picvr_spv_render_track_cache, &ctx->pipes.track_module)
         : picvr_create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->pipes.track_module);
     if (!s) s = picvr_create_shader(ctx, picvr_spv_render_shade, sizeof picvr_spv_render_shade, &ctx->pipes.shade_module);
+    if (!s && ctx->cache.on)
+        s = picvr_create_shader(ctx, picvr_spv_render_shade_cache, sizeof picvr_spv_render_shade_cache,
+                                &ctx->pipes.shade_cache_module);
     if (!s) s = picvr_create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->pipes.stats_module);
     if (!s) s = picvr_create_shader(ctx, picvr_spv_block_select, sizeof picvr_spv_block_select, &ctx->pipes.select_module);
     if (!s) s = picvr_create_pipeline(ctx, ctx->pipes.select_module, ctx->pipes.layout, NULL, &ctx->pipes.select_pipe);
@@ -423,7 +439,7 @@ static void picvr_pipelines_destroy(picvr_context *ctx) {
         if (pipes[i]) vkDestroyPipeline(d, pipes[i], NULL);
     VkShaderModule modules[] = {p->select_module, p->priority_module, p->update_module, p->rebuild_module,
                                 p->lookup_module, p->create_module, p->track_module, p->shade_module,
-                                p->stats_module, p->plain_track_module};
+                                p->stats_module, p->plain_track_module, p->shade_cache_module};
     for (size_t i = 0; i < sizeof modules / sizeof modules[0]; i++)
         if (modules[i]) vkDestroyShaderModule(d, modules[i], NULL);
     if (p->linear_sampler) vkDestroySampler(d, p->linear_sampler, NULL);

@@ -70,8 +70,8 @@ float pixel_blend_weight(uvec2 px) {
 // E = w E[P] + (1 - w) E[C] = E[C] + w b, at the cost of plain Monte Carlo where the
 // cache's bias is established.  Where w < probe_fraction nothing is routed: the blend's
 // sample C + (w/q)(P - C) then has the smaller variance.
-bool blend_route(inout ScatterEvent e, float w) {
-    return w >= scene.probe_fraction && rnd(e.rng) < w;
+bool blend_route(inout Rng rng, float w) {
+    return w >= scene.probe_fraction && rnd(rng) < w;
 }
 
 // The cache's gain at a probe, for the automatic mode's economics (host/schedule.c): the
@@ -92,27 +92,37 @@ void count_gain(uint idx, float diff, float bias) {
     atomicAdd(cache_counters.probes, 1u);
 }
 
-// The hit sample Y (albedo included) of the event e whose cached shading is `cached`, w
-// the pixel's weight (pixel_blend_weight, taken before the routing); records d in the
-// pixel's sums.  The probe is drawn with q = probe_fraction: where w >= q the routing
-// carried the weight and Y = C (the probe only feeds the statistics); below,
-// Y = C + (w/q) 1[probe] (P - C).  Rule: a non-finite difference (only from extreme user
-// input) is not recorded and the sample is the cached one.
-vec3 blend_hit(inout ScatterEvent e, vec3 cached, float w) {
+// Whether a hit is probed: drawn with q = probe_fraction (blend_sample says why).
+bool blend_probe(inout Rng rng) { return rnd(rng) < scene.probe_fraction; }
+
+// The hit sample Y (albedo and the path's throughput included) of pixel idx whose cached
+// shading is `cached`, w the pixel's weight (pixel_blend_weight, taken before the
+// routing), `plain` the plain estimate P of the same part when `probed` (blend_probe);
+// records d in the pixel's sums.  The probe is drawn with q = probe_fraction: where
+// w >= q the routing carried the weight and Y = C (the probe only feeds the
+// statistics); below, Y = C + (w/q) 1[probe] (P - C).  Rule: a non-finite difference
+// (only from extreme user input) is not recorded and the sample is the cached one.
+vec3 blend_sample(uint idx, vec3 cached, float w, bool probed, vec3 plain) {
     float q = scene.probe_fraction;
     float wy = w >= q ? 0.0 : w;
     vec3 y = cached;
     float d = 0.0;
-    vec4 s = cache_blend[e.idx];
+    vec4 s = cache_blend[idx];
     uint m = floatBitsToUint(s.z);
-    if (rnd(e.rng) < q) {
-        vec3 diff = plain_cached_part(e) - cached;
+    if (probed) {
+        vec3 diff = plain - cached;
         float dl = luminance(diff);
         d = dl / q;
         if (isinf(d) || isnan(d)) return cached;
         y = cached + (wy / q) * diff;
-        count_gain(e.idx, dl, m > 0u ? s.x / float(m) : 0.0);
+        count_gain(idx, dl, m > 0u ? s.x / float(m) : 0.0);
     }
-    cache_blend[e.idx] = vec4(s.x + d, s.y + d * d, uintBitsToFloat(m + 1u), 0.0);
+    cache_blend[idx] = vec4(s.x + d, s.y + d * d, uintBitsToFloat(m + 1u), 0.0);
     return y;
+}
+
+// blend_sample at the camera ray's first scatter event e, P drawn by plain_cached_part.
+vec3 blend_hit(inout ScatterEvent e, vec3 cached, float w) {
+    bool probed = blend_probe(e.rng);
+    return blend_sample(e.idx, cached, w, probed, probed ? plain_cached_part(e) : vec3(0.0));
 }

@@ -70,71 +70,106 @@ float segment_equiangular(vec3 x, vec3 w, float t0, float t1, float t_a, inout R
     return w_a;
 }
 
+// A path between scatter events: at x, event number `events` (x counts `first`), not yet
+// shaded, arrived along d with throughput beta (x's albedo included); w_dir the weight of
+// x's direct light (its segment's MIS; the caller weights the first event's); done once
+// the path has ended.  direct: the first event's own next-event estimate (the part the
+// caller may weight against another strategy), indirect: the light of the events after
+// it.  The bounce limit and Russian roulette count events from the camera, so a path
+// begun at event 2 (cache-entry creation, cache_create.comp) ends where the camera path
+// it stands for would.
+struct PathState { vec3 x; vec3 d; vec3 beta; float w_dir; uint events; bool done; vec3 direct; vec3 indirect; };
+
+PathState path_begin(vec3 x, vec3 d, uint first) {
+    PathState s;
+    s.x = x;
+    s.d = d;
+    s.beta = albedo_at(x);
+    s.w_dir = 1.0;
+    s.events = first;
+    s.done = false;
+    s.direct = vec3(0.0);
+    s.indirect = vec3(0.0);
+    return s;
+}
+
+// Shades the path's current event (its direct light) and moves it to the next; false
+// when the path has ended (s.done).  first: the path's first event (path_begin's).
+bool path_event(inout PathState s, uint first, inout Rng rng, inout bool truncated) {
+    float b_max = max(s.beta.r, max(s.beta.g, s.beta.b));
+    s.done = b_max <= 0.0;                           // nothing more can reach the camera
+    // Rule: a path that ran the pool dry ends here with nothing more (its shadow rays
+    // could not be tracked): biased toward dark, counted.
+    if (!s.done && path_pool < scene.vertex_cost) { truncated = true; s.done = true; }
+    if (s.done) return false;
+    path_pool -= scene.vertex_cost;
+    // Is this event the path's last?  At the bounce limit, or by Russian roulette from
+    // the second event on: the path goes on with probability q and what it gathers
+    // later is divided by q.  A last event still takes both MIS strategies of its
+    // direct light (the phase sample by ratio tracking), so ending is unbiased.
+    bool end = scene.max_bounces != BOUNCES_UNLIMITED && s.events > scene.max_bounces;
+    float q = 1.0;
+    if (!end && s.events >= 2u) {
+        q = min(1.0, b_max);
+        end = rnd(rng) >= q;
+    }
+    Phase ph = phase_at(s.x, s.d);
+    vec3 L = sample_one_light(s.x, ph, rng, truncated);
+    vec3 w = vec3(0.0);
+    float t = -1.0;
+    float w_next = 1.0;  // the next event's direct-light weight (its segment's MIS)
+    if (end) {
+        if (USE_PHASE_MIS) L += sample_phase(s.x, ph, rng, truncated);
+    } else {
+        float u1 = rnd(rng), u2 = rnd(rng);
+        w = phase_sample(ph, u1, u2);
+        float t_light, t0 = 0.0, t1 = 0.0;
+        int hit = nearest_area_light(s.x, w, 1e30, t_light);
+        bool cut = false;
+        if (box_interval(s.x, w, t0, t1)) {
+            t1 = min(t1, t_light);
+            if (t1 > t0) t = delta_track(s.x, w, t0, t1, rng, cut);
+        }
+        // Rule: a continuation cut at its loop bound neither escapes nor scatters:
+        // the path ends without its emission (biased toward dark, counted).
+        truncated = truncated || cut;
+        if (t < 0.0 && !cut) L += phase_emission(s.x, w, hit, t_light, phase_eval(ph, w));
+        end = cut;
+        if (USE_EQUIANGULAR && !cut && t1 > t0) {
+            vec3 L_b;
+            w_next = segment_equiangular(s.x, w, t0, t1, t, rng, truncated, L_b);
+            s.indirect += s.beta / q * L_b;
+        }
+    }
+    if (s.events == first) s.direct = s.beta * L; else s.indirect += s.beta * s.w_dir * L;
+    s.w_dir = w_next;
+    s.done = end || t < 0.0;
+    if (s.done) return false;
+    s.x += w * t;
+    s.d = w;
+    s.events++;
+    s.beta *= albedo_at(s.x) / q;                    // q > 0: the path survived with it
+    return true;
+}
+
+// Traces the path (begun at event `first`) until it ends or stands at event `stop`, not
+// yet shaded.
+void path_run(inout PathState s, uint first, uint stop, inout Rng rng, inout bool truncated) {
+    if (s.done) return;
+    for (uint n = 0u; n < PATH_STEPS; n++) {
+        if (s.events >= stop || !path_event(s, first, rng, truncated)) break;
+    }
+}
+
 // The light scattered at x (the path's scatter event number `first`: 1 for a camera
 // ray's; the ray arrives along d) back along the ray, albedo included: `direct` the light
-// of x's own next-event estimate (the part the caller may weight against another
-// strategy), `indirect` the light of the events after x.  events: the number of the
-// path's last scatter event (x counts `first`).  The bounce limit and Russian roulette
-// count events from the camera, so a path begun at event 2 (cache-entry creation,
-// cache_create.comp) ends where the camera path it stands for would.
+// of x's own next-event estimate, `indirect` the light of the events after x (PathState).
+// events: the number of the path's last scatter event.
 void scattered_radiance(vec3 x, vec3 d, uint first, inout Rng rng, inout bool truncated, out vec3 direct,
                         out vec3 indirect, out uint events) {
-    vec3 beta = albedo_at(x);
-    direct = vec3(0.0);
-    indirect = vec3(0.0);
-    events = first;
-    float w_dir = 1.0;   // the weight of this event's direct light (the caller weights the first's)
-    for (uint n = 0u; n < PATH_STEPS; n++) {
-        float b_max = max(beta.r, max(beta.g, beta.b));
-        if (b_max <= 0.0) break;                     // nothing more can reach the camera
-        // Rule: a path that ran the pool dry ends here with nothing more (its shadow rays
-        // could not be tracked): biased toward dark, counted.
-        if (path_pool < scene.vertex_cost) { truncated = true; break; }
-        path_pool -= scene.vertex_cost;
-        // Is this event the path's last?  At the bounce limit, or by Russian roulette from
-        // the second event on: the path goes on with probability q and what it gathers
-        // later is divided by q.  A last event still takes both MIS strategies of its
-        // direct light (the phase sample by ratio tracking), so ending is unbiased.
-        bool end = scene.max_bounces != BOUNCES_UNLIMITED && events > scene.max_bounces;
-        float q = 1.0;
-        if (!end && events >= 2u) {
-            q = min(1.0, b_max);
-            end = rnd(rng) >= q;
-        }
-        Phase ph = phase_at(x, d);
-        vec3 L = sample_one_light(x, ph, rng, truncated);
-        vec3 w = vec3(0.0);
-        float t = -1.0;
-        float w_next = 1.0;  // the next event's direct-light weight (its segment's MIS)
-        if (end) {
-            if (USE_PHASE_MIS) L += sample_phase(x, ph, rng, truncated);
-        } else {
-            float u1 = rnd(rng), u2 = rnd(rng);
-            w = phase_sample(ph, u1, u2);
-            float t_light, t0 = 0.0, t1 = 0.0;
-            int hit = nearest_area_light(x, w, 1e30, t_light);
-            bool cut = false;
-            if (box_interval(x, w, t0, t1)) {
-                t1 = min(t1, t_light);
-                if (t1 > t0) t = delta_track(x, w, t0, t1, rng, cut);
-            }
-            // Rule: a continuation cut at its loop bound neither escapes nor scatters:
-            // the path ends without its emission (biased toward dark, counted).
-            truncated = truncated || cut;
-            if (t < 0.0 && !cut) L += phase_emission(x, w, hit, t_light, phase_eval(ph, w));
-            end = cut;
-            if (USE_EQUIANGULAR && !cut && t1 > t0) {
-                vec3 L_b;
-                w_next = segment_equiangular(x, w, t0, t1, t, rng, truncated, L_b);
-                indirect += beta / q * L_b;
-            }
-        }
-        if (events == first) direct = beta * L; else indirect += beta * w_dir * L;
-        w_dir = w_next;
-        if (end || t < 0.0) break;
-        x += w * t;
-        d = w;
-        events++;
-        beta *= albedo_at(x) / q;                    // q > 0: the path survived with it
-    }
+    PathState s = path_begin(x, d, first);
+    path_run(s, first, BOUNCES_UNLIMITED, rng, truncated);
+    direct = s.direct;
+    indirect = s.indirect;
+    events = s.events;
 }

@@ -37,6 +37,11 @@ layout(set = 0, binding = 16, std430) buffer ShadeQueue { uvec4 head; uint ev[];
 layout(set = 0, binding = 17, std430) buffer LookupQueue { uvec4 head; uint ev[]; } lookup_queue;
 #endif
 #define EVENT_WORDS 3u
+// The scatter event of a camera path at which the cache is looked up (cache.lookup_event,
+// with the multiply scattered cache and unlimited bounces; else 1): at the first, the
+// lookup kernel; at a later one, the shading kernel (render_shade_cache.comp), to which
+// the tracking kernel then queues every event.
+layout(constant_id = 17) const uint LOOKUP_EVENT = 1u;
 // Threads per workgroup of the event kernels: one dispatch holds at most MAX_QUEUE
 // (65535) blocks of 128 pixels, so 128 keeps its workgroups within the 65535 that
 // every Vulkan device allows.
@@ -100,20 +105,6 @@ vec3 event_direct(inout ScatterEvent e) {
     return albedo_at(e.x) * direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
 }
 
-// The light scattered toward the camera at the event e (albedo included) and the event's
-// scatter events: the direct light alone, or with USE_BOUNCES the whole path
-// (path.glsl), `direct` its first event's own part.
-vec3 event_radiance(inout ScatterEvent e, out vec3 direct, out uint events) {
-    events = 1u;
-    if (!USE_BOUNCES) {
-        direct = event_direct(e);
-        return direct;
-    }
-    vec3 indirect;
-    scattered_radiance(e.x, e.rd, 1u, e.rng, e.truncated, direct, indirect, events);
-    return direct + indirect;
-}
-
 // A plain estimate of what the cache holds at the event e, albedo included, for the
 // consistent blend's probes and the cache-error view: the direct light (single
 // scattering), or with USE_BOUNCES the light of the path's later scatter events (the
@@ -125,6 +116,38 @@ vec3 plain_cached_part(inout ScatterEvent e) {
     uint events;
     scattered_radiance(e.x, e.rd, 1u, e.rng, e.truncated, direct, indirect, events);
     return indirect;
+}
+
+// The kernels that shade from the cache: the lookup at the first scatter event
+// (PICVR_CACHE_SHADING) and, with cache.lookup_event > 1, the shading kernel that looks
+// up at a later one (PICVR_CACHE_PATHS, render_shade_cache.comp).
+#if defined(PICVR_CACHE_SHADING) || defined(PICVR_CACHE_PATHS)
+#include "cache.glsl"
+#include "cache_blend.glsl"
+#endif
+#ifdef PICVR_CACHE_PATHS
+#include "path_cache.glsl"
+#endif
+
+// The light scattered toward the camera at the event e (albedo included) and the event's
+// scatter events: the direct light alone, or with USE_BOUNCES the whole path
+// (path.glsl; in render_shade_cache.comp with the cache looked up at its LOOKUP_EVENT-th
+// event, path_cache.glsl), `direct` its first event's own part.
+vec3 event_radiance(inout ScatterEvent e, out vec3 direct, out uint events) {
+    events = 1u;
+    if (!USE_BOUNCES) {
+        direct = event_direct(e);
+        return direct;
+    }
+    vec3 indirect;
+#ifdef PICVR_CACHE_PATHS
+    if (LOOKUP_EVENT > 1u) {
+        cached_path(e, direct, indirect, events);
+        return direct + indirect;
+    }
+#endif
+    scattered_radiance(e.x, e.rd, 1u, e.rng, e.truncated, direct, indirect, events);
+    return direct + indirect;
 }
 
 // Adds a path's scatter events to the counters of picvr_stats.mean_path_length: a 64-bit

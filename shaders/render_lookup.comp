@@ -13,9 +13,8 @@
 // their own variant (USE_DEBUG_VIEW).
 #extension GL_GOOGLE_include_directive : require
 #define PICVR_CACHE 1
+#define PICVR_CACHE_SHADING 1
 #include "render.glsl"
-#include "cache.glsl"
-#include "cache_blend.glsl"
 layout(local_size_x = EVENT_GROUP, local_size_y = 1) in;
 
 // PICVR_VIEW_CACHE_ERROR at a hit: (luminance of the cached part, luminance of a plain
@@ -30,7 +29,7 @@ void main() {
     LOAD_EVENT(lookup_queue, e)
     bool blend = CACHE_BLEND && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE);
     float w = blend ? pixel_blend_weight(e.px) : 0.0;
-    if (blend && blend_route(e, w)) {
+    if (blend && blend_route(e.rng, w)) {
         atomicAdd(cache_counters.routed, 1u);
         QUEUE_EVENT(shade_queue, e.idx, e.t, e.rng, e.truncated)
         return;

@@ -34,6 +34,11 @@ void main() {
         // the cache serves multiple scattering (any phase function: it holds the fluence)
         // and isotropic single scattering: with an anisotropic one alone it idles
         if (!USE_BOUNCES && USE_HG) { QUEUE_EVENT(shade_queue, idx, t, rng, truncated) return; }
+        // looked up at a later event by the shading kernel (the debug views: at the first)
+        if (LOOKUP_EVENT > 1u && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE)) {
+            QUEUE_EVENT(shade_queue, idx, t, rng, truncated)
+            return;
+        }
         QUEUE_EVENT(lookup_queue, idx, t, rng, truncated)
 #else
         QUEUE_EVENT(shade_queue, idx, t, rng, truncated)

@@ -905,6 +905,8 @@ void test_create_config_errors(void **state) {
     CFG_ROW("cache.curvature_limit 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.curvature_limit = (picvr_switch)7);
     CFG_ROW("cache.medium_model 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.medium_model = (picvr_switch)7);
     CFG_ROW("cache.max_lookup_refs 8193", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.max_lookup_refs = 8193);
+    CFG_ROW("cache.lookup_event 9", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.lookup_event = PICVR_CACHE_MAX_LOOKUP_EVENT + 1);
+    CFG_ROW("cache.lookup_event UINT32_MAX", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.lookup_event = UINT32_MAX);
     CFG_ROW("cache.blend 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.blend = (picvr_switch)7);
     CFG_ROW("cache.probe_fraction 1.5", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.probe_fraction = 1.5f);
     CFG_ROW("cache.probe_fraction -0.1", PICVR_ERROR_INVALID_ARGUMENT, cfg.cache.probe_fraction = -0.1f);
@@ -1006,6 +1008,7 @@ void test_get_config_resolves_defaults(void **state) {
     assert_int_equal(c.cache.max_refs, 16 * 65536);
     assert_int_equal(c.cache.max_requests, 1000);
     assert_int_equal(c.cache.max_lookup_refs, PICVR_CACHE_MAX_LOOKUP_REFS);
+    assert_int_equal(c.cache.lookup_event, 1);
     assert_int_equal(c.cache.curvature_limit, PICVR_SWITCH_OFF);
     assert_int_equal(c.cache.medium_model, PICVR_SWITCH_ON);
     assert_int_equal(c.cache.blend, PICVR_SWITCH_ON);

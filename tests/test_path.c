@@ -1257,15 +1257,16 @@ void test_path_default_scattering_bit_identical(void **state) {
    Henyey-Greenstein's g^2, g^3 ... terms would weight, are left out.  The cache must
    serve: at least 30 % of the scatter events in the last pass are hits. */
 /* The cube of the multiply scattered cache's tests: a context with the object-space
-   cache (blend as given), the 16^3 cube of sigma D (bmin, bmax its box), albedo a, HG g,
-   a constant white background, unlimited bounces. */
-static picvr_context *ms_cube(float a, float g, picvr_switch blend, uint32_t seed, float D, double bmin[3],
-                              double bmax[3]) {
+   cache (blend and the lookup's scatter event k as given), the 16^3 cube of sigma D
+   (bmin, bmax its box), albedo a, HG g, a constant white background, unlimited bounces. */
+static picvr_context *ms_cube(float a, float g, picvr_switch blend, uint32_t k, uint32_t seed, float D,
+                              double bmin[3], double bmax[3]) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
     cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
     cfg.cache.blend = blend;
+    cfg.cache.lookup_event = k;
     picvr_context *ctx = tu_create_config(&cfg);
     upload_cube(ctx, 16, bmin, bmax);
     tf_const_g(ctx, a, a, a, g, D);
@@ -1275,10 +1276,10 @@ static picvr_context *ms_cube(float a, float g, picvr_switch blend, uint32_t see
     return ctx;
 }
 
-static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t seed) {
+static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t k, uint32_t seed) {
     double bmin[3], bmax[3];
     const float D = 0.125f;
-    picvr_context *ctx = ms_cube(a, g, blend, seed, D, bmin, bmax);
+    picvr_context *ctx = ms_cube(a, g, blend, k, seed, D, bmin, bmax);
     const uint32_t W = 32, H = 32, N = 192;
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
     walk_ref ref;
@@ -1293,15 +1294,28 @@ static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t seed) {
     TU_OK(picvr_step_iterations(ctx, N));
     float *img = tu_read(ctx, W, H);
     char what[96];
-    snprintf(what, sizeof what, "albedo %.2f, g %.1f, blend %s", (double)a, (double)g,
-             blend == PICVR_SWITCH_OFF ? "off" : "on");
+    snprintf(what, sizeof what, "albedo %.2f, g %.1f, blend %s, lookup at event %u", (double)a, (double)g,
+             blend == PICVR_SWITCH_OFF ? "off" : "on", k ? k : 1u);
     tu_assert_image_valid(img, W, H, what);
     picvr_stats st = tu_stats_finite(ctx);
     print_message("    %s: %u entries (%u capped), hit rate %.3f, routed %.3f, %llu of %llu creation samples "
-                  "truncated, truncated paths %llu\n", what, st.cache_entries, st.cache_entries_capped,
-                  st.cache_hit_rate, st.cache_routed, (unsigned long long)st.cache_samples_truncated,
-                  (unsigned long long)st.cache_samples, (unsigned long long)st.truncated_paths);
+                  "truncated, truncated paths %llu, mean path %.2f events\n", what, st.cache_entries,
+                  st.cache_entries_capped, st.cache_hit_rate, st.cache_routed,
+                  (unsigned long long)st.cache_samples_truncated, (unsigned long long)st.cache_samples,
+                  (unsigned long long)st.truncated_paths, st.mean_path_length);
     int ok = 1;
+    /* With k >= 2 every path that scatters twice is traced to its second event (roulette
+       acts only from there on), so its mean number of events is at least E[min(K, 2)] of
+       the walk's histogram; a lookup at the first event would end most paths at 1.
+       Allowance 3 %: the mean over 196,608 samples has a standard error near 0.2 %. */
+    double two = 0.0;
+    for (int j = 1; j <= WALK_K; j++) two += (j < 2 ? j : 2) * ref.p[j];
+    print_message("    %s: E[min(K, 2)] of the walk %.3f\n", what, two);
+    if (k > 1 && !(st.mean_path_length >= 0.97 * two)) {
+        print_message("    %s: paths of %.3f events on average, below E[min(K, 2)] = %.3f: not looked up "
+                      "at event %u\n", what, st.mean_path_length, two, k);
+        ok = 0;
+    }
     if (!(st.cache_hit_rate >= 0.3)) {
         print_message("    %s: the cache does not serve (hit rate %.3f)\n", what, st.cache_hit_rate);
         ok = 0;
@@ -1321,8 +1335,8 @@ static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t seed) {
 
 void test_path_cache_ms_white_furnace(void **state) {
     (void)state;
-    int ok = ms_cache_case(1.0f, 0.0f, PICVR_SWITCH_OFF, 121);
-    ok &= ms_cache_case(1.0f, 0.8f, PICVR_SWITCH_OFF, 122);
+    int ok = ms_cache_case(1.0f, 0.0f, PICVR_SWITCH_OFF, 1, 121);
+    ok &= ms_cache_case(1.0f, 0.8f, PICVR_SWITCH_OFF, 1, 122);
     if (!ok) fail_msg("the cached white furnace is not L (listed above)");
 }
 
@@ -1362,7 +1376,7 @@ static double furnace_block_rms(const float *img, uint32_t W, uint32_t H) {
 void test_path_cache_ms_refines(void **state) {
     (void)state;
     double bmin[3], bmax[3];
-    picvr_context *ctx = ms_cube(1.0f, 0.0f, PICVR_SWITCH_OFF, 131, 0.125f, bmin, bmax);
+    picvr_context *ctx = ms_cube(1.0f, 0.0f, PICVR_SWITCH_OFF, 1, 131, 0.125f, bmin, bmax);
     const uint32_t W = 32, H = 32;
     tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
     TU_OK(picvr_step_iterations(ctx, 48));
@@ -1391,9 +1405,24 @@ void test_path_cache_ms_refines(void **state) {
 
 void test_path_cache_ms_albedo_09_match_reference(void **state) {
     (void)state;
-    int ok = ms_cache_case(0.9f, 0.0f, PICVR_SWITCH_OFF, 123);
-    ok &= ms_cache_case(0.9f, 0.8f, PICVR_SWITCH_OFF, 124);
-    ok &= ms_cache_case(0.9f, 0.0f, PICVR_SWITCH_DEFAULT, 125);
-    ok &= ms_cache_case(0.9f, 0.8f, PICVR_SWITCH_DEFAULT, 126);
+    int ok = ms_cache_case(0.9f, 0.0f, PICVR_SWITCH_OFF, 1, 123);
+    ok &= ms_cache_case(0.9f, 0.8f, PICVR_SWITCH_OFF, 1, 124);
+    ok &= ms_cache_case(0.9f, 0.0f, PICVR_SWITCH_DEFAULT, 1, 125);
+    ok &= ms_cache_case(0.9f, 0.8f, PICVR_SWITCH_DEFAULT, 1, 126);
     if (!ok) fail_msg("the cached image differs from the analog walk (listed above)");
+}
+
+/* The cache looked up at a later scatter event (cache.lookup_event, path_cache.glsl):
+   the same cube, closed form and tolerances as above.  k = 2 in the white furnace with
+   the blend off (the cached part alone at each hit: the entries' error is not hidden by
+   the blend), at albedo 0.9 with g 0 and 0.8, blend on; k = 3 at albedo 0.9, g 0.8,
+   blend off.  Each case also checks that the paths went on past their first event
+   (ms_cache_case: their mean length against the walk's). */
+void test_path_cache_ms_later_event(void **state) {
+    (void)state;
+    int ok = ms_cache_case(1.0f, 0.0f, PICVR_SWITCH_OFF, 2, 141);
+    ok &= ms_cache_case(0.9f, 0.0f, PICVR_SWITCH_DEFAULT, 2, 142);
+    ok &= ms_cache_case(0.9f, 0.8f, PICVR_SWITCH_DEFAULT, 2, 143);
+    ok &= ms_cache_case(0.9f, 0.8f, PICVR_SWITCH_OFF, 3, 144);
+    if (!ok) fail_msg("the cache at a later event differs from the analog walk (listed above)");
 }

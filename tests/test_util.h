@@ -173,6 +173,7 @@
     X(test_path_cache_ms_white_furnace)                             \
     X(test_path_cache_ms_albedo_09_match_reference)                 \
     X(test_path_cache_ms_refines)                                   \
+    X(test_path_cache_ms_later_event)                               \
     X(test_path_env_one_hot_equals_directional)                     \
     X(test_path_env_constant_map_equals_constant_background)        \
     X(test_path_env_smooth_map_single_scatter_closed_form)          \
