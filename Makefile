@@ -245,11 +245,12 @@ BENCH_AUTO_ARGS ?= --size 320x180 --time 30000 --slice 500 --repeats 5 --rotate 
 
 # The multiply scattered cache (bench/scenes_ms.txt: the cloud as its preset renders it,
 # albedo 0.99, g 0.8, unlimited bounces, sun and sky): plain path tracing against the
-# object-space cache, 60 s per run at 320x180, two seeds; bench/results/ms_cache.csv
+# object-space cache looked up at a path's first scatter event (object) and at its second
+# (object-k2, cache.lookup_event 2), 60 s per run at 320x180, two seeds; bench/results/ms_cache.csv
 # sums it up (bench/ms_cache_csv.py).
 BENCH_MS_OUT ?= bench/results/ms
 BENCH_MS_ARGS ?= --scenes bench/scenes_ms.txt --size 320x180 --time 60000 --slice 1000 --repeats 2 \
-              --rotate 0 --conditions plain,object --ref-chunk 60000 --ref-factor 1.5 \
+              --rotate 0 --conditions plain,object,object-k2 --ref-chunk 60000 --ref-factor 1.5 \
               --ref-max-chunks 30 --bias cloud-ms,bonsai-ms,engine-ms
 
 # The library's sources as one checksum: the bench's run files carry it, so that a run

@@ -612,7 +612,8 @@ typedef struct picvr_scattering {
    function only (with any g != 0 or a second lobe the cache idles and picvr_step renders
    by plain Monte Carlo); with max_bounces > 0 it holds the multiply scattered light (the
    fluence of light that scattered at least once before reaching a point): at a camera
-   ray's scatter event a hit adds the event's direct light by next-event estimation and
+   path's first scatter event (or its cache.lookup_event-th) a hit adds the event's
+   direct light by next-event estimation and
    the cached part, weighted by the phase function to first order in direction (each
    entry also holds the fluence's first moment; docs/cache.md), and the path ends there;
    a miss traces the path.

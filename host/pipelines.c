@@ -351,7 +351,7 @@ static picvr_status picvr_create_pipelines(picvr_context *ctx) {
         ? picvr_create_shader(ctx, picvr_spv_render_track_cache, sizeof picvr_spv_render_track_cache, &ctx->pipes.track_module)
         : picvr_create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->pipes.track_module);
     if (!s) s = picvr_create_shader(ctx, picvr_spv_render_shade, sizeof picvr_spv_render_shade, &ctx->pipes.shade_module);
-    if (!s && ctx->cache.on)
+    if (!s && ctx->cache.on && ctx->cache.cfg.lookup_event > 1)   /* render_shade_cache.comp's only use */
         s = picvr_create_shader(ctx, picvr_spv_render_shade_cache, sizeof picvr_spv_render_shade_cache,
                                 &ctx->pipes.shade_cache_module);
     if (!s) s = picvr_create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->pipes.stats_module);

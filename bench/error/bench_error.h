@@ -36,7 +36,7 @@
 #define FLOOR_FRACTION 1e-2    /* relative error floor, fraction of the mean */
 #define GRID_POINTS 200        /* equal-time grid of the ratio average */
 #define REF_ROUNDS 3           /* grow-the-reference attempts per scene */
-#define N_CONDITIONS 7         /* rows of CONDITIONS */
+#define N_CONDITIONS 8         /* rows of CONDITIONS */
 #define N_BIAS_CONDITIONS 3    /* rows of BIAS_CONDITIONS */
 #define N_WARM_CONDITIONS 2    /* BIAS_CONDITIONS[1..2] */
 /* The library's sources this binary was built from (the Makefile passes a checksum of
@@ -81,6 +81,7 @@ typedef struct condition {
     const char *name;
     picvr_cache_mode mode;
     picvr_switch priorities;
+    uint32_t lookup_event;     /* cache.lookup_event; 0: --cache-param's or the library's */
 } condition;
 
 extern const condition CONDITIONS[N_CONDITIONS];

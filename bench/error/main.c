@@ -3,7 +3,7 @@
  *
  *   picvr-bench-error [--scenes bench/scenes.txt] [--data ../shared/data]
  *       [--datasets bonsai,engine] [--lights paper1,paper3-bg] [--size 128x128]
- *       [--conditions plain,object,object-noprio,screen,screen-noprio,plain-prio,auto]
+ *       [--conditions plain,object,object-noprio,screen,screen-noprio,plain-prio,auto,object-k2]
  *       [--time MS] [--slice MS] [--repeats N] [--rotate MS] [--after MS]
  *       [--ref-chunk MS] [--ref-min-chunks N] [--ref-max-chunks N] [--bias bonsai] [--fig10 bonsai]
  *       [--out bench/results] [--refs bench/refs]
@@ -72,8 +72,9 @@ static void print_help(FILE *f)
         "  --lights A,B         light set-ups of the scene file to run (default all)\n"
         "  --size WxH           image size (default 128x128)\n"
         "  --conditions A,B     of plain, object, object-noprio, screen, screen-noprio,\n"
-        "                       plain-prio, auto (default the first five; plain is the\n"
-        "                       baseline)\n"
+        "                       plain-prio, auto, object-k2 (the multiply scattered\n"
+        "                       cache at a path's second event; default the first five;\n"
+        "                       plain is the baseline)\n"
         "  --time MS            run length per condition (default 10000)\n"
         "  --slice MS           picvr_step budget between measurements (default 200)\n"
         "  --repeats N          repetitions, seeds 101, 102, ... (default 2)\n"

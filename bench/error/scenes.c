@@ -36,6 +36,8 @@ const condition CONDITIONS[N_CONDITIONS] = {
     {"screen-noprio", PICVR_CACHE_SCREEN_SPACE, PICVR_SWITCH_OFF},
     {"plain-prio", PICVR_CACHE_NONE, PICVR_SWITCH_ON},
     {"auto", PICVR_CACHE_AUTO, PICVR_SWITCH_ON},
+    /* the multiply scattered cache looked up at a path's second scatter event */
+    {"object-k2", PICVR_CACHE_OBJECT_SPACE, PICVR_SWITCH_ON, 2},
 };
 
 const condition *find_condition(const char *name)
@@ -211,6 +213,7 @@ int session_open(const scene *s, const picvr_io_volume *vol, const condition *c,
     cfg.log = log_message;
     if (cache) cfg.cache = *cache;
     cfg.cache.mode = c->mode;
+    if (c->lookup_event) cfg.cache.lookup_event = c->lookup_event;
     cfg.scheduler.priorities = c->priorities;
     cfg.scheduler.create_min = cfg.scheduler.create_max = create_share;
     if (!pvc_check(picvr_create(&cfg, &ss->ctx), "picvr_create")) return 0;
