@@ -118,7 +118,9 @@ static int picvr_cache_serves(const picvr_context *ctx) {
 /* The scatter event at which a camera path takes the cache (LOOKUP_EVENT): cache.lookup_event
    for the multiply scattered cache with unlimited bounces, else 1 (with a bounce limit an
    entry holds the light of more events than a later event may still have). */
-_Static_assert(PICVR_CACHE_MAX_LOOKUP_EVENT - 1u <= 7u, "LOOKUP_EVENT - 1 takes 3 bits of the variant key");
+/* LOOKUP_EVENT - 1 takes 3 bits of the variant key (a compile-time check that C and C++
+   both accept: the array's size is negative if it fails). */
+typedef char picvr_lookup_event_fits_key[PICVR_CACHE_MAX_LOOKUP_EVENT - 1u <= 7u ? 1 : -1];
 static uint32_t picvr_lookup_event(const picvr_context *ctx) {
     return picvr_cache_multiple(ctx) && ctx->scene.scattering.max_bounces == PICVR_BOUNCES_UNLIMITED
            ? ctx->cache.cfg.lookup_event : 1u;

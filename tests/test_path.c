@@ -1237,25 +1237,6 @@ void test_path_default_scattering_bit_identical(void **state) {
 
 /* ---- the multiply scattered cache ---------------------------------------------------- */
 
-/* The cache with bounces (picvr.h, picvr_set_scattering) against the analog walk: a
-   homogeneous 16^3 cube, sigma 0.125 (optical thickness 2 across), a constant white
-   background, unlimited bounces, every pixel of the 32 x 32 image looking into the cube.
-   The image mean's expectation is L sum_k a^k P(K = k) (albedo a; the walk's histogram;
-   its tail K >= WALK_K is taken at a^WALK_K, which changes the sum by less than 1e-4
-   here).  With a = 1 that is L whatever P is: the white furnace, where the cached part
-   at every hit must be exactly the environment's fluence less the direct part (for an
-   isotropic phase function).
-   Tolerances: z = 5 on the statistical error (pixels and the walk) plus an allowance for
-   the cache's bias.  Isotropic (g = 0): 2 % of the mean, with the blend off (the paper's
-   estimator: the cached part alone at a hit) and on (at 192 passes its weight has not
-   yet removed the whole bias): the entries hold at most 128 path samples each, a noise
-   of several per cent per entry that the pixels share (so the pixels' spread does not
-   show it), averaged over the some 190 entries the hits draw on, and extrapolated
-   across 2 voxels.  g = 0.8: 3 %: a hit weights the cached fluence by the phase function
-   to first order in direction (the entries' F / E; cache.glsl, ms_inscattered), so the
-   higher orders of the multiply scattered light's directional structure, which
-   Henyey-Greenstein's g^2, g^3 ... terms would weight, are left out.  The cache must
-   serve: at least 30 % of the scatter events in the last pass are hits. */
 /* The cube of the multiply scattered cache's tests: a context with the object-space
    cache (blend and the lookup's scatter event k as given), the 16^3 cube of sigma D
    (bmin, bmax its box), albedo a, HG g, a constant white background, unlimited bounces. */
@@ -1276,6 +1257,26 @@ static picvr_context *ms_cube(float a, float g, picvr_switch blend, uint32_t k, 
     return ctx;
 }
 
+/* The cache with bounces (picvr.h, picvr_set_scattering) against the analog walk: a
+   homogeneous 16^3 cube, sigma 0.125 (optical thickness 2 across), a constant white
+   background, unlimited bounces, every pixel of the 32 x 32 image looking into the cube.
+   The image mean's expectation is L sum_k a^k P(K = k) (albedo a; the walk's histogram;
+   its tail K >= WALK_K is taken at a^WALK_K, which changes the sum by less than 1e-4
+   here).  With a = 1 that is L whatever P is: the white furnace, where the cached part
+   at every hit must be exactly the environment's fluence less the direct part (for an
+   isotropic phase function).
+   Tolerances: z = 5 on the statistical error (pixels and the walk) plus an allowance for
+   the cache's bias.  Isotropic (g = 0): 2 % of the mean, with the blend off (the paper's
+   estimator: the cached part alone at a hit) and on (at 192 passes its weight has not
+   yet removed the whole bias): the entries hold at most 128 path samples each, a noise
+   of several per cent per entry that the pixels share (so the pixels' spread does not
+   show it), averaged over the some 190 entries the hits draw on, and extrapolated
+   across 2 voxels.  g = 0.8: 3 %: a hit weights the cached fluence by the phase function
+   to first order in direction (the entries' F / E; cache.glsl, ms_inscattered), so the
+   higher orders of the multiply scattered light's directional structure, which
+   Henyey-Greenstein's g^2, g^3 ... terms would weight, are left out.  The cache must
+   serve: at least 30 % of the scatter events in the last pass are hits.  k: the scatter
+   event of the lookup (cache.lookup_event; 0 or 1 the first). */
 static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t k, uint32_t seed) {
     double bmin[3], bmax[3];
     const float D = 0.125f;
@@ -1285,9 +1286,9 @@ static int ms_cache_case(float a, float g, picvr_switch blend, uint32_t k, uint3
     walk_ref ref;
     walk_reference(&cam, bmin, bmax, D, g, 2000000, 31 + seed, &ref, NULL);
     double expect = 0, ak = 1, se_ref2 = 0;
-    for (int k = 0; k <= WALK_K; k++, ak *= a) {
-        expect += ak * ref.p[k];
-        se_ref2 += ak * ak * ref.p[k];
+    for (int j = 0; j <= WALK_K; j++, ak *= a) {
+        expect += ak * ref.p[j];
+        se_ref2 += ak * ak * ref.p[j];
     }
     /* the walk's per-walk radiance a^K has variance E[a^2K] - E[a^K]^2 */
     double se_ref = sqrt(fmax(se_ref2 - expect * expect, 0.0) / ref.n);
