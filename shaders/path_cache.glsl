@@ -39,16 +39,8 @@ void path_lookup(inout ScatterEvent e, inout PathState s) {
         return;
     }
     vec3 E, aniso;
-    uint node;
     bool near_centre;
-    bool hit = cache_lookup(s.x, E, aniso, node, near_centre);
-    if (SCREEN_LOCKING) count_ray(e.px, !hit, pc.round);
-    if (!hit) {
-        cache_request(s.x, node, e.px, pc.round, rnd(e.rng), pc.request_cap);
-        atomicAdd(cache_counters.misses, 1u);
-        return;
-    }
-    atomicAdd(cache_counters.hits, 1u);
+    if (!render_cache_lookup(s.x, e.px, e.rng, E, aniso, near_centre)) return;   // a miss goes on
     Phase ph = phase_at(s.x, s.d);
     vec3 direct = s.beta * s.w_dir * direct_light(s.x, ph, e.rng, e.truncated);
     vec3 cached = s.beta * ms_inscattered(E, aniso, ph);

@@ -125,6 +125,23 @@ vec3 plain_cached_part(inout ScatterEvent e) {
 #include "cache.glsl"
 #include "cache_blend.glsl"
 #endif
+#if defined(PICVR_CACHE_SHADING) || defined(PICVR_CACHE_PATHS)
+// The rendering procedure's lookup at x for pixel px (at the first scatter event or a
+// later one): counts the hit or miss (and screen-space locking's ray) and on a miss
+// requests an entry under the context's locking (§5.1, §5.2).
+bool render_cache_lookup(vec3 x, uvec2 px, inout Rng rng, out vec3 E, out vec3 aniso, out bool near_centre) {
+    uint node;
+    bool hit = cache_lookup(x, E, aniso, node, near_centre);
+    if (SCREEN_LOCKING) count_ray(px, !hit, pc.round);
+    if (hit) {
+        atomicAdd(cache_counters.hits, 1u);
+    } else {
+        cache_request(x, node, px, pc.round, rnd(rng), pc.request_cap);
+        atomicAdd(cache_counters.misses, 1u);
+    }
+    return hit;
+}
+#endif
 #ifdef PICVR_CACHE_PATHS
 #include "path_cache.glsl"
 #endif

@@ -35,23 +35,18 @@ void main() {
         return;
     }
     vec3 E, aniso;
-    uint node;
     bool near_centre;
-    bool hit = cache_lookup(e.x, E, aniso, node, near_centre);
-    if (SCREEN_LOCKING) count_ray(e.px, !hit, pc.round);
+    bool hit = render_cache_lookup(e.x, e.px, e.rng, E, aniso, near_centre);
     vec3 Ls;
     vec3 albedo = albedo_at(e.x);
     vec3 direct = vec3(0.0);            // the event's own direct light, with USE_BOUNCES
     if (hit) {
-        atomicAdd(cache_counters.hits, 1u);
         // isotropic phase: L_s = E / (4 pi); multiply scattered: to first order in
         // direction, and the event's direct light as event_direct shades it
         Phase ph = phase_at(e.x, e.rd);
         Ls = USE_BOUNCES ? ms_inscattered(E, aniso, ph) : E * INV_4PI;
         if (USE_BOUNCES) direct = albedo * direct_light(e.x, ph, e.rng, e.truncated);
     } else {
-        cache_request(e.x, node, e.px, pc.round, rnd(e.rng), pc.request_cap);
-        atomicAdd(cache_counters.misses, 1u);
         if (!USE_DEBUG_VIEW) {
             QUEUE_EVENT(shade_queue, e.idx, e.t, e.rng, e.truncated)
             return;
