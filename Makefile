@@ -17,30 +17,41 @@ LIB_OBJ     := $(B)/picvr_vk.o
 # The implementation: picvr_vk.c includes the parts in host/.
 LIB_SRC     := picvr_vk.c picvr.h picvr_shaders.h $(wildcard host/*.h host/*.c)
 
-.PHONY: all deps lib test check-build demo demo-volume bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-paths bench-frames shaders check-shaders check-layout check-examples clean help
+.PHONY: all deps lib test check-build demo demo-volume shaders check-shaders check-layout check-examples clean help
 all: deps lib $(B)/picvr-render $(B)/picvr-tests $(B)/picvr-bench-speed
 
 help:
-	@echo "make demo         install deps, build, render bonsai to build/bonsai.png"
-	@echo "make test         install deps, build, run the test suite (validation layer on)"
-	@echo "make bench-speed  samples/s of the Vulkan kernel vs the C/OpenMP reference"
-	@echo "make bench-scheduler  error vs time with/without priorities, device-time shares"
-	@echo "make bench-long-run   10 min plain vs cached: hit rate and error ratio over time"
-	@echo "make bench-hit-rate   hit rate against entry count; time to 0.8 on this device"
-	@echo "make bench-sampling   plain Monte Carlo before/after its distance sampling (~25 min)"
-	@echo "make bench-frames     orbiting real-time frames, temporal reuse off and on (~6 min)"
-	@echo "make viewer           the interactive viewer (GLFW); make test-viewer: its Xvfb test"
-	@echo "make bench-paths      the path tracer: error vs time with 0, 1, 4, unlimited bounces (~25 min)"
-	@echo "make shaders      regenerate picvr_shaders.h from shaders/ (needs glslang)"
-	@echo "make check-layout host mirrors of the shaders' buffer layouts and constants match"
-	@echo "make check-examples  the examples of picvr.h and README.md compile (-Werror) and run"
-	@echo "make check-build  the library compiles strict as C99/C11/C++17 (gcc, clang) and one-file"
-	@echo "make bench        error against run time, reduced (bonsai, 128x128; minutes)"
-	@echo "make bench-full   error against run time, the reduced matrix (~1.7 h; resumable)"
-	@echo "make bench-best   the paper's best case (paper3-bg) over 300 s (~30 min)"
-	@echo "make bench-auto   auto against plain over the reduced matrix, five seeds (~1.7 h after bench-full)"
-	@echo "make bench-ms     the multiply scattered cache against plain path tracing on the cloud"
-	@echo "make bench-bias   bias of the cache when full: default, paper model, curvature limit (~55 min)"
+	@echo "Building and trying picvr (README.md):"
+	@echo "  make demo           install deps, build, render the cloud to build/cloud.png (1 min)"
+	@echo "  make test           install deps, build, run every check and the suite (validation on)"
+	@echo "  make lib            build/libpicvr.a;  make all: the library, picvr-render, the tests"
+	@echo "  make viewer         the interactive viewer (GLFW);  make test-viewer: its Xvfb test"
+	@echo "  make clean          remove build/"
+	@echo "Checks (make test runs the first four):"
+	@echo "  make check-shaders  picvr_shaders.h matches shaders/;  make shaders: regenerate it (glslang)"
+	@echo "  make check-layout   the host's mirrors of the shaders' buffer layouts and constants match"
+	@echo "  make check-examples the examples of picvr.h and README.md compile (-Werror) and run"
+	@echo "  make check-build    the library compiles strict as C99/C11/C++17 (gcc, clang) and one-file"
+	@echo "  make robust         the four below (docs/robustness.md; .ci/run: make test, then these)"
+	@echo "  make test-asan      the API, hostile-input and reader tests under ASan and UBSan"
+	@echo "  make valgrind       one render under valgrind memcheck, zero errors"
+	@echo "  make fuzz           libFuzzer on every file reader, FUZZ_TIME s each"
+	@echo "  make soak           SOAK_SECONDS of random edits and steps, memory flat"
+	@echo "Benchmarks (bench/bench.mk; ratios side by side, never timed tests):"
+	@echo "  make bench-speed    samples/s of the Vulkan kernel vs the C/OpenMP reference"
+	@echo "  make bench-scheduler  error vs time with/without priorities, device-time shares"
+	@echo "  make bench-long-run 10 min plain vs cached: hit rate and error ratio over time"
+	@echo "  make bench-hit-rate hit rate against entry count; time to 0.8 on this device"
+	@echo "  make bench-sampling plain Monte Carlo before/after its distance sampling (~25 min)"
+	@echo "  make bench-frames   orbiting real-time frames, temporal reuse off and on (~6 min)"
+	@echo "  make bench-paths    the path tracer: error vs time, 0, 1, 4, unlimited bounces (~25 min)"
+	@echo "  make bench          error against run time, reduced (bonsai, 128x128; minutes)"
+	@echo "  make bench-full     error against run time, the reduced matrix (~1.7 h; resumable)"
+	@echo "  make bench-best     the paper's best case (paper3-bg) over 300 s (~30 min)"
+	@echo "  make bench-auto     auto against plain over the reduced matrix, five seeds (~1.7 h)"
+	@echo "  make bench-ms       the multiply scattered cache against plain path tracing"
+	@echo "  make bench-bias     bias of the cache when full: three models (~55 min)"
+	@echo "Variables: DATA=DIR (extra volumes, default ../shared/data), VOLUME=FILE, B=DIR"
 
 # Debian packages, installed only when missing (apt-get as root or via sudo).
 deps: $(B)/.deps
@@ -106,13 +117,15 @@ EXR_LIBS    := -lOpenEXR-3_1 -lIex-3_1 -lImath-3_1
 $(B)/exr_write.o: examples/exr_write.cpp examples/render.h | $(B)/.deps
 	$(CXX) $(IO_CXXFLAGS) $(EXR_CXXFLAGS) -Iexamples -c -o $@ $<
 
-# The command-line helpers the example and bench programs share (examples/cli.h).
-CLI_SRC    := examples/cli.c examples/cli.h
-RENDER_SRC := examples/render.c examples/render_output.c examples/cli.c examples/presets.c \
-              examples/env_io.c
-$(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h examples/presets.h examples/env_io.h $(B)/libpicvr.a \
+# cli/: what the programs (examples/, bench/, the fuzz harnesses) share: option parsing
+# (cli.h), the scene presets and transfer-function files (presets.h), environment maps
+# (env_io.h).  Not part of the library.
+CLI_SRC    := cli/cli.c cli/cli.h
+RENDER_SRC := examples/render.c examples/render_output.c cli/cli.c cli/presets.c \
+              cli/env_io.c
+$(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h cli/presets.h cli/env_io.h $(B)/libpicvr.a \
                    $(B)/libpicvr_io.a $(B)/exr_write.o
-	$(CC) $(CFLAGS) -o $@ $(RENDER_SRC) $(B)/exr_write.o $(B)/libpicvr_io.a $(B)/libpicvr.a $(LDLIBS) -lstb \
+	$(CC) $(CFLAGS) -Icli -o $@ $(RENDER_SRC) $(B)/exr_write.o $(B)/libpicvr_io.a $(B)/libpicvr.a $(LDLIBS) -lstb \
 	  $(EXR_LIBS) $(IO_LIBS)
 
 $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps
@@ -121,14 +134,9 @@ $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.
 $(B)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
               shaders/cache_math.glsl shaders/sampling_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a \
               $(B)/libpicvr_io.a $(TEST_CXX_OBJ) tests/dicom_writer.h tests/vdb_writer.h
-	$(CC) $(CFLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) $(TEST_CXX_OBJ) $(B)/libpicvr_io.a $(B)/cpu_reference.o \
+	$(CC) $(CFLAGS) -fopenmp -o $@ $(TEST_SRC) $(TEST_CXX_OBJ) $(B)/libpicvr_io.a $(B)/cpu_reference.o \
 	  $(B)/libpicvr.a $(LDLIBS) -lcmocka $(IO_LIBS)
 
-$(B)/picvr-bench-speed: bench/bench_speed.c $(CLI_SRC) io/picvr_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -fopenmp -Iexamples -DPICVR_IO_RAW_NRRD_ONLY -o $@ bench/bench_speed.c examples/cli.c io/picvr_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
-
-$(B)/picvr-bench-sampling: bench/bench_sampling.c $(CLI_SRC) io/picvr_io.c examples/presets.c examples/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Iexamples -DPICVR_IO_RAW_NRRD_ONLY -o $@ bench/bench_sampling.c examples/cli.c io/picvr_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 # The host's mirrors of the shaders' layouts and constants (tools/check_layout.sh).
 $(B)/layout-host: tools/layout_host.c $(LIB_SRC) | $(B)/.deps
@@ -150,167 +158,29 @@ test: deps $(B)/picvr_shaders.h $(B)/layout-host $(B)/libpicvr.a $(B)/picvr-test
 check-build: deps
 	sh tools/check_build.sh $(B)
 
-# The demo renders the bonsai CT from the data folder, ../shared/data beside the
-# repository (README "Data": what it holds, where it comes from).  DATA=DIR points at
-# another copy of that folder, VOLUME=FILE at any raw volume picvr-render reads
-# (NAME_XxYxZ_TYPE.raw[.gz]), DEMO_TF=PRESET picks its transfer function.  Outputs:
-# build/NAME.png, .csv, .json, NAME the file name up to its first '_' (bonsai).
-VOLUME    ?= $(DATA)/bonsai_256x256x256_uint8.raw.gz
-DEMO_TF   ?= ct-bonsai
-DEMO_NAME  = $(firstword $(subst _, ,$(basename $(basename $(notdir $(VOLUME))))))
+# The demo renders the Disney cloud, which the repository holds (data/README.md: credit
+# and licence), under sun and sky with multiple scattering: build/cloud.png, .csv, .json
+# (for another volume NAME.png, NAME its file name up to the first '_').  VOLUME=FILE renders any volume picvr-render
+# reads instead, with its own defaults unless DEMO_ARGS says otherwise (for example
+# VOLUME=../shared/data/bonsai_256x256x256_uint8.raw.gz DEMO_ARGS="--tf ct-bonsai").
+DEMO_VOLUME := data/wdas_cloud_sixteenth_126x86x154_float32.raw.gz
+VOLUME    ?= $(DEMO_VOLUME)
+DEMO_SCENE := --spacing 3.33,3.33,3.33 --tf cloud --lights sun-sky --camera 35,-8,0.75
+DEMO_CLOUD := $(DEMO_SCENE) --size 384x256 --time 60000
+DEMO_ARGS ?= $(if $(filter $(DEMO_VOLUME),$(VOLUME)),$(DEMO_CLOUD),--size 512x512 --time 20000)
+DEMO_NAME ?= $(if $(filter $(DEMO_VOLUME),$(VOLUME)),cloud,$(firstword $(subst _, ,$(basename $(basename $(notdir $(VOLUME)))))))
 demo: demo-volume deps $(B)/picvr-render
-	$(B)/picvr-render --volume $(VOLUME) --tf $(DEMO_TF) \
-	  --lights studio --size 512x512 --time 20000 --out $(B)/$(DEMO_NAME).png \
+	$(B)/picvr-render --volume $(VOLUME) $(DEMO_ARGS) --out $(B)/$(DEMO_NAME).png \
 	  --log $(B)/$(DEMO_NAME).csv --json $(B)/$(DEMO_NAME).json
 	@echo "wrote $(B)/$(DEMO_NAME).png"
 demo-volume:
-	@[ -f "$(VOLUME)" ] || { echo "make demo: $(VOLUME) not found (by default the bonsai" \
-	  "CT from ../shared/data, see README 'Data'); set DATA=DIR or VOLUME=FILE"; exit 1; }
-
-bench-speed: deps $(B)/picvr-bench-speed
-	$(B)/picvr-bench-speed --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz
-
-bench-scheduler: deps $(B)/picvr-render
-	DATA=$(DATA) sh bench/scheduler.sh $(SECS)
-
-bench-long-run: deps $(B)/picvr-render
-	DATA=$(DATA) sh bench/long_run.sh $(SECS)
-
-bench-hit-rate: deps $(B)/picvr-render
-	DATA=$(DATA) sh bench/hit_rate.sh $(SECS)
-
-# Plain Monte Carlo before and after the distance sampling of camera rays, side by side
-# (docs/sampling.md): the thin medium at 256x256, the data sets at 128x128 (~25 min).
-bench-sampling: deps $(B)/picvr-bench-sampling
-	$(B)/picvr-bench-sampling --data $(DATA) --scenes thin --size 256x256 --time 90000 \
-	    --ref-time 320000 --out bench/results/sampling/thin
-	$(B)/picvr-bench-sampling --data $(DATA) --scenes bonsai,bonsai-paper4,engine,engine-paper1,cloud \
-	    --size 128x128 --time 30000 --ref-time 120000 --out bench/results/sampling/data
-
-# The path tracer: error against run time with 0, 1, 4 and unlimited bounces, each
-# against its own reference (docs/paths.md; ~25 min).
-# The engine's case: orbiting real-time frames of the cloud, temporal reuse off and on,
-# true error at three frames (docs/engines.md; ~6 min on lavapipe).
-bench-frames: deps $(B)/picvr-bench-sampling
-	$(B)/picvr-bench-sampling --data $(DATA) --scenes cloud-sky --size 320x180 --frames 30 --frame-ms 16 \
-	  --orbit 1 --checkpoints 3 --ref-time 90000 --ref-chunks 3 --out bench/results/frames
-
-bench-paths: deps $(B)/picvr-bench-sampling
-	$(B)/picvr-bench-sampling --data $(DATA) --scenes cloud-sky,bonsai --size 128x128 --time 30000 \
-	    --ref-time 120000 --bounces 0,1,4,unlimited --out bench/results/paths
+	@[ -e "$(VOLUME)" ] || { echo "make demo: $(VOLUME) not found; VOLUME=FILE names a volume"; exit 1; }
 
 clean:
 	rm -rf $(B)
 
-# ---- error against run time ---------------------------------------------------------
-# bench/error/ (main.c says what it measures); scenes in bench/scenes.txt; references
-# in bench/refs/ (committed: luminance only, compressed, a few MB); results (CSV,
-# Markdown, gnuplot scripts and PNGs) in bench/results/ for `make bench`,
-# bench/results/full/ for `make bench-full`, bench/results/best/ for `make bench-best` and
-# bench/results/auto/ for `make bench-auto`, bench/results/ms/ for `make bench-ms`.
-# Both resume: finished runs (bench/results/**/runs/) and reference chunks are reused.
-# Exit status 3: a reference was not converged enough and its scene was left out.
-.PHONY: bench bench-full bench-best bench-bias bench-auto bench-ms
-BENCH_NICE ?= nice -n 15
-BENCH_OUT ?= bench/results
-BENCH_ARGS ?= --datasets bonsai --lights paper1 --size 128x128 --time 10000 --slice 200 \
-              --repeats 3 --rotate 4000 --after 6000 --conditions plain,object,auto \
-              --ref-chunk 30000 --ref-factor 3 --ref-max-chunks 40
-# The reduced matrix of this machine: every dataset x the three light set-ups x
-# background off/on (24 scenes) at 320x180, plain against the object-space cache and the
-# automatic mode, 30 s, one seed; references of 4 chunks of 30 s, at least 1.5x below the
-# runs' error (their own variance is taken out of every error, so a reference that close
-# still gives an unbiased error): about 1.7 hours on 2 cores.
-BENCH_FULL_OUT ?= bench/results/full
-BENCH_FULL_ARGS ?= --size 320x180 --time 30000 --slice 500 --repeats 1 --rotate 8000 \
-              --after 22000 --fig10 bonsai --conditions plain,object,auto --ref-chunk 30000 --ref-factor 1.5 \
-              --ref-max-chunks 12 --bias none
-# The paper's best case on this machine: large intense lights with a background light
-# (bonsai, paper3-bg), 300 s per run at 320x180, plain, the object-space cache and the
-# automatic mode; the reference (16 chunks, 910 s; committed) is rendered before the
-# runs, so that it need not grow after them.  About 16 minutes with the committed
-# reference, 30 without.
-BENCH_BEST_OUT ?= bench/results/best
-BENCH_BEST_ARGS ?= --datasets bonsai --lights paper3-bg --size 320x180 --time 300000 \
-              --slice 2000 --repeats 1 --rotate 0 --conditions plain,object,auto --ref-chunk 60000 \
-              --ref-min-chunks 16 --ref-factor 1.5 --ref-max-chunks 40 --bias none
-
-# The automatic mode against plain over the reduced matrix with five seeds (the first is
-# bench-full's, its run files reused): the worst ratio is taken at the geometric mean of
-# the seeds' errors, so that one run's stall on this shared machine weighs a fifth in a
-# row's worst.  About 1.7 hours after bench-full.
-BENCH_AUTO_OUT ?= bench/results/auto
-BENCH_AUTO_ARGS ?= --size 320x180 --time 30000 --slice 500 --repeats 5 --rotate 0 \
-              --conditions plain,auto --ref-chunk 30000 --ref-factor 1.5 --ref-max-chunks 12 --bias none
-
-# The multiply scattered cache (bench/scenes_ms.txt: the cloud as its preset renders it,
-# albedo 0.99, g 0.8, unlimited bounces, sun and sky): plain path tracing against the
-# object-space cache looked up at a path's first scatter event (object) and at its second
-# (object-k2, cache.lookup_event 2), 60 s per run at 320x180, two seeds; bench/results/ms_cache.csv
-# sums it up (bench/ms_cache_csv.py).
-BENCH_MS_OUT ?= bench/results/ms
-BENCH_MS_ARGS ?= --scenes bench/scenes_ms.txt --size 320x180 --time 60000 --slice 1000 --repeats 2 \
-              --rotate 0 --conditions plain,object,object-k2 --ref-chunk 60000 --ref-factor 1.5 \
-              --ref-max-chunks 30 --bias cloud-ms,bonsai-ms,engine-ms
-
-# The library's sources as one checksum: the bench's run files carry it, so that a run
-# made with other library code is never reused (bench/error/runs.c, run_signature).
-BENCH_BUILD = $(shell cat $(LIB_SRC) shaders/*.glsl shaders/*.comp | cksum | cut -d' ' -f1)
-BENCH_ERROR_SRC := $(wildcard bench/error/*.c)
-$(B)/picvr-bench-error: $(BENCH_ERROR_SRC) bench/error/bench_error.h $(CLI_SRC) io/picvr_io.c picvr_io.h examples/presets.c examples/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Wno-format-truncation -Iexamples -DPICVR_IO_RAW_NRRD_ONLY -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ $(BENCH_ERROR_SRC) examples/cli.c io/picvr_io.c examples/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
-
-$(B)/picvr-bench-fig9: bench/bench_fig9.c $(CLI_SRC) shaders/cache_math.glsl reference/cache_math_host.h | $(B)/.deps
-	$(CC) $(CFLAGS) -Iexamples -o $@ bench/bench_fig9.c examples/cli.c -lm
-
-# gnuplot only for the benchmark plots, so `make test` does not need it.
-$(B)/.bench-deps: tools/install-deps.sh | $(B)/.deps
-	@sh tools/install-deps.sh gnuplot-nox
-	@touch $@
-
-# $(1): arguments, $(2): output folder.  Plots are drawn even when a scene was refused.
-define run_bench
-	$(B)/picvr-bench-error --self-test && mkdir -p $(2) && \
-	$(BENCH_NICE) $(B)/picvr-bench-fig9 --out $(2) && \
-	$(BENCH_NICE) $(B)/picvr-bench-error --data $(DATA) $(1) --out $(2); rc=$$?; \
-	for f in $(2)/*.gp; do [ -f "$$f" ] && (cd $(2) && gnuplot $$(basename $$f)); done; \
-	echo "results in $(2)"; exit $$rc
-endef
-
-bench: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
-	@$(call run_bench,$(BENCH_ARGS),$(BENCH_OUT))
-
-bench-full: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
-	@$(call run_bench,$(BENCH_FULL_ARGS),$(BENCH_FULL_OUT))
-
-bench-best: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
-	@$(call run_bench,$(BENCH_BEST_ARGS),$(BENCH_BEST_OUT))
-
-bench-ms: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
-	@$(call run_bench,$(BENCH_MS_ARGS),$(BENCH_MS_OUT))
-	python3 bench/ms_cache_csv.py $(BENCH_MS_OUT) > bench/results/ms_cache.csv
-
-bench-auto: deps $(B)/.bench-deps $(B)/picvr-bench-error $(B)/picvr-bench-fig9
-	@mkdir -p $(BENCH_AUTO_OUT)/runs && cp -u $(BENCH_FULL_OUT)/runs/*_plain_r0.csv $(BENCH_FULL_OUT)/runs/*_auto_r0.csv $(BENCH_AUTO_OUT)/runs/ 2>/dev/null; \
-	$(call run_bench,$(BENCH_AUTO_ARGS),$(BENCH_AUTO_OUT))
-
-# The bias of a full cache (issue 3): bonsai, paper1, 128x128; plain (the control) and
-# both lockings from an empty cache for 30 s, and both lockings after a 90 s warm-up at a
-# 0.85 creation share (--bias-warm), 3 seeds each; with the library's defaults (the
-# medium model on: bias.md/.csv in bench/results/cache/), the paper's Eq. 6, 7 literally
-# (bench/results/cache-paper/) and the curvature limit on the paper's model
-# (bench/results/cache-curvature/).  About 55 minutes on 2 cores (the reference is
-# shared with `make bench`).
-BENCH_BIAS_ARGS ?= --datasets bonsai --lights paper1 --size 128x128 --conditions plain \
-              --repeats 3 --time 10000 --slice 200 --rotate 0 --bias bonsai --bias-time 30000 \
-              --bias-warm 90000 --ref-chunk 120000 --ref-max-chunks 40
-bench-bias: deps $(B)/picvr-bench-error
-	mkdir -p bench/results/cache bench/results/cache-paper bench/results/cache-curvature
-	$(BENCH_NICE) $(B)/picvr-bench-error --data $(DATA) $(BENCH_BIAS_ARGS) --out bench/results/cache
-	$(BENCH_NICE) $(B)/picvr-bench-error --data $(DATA) $(BENCH_BIAS_ARGS) --medium off \
-	    --out bench/results/cache-paper
-	$(BENCH_NICE) $(B)/picvr-bench-error --data $(DATA) $(BENCH_BIAS_ARGS) --medium off \
-	    --curvature on --out bench/results/cache-curvature
+# The benchmarks (bench/bench.mk).
+include bench/bench.mk
 
 # ---- robustness (issue 6): sanitizers, valgrind, fuzzing, soak ---------------------------
 # Each target builds what it needs into its own directory and installs its own Debian
@@ -352,43 +222,58 @@ $(BA)/libpicvr_io.a: $(patsubst $(B)/%,$(BA)/%,$(IO_OBJ))
 	ar rcs $@ $^
 $(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
               tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a $(BA)/libpicvr_io.a $(TEST_CXX_OBJ)
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -Iexamples -o $@ $(TEST_SRC) tests/asan_keep_drivers.c $(TEST_CXX_OBJ) \
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -o $@ $(TEST_SRC) tests/asan_keep_drivers.c $(TEST_CXX_OBJ) \
 	  $(BA)/libpicvr_io.a $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl $(IO_LIBS)
-$(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h examples/presets.h examples/env_io.h \
+$(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h cli/presets.h cli/env_io.h \
               tests/asan_keep_drivers.c $(BA)/libpicvr.a $(BA)/libpicvr_io.a $(B)/exr_write.o
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) -o $@ $(RENDER_SRC) tests/asan_keep_drivers.c $(B)/exr_write.o $(BA)/libpicvr_io.a \
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -Icli -o $@ $(RENDER_SRC) tests/asan_keep_drivers.c $(B)/exr_write.o $(BA)/libpicvr_io.a \
 	  $(BA)/libpicvr.a $(LDLIBS) -lstb -ldl $(EXR_LIBS) $(IO_LIBS)
 
-# The whole suite under ASan + UBSan (host code: the library, the tests, the reference),
-# with the validation layer on, then one picvr-render run (loader + CLI).  The 1e6-sample
-# precision run (test_sweep_long_run_precision_1e6) takes 2e5 here: instrumented, its
-# million passes of a 1x1 image (three dispatches each) would take several times as long
-# as the rest of the run; `make test` runs the full 1e6.
+# ASan + UBSan on the host code that takes outside input or owns memory: the API and its
+# hostile-input table, the readers, the engine path (step_begin/end, write_image), odd
+# volume and image shapes, cache allocation and variants, with the validation layer on;
+# then picvr-render on the repository's cloud and, where Debian's mricron-data put it,
+# a NIfTI MRI with a clip plane (loader + CLI).  The long statistical tests (million-sample
+# runs, convergence curves, closed-form comparisons) run once, in `make test`: the
+# sanitizers check host code, and those tests spend their time on the device.
+ASAN_TESTS := test_status_strings*,test_device_type_reported,test_create_destroy_errors,test_step_before_volume*,\
+  test_bad_inputs_*,test_calls_in_wrong_order,test_create_config_errors,test_get_config_resolves_defaults,\
+  test_empty_volume*,test_no_light_black*,test_camera_looking_away*,test_rgba8_tone*,\
+  test_frames_leave_no_hole,test_frames_turned_on_later,test_step_begin_end,test_write_image_*,test_reuse_moves_the_image,\
+  test_reuse_extreme_moves,test_voxel_types_*,test_nifti_*,test_dicom_*,test_vdb_*,test_nrrd_*,test_volume_io_*,\
+  test_real_data_*,test_same_seed_bit_identical*,test_bad_placement_and_clip,test_cache_math_*,\
+  test_cache_off_by_default*,test_cache_variants_switch_and_replace,test_pipelines_made_for_the_scene,\
+  test_cache_moments_only_with_bounces,test_cache_pool_full_is_reported_and_safe,test_cache_invalidation_and_camera*,\
+  test_sweep_volume_shapes_and_spacing,test_sweep_float32_huge_range*,test_sweep_cameras_and_image_sizes,\
+  test_sweep_transfer_function_step*,test_sweep_clip_and_placement,test_sweep_lights_inside*
+MRI := /usr/share/mricron/templates/ch2.nii.gz
 test-asan: deps-robust $(BA)/picvr-tests $(BA)/picvr-render
-	cd $(BA) && $(ASAN_ENV) PICVR_VALIDATION=1 PICVR_LONG_RUN=200000 PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
-	$(ASAN_ENV) PICVR_VALIDATION=1 $(BA)/picvr-render --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz \
-	  --tf ct-bonsai --lights studio --size 64x64 --time 1000 --out $(BA)/bonsai.png --json $(BA)/bonsai.json
+	cd $(BA) && $(ASAN_ENV) PICVR_VALIDATION=1 PICVR_TEST_FILTER='$(ASAN_TESTS)' PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
+	$(ASAN_ENV) PICVR_VALIDATION=1 $(BA)/picvr-render --volume $(DEMO_VOLUME) $(DEMO_SCENE) \
+	  --size 48x32 --time 1000 --out $(BA)/cloud.png --json $(BA)/cloud.json
+	[ ! -f $(MRI) ] || $(ASAN_ENV) PICVR_VALIDATION=1 $(BA)/picvr-render --volume $(MRI) --clip-plane -1,0,0,0 \
+	  --size 48x48 --time 1000 --out $(BA)/mri.png --json $(BA)/mri.json
 
-# One picvr-render run under valgrind memcheck: zero errors from our code.  Driver
+# One picvr-render run (the repository's cloud, paths) under valgrind memcheck: zero
+# errors from our code.  Driver
 # (lavapipe/LLVM/loader) frames are suppressed in tests/valgrind.supp (documented there).
 valgrind: deps-robust $(B)/picvr-render
 	valgrind --tool=memcheck --error-exitcode=9 --smc-check=all-non-file --keep-debuginfo=yes --leak-check=full --errors-for-leak-kinds=definite \
 	  --show-leak-kinds=definite --track-origins=yes --suppressions=$(VG_SUPP) --num-callers=30 \
-	  $(B)/picvr-render --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz --tf ct-bonsai \
-	  --lights studio --size 32x32 --time 500 --out $(B)/valgrind.png
+	  $(B)/picvr-render --volume $(DEMO_VOLUME) $(DEMO_SCENE) --size 32x32 --time 500 --out $(B)/valgrind.png
 
 # libFuzzer on the file readers, FUZZ_TIME seconds each from the committed seed corpora
 # (new inputs go to $(BF)/corpus and $(BF)/corpus_env, crashes to $(BF)/): the loaders
-# of io/picvr_io.c, and the Radiance .hdr loader of examples/env_io.c with
+# of io/picvr_io.c, and the Radiance .hdr loader of cli/env_io.c with
 # stb_image's decoder compiled into the harness, instrumented (-timeout: a hang fails).
 $(BF)/fuzz_volume_io: tests/fuzz/fuzz_volume_io.c io/picvr_io.c picvr_io.h | $(B)/.deps-robust
 	@mkdir -p $(BF)
-	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Icli -fsanitize=fuzzer,address,undefined \
 	  -fno-sanitize-recover=undefined -DPICVR_IO_RAW_NRRD_ONLY -o $@ tests/fuzz/fuzz_volume_io.c io/picvr_io.c -lz
-$(BF)/fuzz_env_io: tests/fuzz/fuzz_env_io.c examples/env_io.c examples/env_io.h | $(B)/.deps-robust
+$(BF)/fuzz_env_io: tests/fuzz/fuzz_env_io.c cli/env_io.c cli/env_io.h | $(B)/.deps-robust
 	@mkdir -p $(BF)
-	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
-	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_env_io.c examples/env_io.c -lm
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Icli -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_env_io.c cli/env_io.c -lm
 $(BF)/fuzz_nifti: tests/fuzz/fuzz_nifti.c io/nifti.c io/picvr_io.c $(IO_HDR) | $(B)/.deps-robust
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. $(IO_CFLAGS) -fsanitize=fuzzer,address,undefined \
@@ -410,26 +295,27 @@ $(BF)/fuzz_dicom: tests/fuzz/fuzz_dicom.cpp io/dicom.cpp io/picvr_io.c $(IO_HDR)
 	clang++ -g -O1 -std=c++17 -I. -isystem /usr/include/gdcm-3.0 '-DPICVR_IO_DICOM_MAX_BYTES=((uint64_t)256<<20)' \
 	  -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_dicom.cpp io/dicom.cpp $(BF)/picvr_io_dicom.o \
 	  -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
-# picvr-render's transfer-function files (examples/presets.c, pvp_tf_load).
-$(BF)/fuzz_tf_file: tests/fuzz/fuzz_tf_file.c examples/presets.c examples/presets.h | $(B)/.deps-robust
+# picvr-render's transfer-function files (cli/presets.c, pvp_tf_load).
+$(BF)/fuzz_tf_file: tests/fuzz/fuzz_tf_file.c cli/presets.c cli/presets.h | $(B)/.deps-robust
 	@mkdir -p $(BF)
-	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Iexamples -fsanitize=fuzzer,address,undefined \
-	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_tf_file.c examples/presets.c -lm
-fuzz: deps-robust $(BF)/fuzz_volume_io $(BF)/fuzz_env_io $(BF)/fuzz_nifti $(BF)/fuzz_vdb $(BF)/fuzz_dicom $(BF)/fuzz_tf_file
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Icli -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_tf_file.c cli/presets.c -lm
+# Two harnesses at a time (libFuzzer runs on one core; this machine kind has two), each
+# run's output kept together (-Otarget).
+FUZZERS := volume_io env_io nifti vdb dicom tf_file
+.PHONY: $(FUZZERS:%=fuzz-run-%)
+fuzz: deps-robust $(FUZZERS:%=$(BF)/fuzz_%)
+	@$(MAKE) --no-print-directory -j2 -Otarget $(FUZZERS:%=fuzz-run-%)
+fuzz-run-volume_io: FZ = -max_len=8192 -dict=$(abspath tests/fuzz/volume_io.dict) corpus $(abspath tests/fuzz/corpus)
+fuzz-run-env_io: FZ = -max_len=8192 -dict=$(abspath tests/fuzz/env_io.dict) corpus_env $(abspath tests/fuzz/corpus_env)
+fuzz-run-nifti: FZ = -max_len=8192 corpus_nifti $(abspath tests/fuzz/corpus_nifti)
+fuzz-run-vdb: FZ = -max_len=32768 corpus_vdb $(abspath tests/fuzz/corpus_vdb)
+fuzz-run-dicom: FZ = -max_len=16384 corpus_dicom $(abspath tests/fuzz/corpus_dicom)
+fuzz-run-dicom: FZ_ENV = LSAN_OPTIONS=suppressions=$(abspath tests/lsan.supp)
+fuzz-run-tf_file: FZ = -max_len=4096 corpus_tf $(abspath tests/fuzz/corpus_tf)
+$(FUZZERS:%=fuzz-run-%): fuzz-run-%: $(BF)/fuzz_%
 	@mkdir -p $(BF)/corpus $(BF)/corpus_env $(BF)/corpus_nifti $(BF)/corpus_vdb $(BF)/corpus_dicom $(BF)/corpus_tf
-	cd $(BF) && ./fuzz_volume_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
-	  -max_len=8192 -print_final_stats=1 -dict=$(abspath tests/fuzz/volume_io.dict) corpus $(abspath tests/fuzz/corpus)
-	cd $(BF) && ./fuzz_env_io -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
-	  -max_len=8192 -print_final_stats=1 -dict=$(abspath tests/fuzz/env_io.dict) \
-	  corpus_env $(abspath tests/fuzz/corpus_env)
-	cd $(BF) && ./fuzz_nifti -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
-	  -max_len=8192 -print_final_stats=1 corpus_nifti $(abspath tests/fuzz/corpus_nifti)
-	cd $(BF) && ./fuzz_vdb -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
-	  -max_len=32768 -print_final_stats=1 corpus_vdb $(abspath tests/fuzz/corpus_vdb)
-	cd $(BF) && LSAN_OPTIONS=suppressions=$(abspath tests/lsan.supp) ./fuzz_dicom -max_total_time=$(FUZZ_TIME) \
-	  -rss_limit_mb=2048 -timeout=10 -max_len=16384 -print_final_stats=1 corpus_dicom $(abspath tests/fuzz/corpus_dicom)
-	cd $(BF) && ./fuzz_tf_file -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
-	  -max_len=4096 -print_final_stats=1 corpus_tf $(abspath tests/fuzz/corpus_tf)
+	cd $(BF) && $(FZ_ENV) ./fuzz_$* -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 $(FZ)
 
 # SOAK_SECONDS of picvr_step with random camera, TF and light changes and image reads;
 # fails unless host RSS and live device memory are flat (tolerances in tests/soak.c).

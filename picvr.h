@@ -206,14 +206,10 @@ typedef enum picvr_cache_mode {
     PICVR_CACHE_NONE,              /* plain Monte Carlo, the baseline */
     PICVR_CACHE_OBJECT_SPACE,      /* cache, object-space locking (§5.1) */
     PICVR_CACHE_SCREEN_SPACE,      /* cache, screen-space locking (§5.2) */
-    PICVR_CACHE_AUTO               /* cache (object-space locking, cache.blend required)
-                                      where it pays: the scheduler measures, per unit of
-                                      device time, the error reduction of rounds with the
-                                      cache and of plain rounds (stats.auto_efficiency)
-                                      and runs the better kind, giving 1/16 of the recent
-                                      time to the other to keep both measured; the blend routes
-                                      pixels where the cache is biased to plain shading.
-                                      docs/cache.md, "The automatic mode" */
+    PICVR_CACHE_AUTO               /* object-space cache in the rounds where the scheduler
+                                      measures that it pays (stats.auto_efficiency), plain
+                                      rounds elsewhere; needs cache.blend on (docs/cache.md,
+                                      "The automatic mode") */
 } picvr_cache_mode;
 
 /* An on/off field of a config struct whose zero value means its documented default. */
@@ -227,87 +223,51 @@ typedef struct picvr_cache_config {
     float gamma;               /* Eq. 5 estimation accuracy; 0: 0.1 */
     float epsilon;             /* Eq. 10 validity radius threshold; 0: 0.1 */
     float delta_voxels;        /* position offset Delta in voxels (of the smallest
-                                  spacing); 0: 2.  The zones of a full cache are about
-                                  Delta wide, so Delta sets its error floor
-                                  (docs/cache.md, "A full cache's error floor") */
-    float radius_min_voxels;   /* 0: 0.01 */
-    float radius_max_voxels;   /* 0: 16.  Where the medium is denser than 2 / delta_voxels
-                                  extinction per voxel, an entry's offset is two mean free
-                                  paths and both radius bounds shrink in proportion */
+                                  spacing); 0: 2.  It sets a full cache's error floor
+                                  (docs/cache.md) */
+    float radius_min_voxels;   /* least validity radius, in voxels; 0: 0.01 */
+    float radius_max_voxels;   /* largest validity radius, in voxels; 0: 16.  Both bounds
+                                  and Delta shrink in dense media (docs/cache.md) */
     uint32_t max_samples;      /* Eq. 5's cap: MIS samples per point at most, rounded up to
-                                  a multiple of 128 (one round of the creation workgroup);
-                                  0: 768.  At most PICVR_CACHE_MAX_SAMPLES, and
-                                  PICVR_CACHE_MAX_SAMPLES_CPU on a CPU device (the loop
-                                  bound of llvmpipe); PICVR_ERROR_INVALID_ARGUMENT beyond.
-                                  Entries stored at the cap are counted in
-                                  stats.cache_entries_capped.  A lower cap creates entries
-                                  faster but noisier */
+                                  a multiple of 128; 0: 768.  At most
+                                  PICVR_CACHE_MAX_SAMPLES (PICVR_CACHE_MAX_SAMPLES_CPU on a
+                                  CPU device); PICVR_ERROR_INVALID_ARGUMENT beyond */
     float update_threshold;    /* §4.3: predictions conflict when they differ by more than
                                   this relative amount; 0: 0.1 */
     float rebuild_interval_ms; /* octree rebuild period (§4.4); 0: 1000 */
     uint32_t superpixel_size;  /* screen-space locking: side of a square superpixel in
                                   pixels; 0: 32 */
-    uint32_t max_entries;      /* entry pool; 0: 65536 (144 bytes each, 160 with
-                                  bounces).  Large images on a fast GPU fill it:
-                                  stats.cache_full says so */
-    uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries */
+    uint32_t max_entries;      /* entry pool; 0: 65536.  stats.cache_full says when a
+                                  pool is full (sizes: docs/cache.md) */
+    uint32_t max_nodes;        /* octree node pool; 0: 8 * max_entries, at least 8192 */
     uint32_t max_refs;         /* reference pool; 0: 16 * max_entries */
-    uint32_t max_requests;     /* creation requests in flight at most (the request queue;
-                                  Table 1: 1000); 0: 1000.  picvr_step queues per round what
-                                  the next round's creation share can take;
-                                  picvr_step_iterations one request per 4096 pixels per
-                                  pass unless max_requests is set */
+    uint32_t max_requests;     /* creation requests in flight at most (the request queue);
+                                  0: 1000, Table 1's (what a round queues: docs/cache.md) */
     picvr_switch curvature_limit; /* ON: also shrink an entry's radii where its seven
                                   points show that the field is not exponential across
-                                  Delta (lit faces, shadow edges; cache_math.glsl,
-                                  curvature_radius): less bias, a far lower hit rate.
-                                  Default OFF: Eq. 9, 10 alone, as in the paper */
-    picvr_switch medium_model; /* ON (default): along an entry's normal axis, where the
-                                  offset point lies beyond the medium's face, Eq. 6's change
-                                  is placed over the part of Delta inside the medium (the
-                                  light is attenuated there only) and the field is flat
-                                  beyond (8 probes along the offset count the part in the
-                                  medium: cache_math.glsl, medium_fraction).  Entries whose
-                                  axis stays in the medium are unchanged.  OFF: the paper's
-                                  Eq. 6, 7 literally, whose one-sided secant undershoots at
-                                  every lit face (a full cache then darkens lit faces;
-                                  tests/test_cache.c, test_cache_full_dense_lit_face) */
-    uint32_t max_lookup_refs;  /* the references one octree walk (a lookup of rendering or
-                                  of the update procedure) visits at most; those beyond
-                                  are ignored and the walk counted in
-                                  stats.cache_lookups_cut.  0: PICVR_CACHE_MAX_LOOKUP_REFS,
-                                  also the largest allowed (llvmpipe's loop bound;
-                                  PICVR_ERROR_INVALID_ARGUMENT beyond).  A lower bound caps
-                                  a lookup's cost where lists grow long, at the price of
-                                  the entries it ignores */
-    picvr_switch blend;        /* ON (default): the cached image converges to the unbiased
-                                  one.  At a cache hit a plain estimate P of the same event
-                                  is drawn with probability q and the sample is
-                                  C + (w/q)(P - C), C the cached shading; each pixel
-                                  estimates the cache's bias b there and the variance of
-                                  that estimate V from these probes, and w = max(0, 1 -
-                                  V/b^2) (the weight of least mean squared error), q =
-                                  max(w, probe_fraction).  The estimator is consistent:
-                                  its bias at sample n is the mean of (1 - w_i) b, which
-                                  goes to 0 as V does (early the cache's low noise
-                                  dominates, later the unbiased part; derivation in
-                                  shaders/cache_blend.glsl, measurements in
-                                  docs/cache.md).  OFF: the paper's estimator, C alone,
-                                  whose bias stays */
+                                  Delta: less bias, a far lower hit rate.  Default OFF:
+                                  Eq. 9, 10 alone, as in the paper (docs/cache.md) */
+    picvr_switch medium_model; /* ON (default): where an entry's offset point lies beyond
+                                  the medium's face, Eq. 6's change is placed over the
+                                  part of Delta inside the medium.  OFF: the paper's Eq. 6,
+                                  7 literally, which darken lit faces (docs/cache.md) */
+    uint32_t max_lookup_refs;  /* references one octree walk (rendering's or the update's)
+                                  visits at most; those beyond are ignored, the walk
+                                  counted in stats.cache_lookups_cut.  0:
+                                  PICVR_CACHE_MAX_LOOKUP_REFS, also the largest allowed
+                                  (PICVR_ERROR_INVALID_ARGUMENT beyond; docs/cache.md) */
+    picvr_switch blend;        /* ON (default): a fraction of the hits is also shaded
+                                  plainly and blended in, so that the cached image
+                                  converges to the unbiased one.  OFF: the paper's
+                                  estimator, the cached shading alone, whose bias stays
+                                  (docs/cache.md) */
     float probe_fraction;      /* with blend: the least probability of a probe at a hit;
-                                  0: 0.125; (0, 1].  Higher finds the bias sooner and
-                                  costs more shadow rays */
-    uint32_t lookup_event;     /* the multiply scattered cache (max_bounces unlimited): the
-                                  scatter event k of a camera path at which the cache is
-                                  looked up; 0: 1, the first.  With k > 1 a path is traced
-                                  plainly to its k-th event, every event with its direct
-                                  light, and takes the cache there: a pixel's samples then
-                                  meet many entries, which averages their errors, at the
-                                  cost of k - 1 more events per sample.  At most
-                                  PICVR_CACHE_MAX_LOOKUP_EVENT
-                                  (PICVR_ERROR_INVALID_ARGUMENT beyond).  With a bounce
-                                  limit or single scattering the lookup is at the first
-                                  event; the debug views show the first event's lookup */
+                                  0: 0.125; (0, 1] */
+    uint32_t lookup_event;     /* the scatter event k of a camera path at which the multiply
+                                  scattered cache is looked up (unlimited bounces only;
+                                  else the first); 0: 1, the first.  At most
+                                  PICVR_CACHE_MAX_LOOKUP_EVENT (PICVR_ERROR_INVALID_ARGUMENT
+                                  beyond; docs/cache.md) */
     picvr_cache_mode mode;     /* DEFAULT: NONE */
 } picvr_cache_config;
 
@@ -322,31 +282,15 @@ typedef struct picvr_scheduler_config {
     float rounds_per_second;   /* scheduling rounds (one submission each); 0: 20 */
     float hit_rate_window_ms;  /* the hit rate h is measured over this window; 0: 100 */
     picvr_switch priorities;   /* Eq. 12 per-block rendering priorities; default ON */
-    picvr_switch frames;       /* ON: real-time frames, for engines.  After a reset (a
-                                  camera, scene or view change) a step renders blocks in
-                                  round-robin order until every pixel holds a sample, and
-                                  returns no earlier: no image read or written after a
-                                  step has a pixel without one (stats.pixels_unsampled is
-                                  0).  Such a step lasts max(budget, the rest of that
-                                  pass).  Priorities apply once the pass is complete.
-                                  DEFAULT: OFF (a step keeps its budget; with priorities
-                                  on, some blocks are sampled first) */
-    picvr_switch temporal_reuse; /* ON: a camera move (picvr_set_camera, same image size)
-                                  keeps the accumulation, reprojected into the new view,
-                                  instead of discarding it: every pixel's samples move to
-                                  where the mean depth of its scatter events (the
-                                  direction alone where its rays met no medium) lands in
-                                  the new image; the nearest wins where several land on one
-                                  pixel; pixels nothing lands on (disoccluded, newly in
-                                  view) start empty.  A moved pixel keeps at most
-                                  reuse_history samples' weight, so that the view-dependent
-                                  error of old samples fades as new ones come: after a
-                                  move the image is biased, by at most h / (h + N) of
-                                  the moved samples' error after N new samples (it
-                                  converges); a camera that never moved, not at all.
-                                  Costs 8 bytes per pixel (a depth plane), and 64 more
-                                  from the first move on (the previous view's planes, a
-                                  landing buffer); OFF allocates none.  DEFAULT: OFF */
+    picvr_switch frames;       /* ON: after a reset a step returns only once every pixel
+                                  holds a sample (stats.pixels_unsampled 0), lasting
+                                  max(budget, the rest of that pass).  DEFAULT: OFF, a step
+                                  keeps its budget (docs/engines.md) */
+    picvr_switch temporal_reuse; /* ON: a camera move (same image size) reprojects the
+                                  accumulation into the new view instead of discarding
+                                  it (biased after a move, by a share that fades as new
+                                  samples come).  DEFAULT: OFF, which allocates nothing
+                                  for it (docs/engines.md) */
     uint32_t reuse_history;    /* the most samples a reprojected pixel keeps; 0: 16;
                                   at most 1 << 20 */
 } picvr_scheduler_config;
@@ -373,39 +317,28 @@ typedef struct picvr_vulkan {
    event).  Both are unbiased; docs/sampling.md measures them. */
 typedef enum picvr_distance_sampling {
     PICVR_DISTANCE_DEFAULT = 0,    /* PICVR_DISTANCE_MIS */
-    PICVR_DISTANCE_MIS,            /* delta tracking and equiangular sampling toward the
-                                      point, sphere and rect lights whose 1/d^2 falls off
-                                      steeply across the volume (Kulla and Fajardo 2012),
-                                      combined by multiple importance sampling: every ray
-                                      through the volume gathers light; without such
-                                      lights, delta tracking alone.
-                                      The pixel's jitter and the equiangular distance
-                                      follow a randomly shifted low-discrepancy sequence
-                                      per pixel */
-    PICVR_DISTANCE_FREE_FLIGHT     /* delta tracking alone and independent random numbers
-                                      (Exposure Render, the paper's baseline): a ray that
-                                      passes gathers nothing */
+    PICVR_DISTANCE_MIS,            /* delta tracking, and equiangular sampling toward the
+                                      point, sphere and rect lights that fall off steeply
+                                      across the volume, combined by MIS: every ray through
+                                      the medium gathers light; low-discrepancy jitter */
+    PICVR_DISTANCE_FREE_FLIGHT     /* delta tracking alone, independent random numbers
+                                      (the paper's baseline) */
 } picvr_distance_sampling;
 /* How transmittance (shadow rays, and the camera ray with PICVR_DISTANCE_MIS) is
    estimated; both are unbiased. */
 typedef enum picvr_transmittance_estimator {
     PICVR_TRANSMITTANCE_DEFAULT = 0, /* PICVR_TRANSMITTANCE_RESIDUAL */
-    PICVR_TRANSMITTANCE_RESIDUAL,  /* residual ratio tracking (Novak et al. 2014) with each
-                                      brick's least extinction as the control: exact in
-                                      homogeneous bricks, fewer and lighter collisions;
-                                      ratio tracking where few bricks have a control */
+    PICVR_TRANSMITTANCE_RESIDUAL,  /* residual ratio tracking (Novak et al. 2014), each
+                                      brick's least extinction as the control */
     PICVR_TRANSMITTANCE_RATIO      /* ratio tracking against the majorant (the paper's) */
 } picvr_transmittance_estimator;
 typedef struct picvr_config {
     const char *device_name;  /* substring of the device name; NULL: PICVR_DEVICE or auto */
     picvr_switch validation;  /* the Khronos validation layer with synchronization
                                  validation.  DEFAULT: on when PICVR_VALIDATION=1;
-                                 ON: on unless PICVR_VALIDATION=0; OFF: off.  Messages go
-                                 to the log at PICVR_LOG_ERROR and are counted in
-                                 stats.validation_messages.  With the application's
-                                 device (config.vulkan) the layer is the application's
-                                 to enable: this field is then ignored (OFF) and its
-                                 own messenger sees picvr's calls */
+                                 ON: on unless PICVR_VALIDATION=0; OFF: off.  Messages:
+                                 the log at PICVR_LOG_ERROR, stats.validation_messages.
+                                 Ignored (OFF) with config.vulkan (docs/engines.md) */
     uint32_t seed;            /* random seed (0 is a valid seed) */
     picvr_log_fn log;         /* NULL: messages go to stderr */
     void *log_user;
@@ -422,10 +355,10 @@ typedef struct picvr_context picvr_context;
 
 /* Creates a context on the chosen device.  cfg may be NULL (all defaults).
    On failure *out is NULL and nothing leaks.  PICVR_ERROR_NO_DEVICE: no Vulkan driver
-   loaded or no device qualifies (the log says which).  Without cfg->vk_device each
-   context has its own VkInstance; NVIDIA's driver uses up its static TLS after about 30
-   loads in one process, so an application that creates many contexts in turn keeps one
-   VkInstance of its own alive meanwhile (or passes its device). */
+   loaded or no device qualifies (the log says which).  Without cfg->vulkan each context
+   has its own VkInstance: an application that creates many contexts in turn keeps one
+   VkInstance of its own alive meanwhile, or passes its device (NVIDIA's driver runs out
+   of static TLS otherwise: docs/gpu.md). */
 picvr_status picvr_create(const picvr_config *cfg, picvr_context **out);
 
 /* Waits for the device, frees everything.  NULL is allowed. */
@@ -461,20 +394,16 @@ typedef struct picvr_volume_desc {
     float spacing[3];         /* world size of a voxel; 0 means 1; must be finite and > 0 */
     const void *data;         /* dims[0]*dims[1]*dims[2] voxels, x fastest; copied */
     float value_min, value_max; /* data values that map to 0 and 1 for the transfer
-                                 function.  Both 0: 0..255 for uint8, 0..65535 for uint16,
-                                 -128..127 for int8, -32768..32767 for int16, the data's
-                                 own min..max for int32, float16, float32 and float64.
-                                 (Use 0..4095 for 12-bit data stored in uint16, or a
-                                 Hounsfield window such as -1000..2000 for CT in int16.)
-                                 Values outside clamp. */
-    float direction[9];       /* world unit vectors of the voxel x, y and z axes, three
-                                 floats each (direction[3a + c]: component c of axis a).
-                                 All 0: the identity.  Otherwise orthonormal within 1e-3
-                                 (a rotation, or a reflection such as a scan's LPS axes):
-                                 PICVR_ERROR_INVALID_ARGUMENT for a singular or sheared
-                                 matrix (resample a gantry-tilted scan first),
-                                 PICVR_ERROR_NON_FINITE for NaN or infinity here or in
-                                 origin */
+                                 function; values outside clamp.  Both 0: 0..255 for uint8,
+                                 0..65535 for uint16, -128..127 for int8, -32768..32767 for
+                                 int16, the data's own min..max for int32, float16, float32
+                                 and float64 (examples: docs/api.md) */
+    float direction[9];       /* world unit vectors of the voxel x, y and z axes
+                                 (direction[3a + c]: component c of axis a).  All 0: the
+                                 identity.  Else orthonormal within 1e-3 (a rotation or a
+                                 reflection): PICVR_ERROR_INVALID_ARGUMENT if singular or
+                                 sheared (docs/api.md), PICVR_ERROR_NON_FINITE for NaN or
+                                 infinity here or in origin */
     int has_origin;           /* 0: the box is centred at the world origin (origin is
                                  ignored); 1: voxel (0,0,0)'s centre is at origin */
     float origin[3];          /* world position of voxel (0,0,0)'s centre; finite */
@@ -498,10 +427,8 @@ typedef struct picvr_tf_point {
     float albedo[3];  /* single-scattering albedo per channel, in [0,1] */
     float opacity;    /* extinction before the density factor, >= 0 (usually <= 1) */
     float g;          /* Henyey-Greenstein asymmetry of the phase function, in (-1, 1):
-                         0 isotropic (the default), > 0 forward scattering (clouds: about
-                         0.8), < 0 backward; interpolated like albedo.  With
-                         picvr_scattering's second lobe the phase function at x is
-                         (1 - back_weight) HG(g(x)) + back_weight HG(back_g) */
+                         0 isotropic (the default), > 0 forward, < 0 backward scattering;
+                         interpolated like albedo (a second lobe: picvr_scattering) */
 } picvr_tf_point;
 
 /* Piecewise-linear transfer function over the normalized data value; constant
@@ -594,34 +521,28 @@ typedef struct picvr_scattering {
     uint32_t max_bounces;    /* scatter events a camera path may have after its first: 0
                                 single scattering (the paper's); n: paths of up to n + 1
                                 scatter events; PICVR_BOUNCES_UNLIMITED: no limit but
-                                Russian roulette (unbiased).  Clouds need tens */
+                                Russian roulette (unbiased; docs/paths.md) */
     float back_g;            /* the second Henyey-Greenstein lobe's g, in (-1, 1) */
-    float back_weight;       /* its weight in [0, 1); 0: one lobe (picvr_tf_point.g) */
+    float back_weight;       /* its weight w in [0, 1); 0: one lobe (picvr_tf_point.g).
+                                The phase function: (1 - w) HG(g(x)) + w HG(back_g) */
 } picvr_scattering;
 
 /* Sets the scattering model (NULL: the defaults).  On error nothing changes.  Resets
    accumulation.  Paths: next-event estimation (one light or the background, chosen by
-   power, MIS with phase sampling) at every scatter event; the phase-sampled direction
-   continues the path by delta tracking; before it goes on from its second (or a later)
-   scatter event, Russian roulette ends it with probability 1 - min(1, max channel of
-   its throughput) (what a survivor gathers later is divided by the survival
-   probability: unbiased).  A path is bounded
-   by llvmpipe's loop limit: past PICVR_PATH_STEPS tracking steps in all it ends (biased,
-   counted in stats.truncated_paths).  The irradiance cache, when on: with
-   max_bounces = 0 it holds the single-scattered light and serves an isotropic phase
-   function only (with any g != 0 or a second lobe the cache idles and picvr_step renders
-   by plain Monte Carlo); with max_bounces > 0 it holds the multiply scattered light (the
-   fluence of light that scattered at least once before reaching a point): at a camera
-   path's first scatter event (or its cache.lookup_event-th) a hit adds the event's
-   direct light by next-event estimation and
-   the cached part, weighted by the phase function to first order in direction (each
-   entry also holds the fluence's first moment; docs/cache.md), and the path ends there;
-   a miss traces the path.
-   Entries are estimated by path tracing, and with unlimited bounces their paths end at
-   the cache's earlier entries.  On a CPU device such an entry takes at most 128 samples
-   per point at creation (stats.cache_max_samples); then part of creation's share of the
-   time refines existing entries (128 more samples per point each time), so the cache's
-   error keeps falling as the image renders. */
+   power, MIS with phase sampling) at every scatter event, the phase-sampled direction
+   continuing the path, Russian roulette from the second event on (unbiased;
+   docs/paths.md).  A path is bounded by llvmpipe's loop limit: past PICVR_PATH_STEPS
+   tracking steps in all it ends (biased, counted in stats.truncated_paths).  The
+   irradiance cache, when on: with max_bounces = 0 it holds the single-scattered light
+   for an isotropic phase function only (with any g != 0 or a second lobe the cache
+   idles and picvr_step renders by plain Monte Carlo); with max_bounces > 0 it holds the
+   multiply scattered light (the fluence of light that scattered at least once before
+   reaching a point): at a camera path's first scatter event (or its
+   cache.lookup_event-th) a hit adds the event's direct light and the cached part,
+   weighted by the phase function to first order in direction, and the path ends there;
+   a miss traces the path.  Entries are estimated by path tracing and refined while the
+   image renders; on a CPU device an entry takes at most 128 samples per point at
+   creation (stats.cache_max_samples; docs/cache.md, "The multiply scattered cache"). */
 picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *scattering);
 #define PICVR_PATH_STEPS 49152u
 
@@ -669,7 +590,7 @@ picvr_status picvr_step_end(picvr_context *ctx, uint64_t timeout_ns);
    and view need, which the next picvr_step would otherwise make first: call it while a
    scene loads to keep that pause out of interaction.  Needs a volume; renders nothing.
    (A driver may still compile machine code at a pipeline's first dispatch, as lavapipe
-   does; this cannot move that.) */
+   does: docs/lavapipe.md; this cannot move that.) */
 picvr_status picvr_prepare(picvr_context *ctx);
 
 /* Renders exactly `iterations` samples per pixel, whole passes over the image
@@ -687,12 +608,9 @@ typedef enum picvr_debug_view {
                                   cache on (PICVR_ERROR_NOT_READY otherwise) */
     PICVR_VIEW_CACHE_ERROR = 2 /* how wrong the cache is where it is used: at every
                                   scatter event the cache serves, R = the luminance it
-                                  shades with, G = the luminance of a plain Monte-Carlo
-                                  estimate at the same point (one more light and phase
-                                  sample), B = 1; elsewhere 0.  Over any region,
-                                  sum R / sum G - 1 is the cache's relative error per hit
-                                  there (G is unbiased) and mean B the fraction served.
-                                  Read it with picvr_read_rgba32f; needs the cache on */
+                                  shades with, G = a plain Monte-Carlo estimate's at the
+                                  same point, B = 1; elsewhere 0 (docs/cache.md).  Read
+                                  it with picvr_read_rgba32f; needs the cache on */
 } picvr_debug_view;
 
 /* Replaces the scheduler's settings (NULL: all defaults), validated as in
@@ -800,48 +718,38 @@ typedef struct picvr_stats {
     uint64_t truncated_paths;    /* samples whose tracking loop hit its iteration bound
                                     (biased; should stay 0 outside extreme media) */
     double mean_path_length;     /* scatter events per camera sample (those that miss
-                                    the medium count 0) since the last reset.  With
-                                    priorities on, picvr_step gives more samples to the
-                                    pixels whose error falls fastest, so the mean is
-                                    over those samples, not over the pixels alike */
+                                    the medium count 0) since the last reset, over the
+                                    samples, not the pixels alike (docs/paths.md) */
     /* irradiance cache (all 0 when the cache is off) */
     uint32_t cache_entries;      /* entries in the cache */
     uint32_t cache_nodes;        /* octree nodes in use */
     uint32_t cache_refs;         /* entry references in the octree */
     uint32_t cache_full;         /* 1 when a pool is full: the cache stops growing */
-    double cache_refs_per_entry; /* references / entries (the paper measured 6 to 7) */
+    double cache_refs_per_entry; /* references / entries (docs/cache.md) */
     uint32_t cache_entries_capped; /* entries stored although Eq. 5 still failed at the
-                                    sample cap (cache.max_samples per point, 768 by
-                                    default): their relative error may exceed the
-                                    accuracy gamma asks for */
-    uint64_t cache_samples;      /* irradiance samples the stored entries took (each of an
-                                    entry's seven points: 128 per round until its own
-                                    Eq. 5 holds or the cap; each sample has a light and a
-                                    phase ray, with bounces a path; with bounces also the
-                                    samples refinement added) */
+                                    sample cap (cache_max_samples): their relative error
+                                    may exceed the accuracy gamma asks for */
+    uint64_t cache_samples;      /* irradiance samples the stored entries' seven points
+                                    took (with bounces: paths, refinement's included;
+                                    docs/cache.md) */
     uint64_t cache_samples_truncated; /* of those, samples whose transmittance estimate (with
-                                    bounces: or path) was
-                                    cut at its loop bound (biased, like truncated_paths; a
-                                    share above ~1e-4 says the rays are too long for the
-                                    creation procedure's budget) */
+                                    bounces: or path) was cut at its loop bound (biased,
+                                    like truncated_paths; docs/cache.md) */
     uint64_t cache_lookups_cut;  /* scatter events whose octree walk (rendering or update)
-                                    stopped at its bound (cache.max_lookup_refs) and
-                                    ignored the entries beyond; 0 unless a node's list is
-                                    pathologically long */
+                                    stopped at cache.max_lookup_refs, ignoring the entries
+                                    beyond; 0 unless a node's list is pathologically long */
     uint64_t cache_lookups_spilled; /* scatter events whose octree walk (rendering or
                                     update) found more than 64 entries whose bounding
                                     sphere holds the point; those past the 64th were
-                                    evaluated one at a time (the same result, slower on
-                                    SIMD hardware; rare) */
+                                    evaluated one at a time (same result, slower) */
     uint32_t cache_max_samples;  /* that cap in force: cache.max_samples after its default
                                     and the rounding to a multiple of 128; with bounces on
                                     a CPU device at most 128 (picvr_set_scattering) */
     uint32_t cache_requests;     /* creation requests issued in the last step */
     uint32_t cache_pending;      /* creation requests the last round queued, each holding
                                     its lock, for the next round's creation procedure */
-    uint64_t cache_bytes;        /* device memory of the cache: its pools, locks and the
-                                    rendering procedure's lookup queue (12 bytes a pixel)
-                                    and, with cache.blend, its sums (16 bytes a pixel) */
+    uint64_t cache_bytes;        /* device memory of the cache: its pools, locks, lookup
+                                    queue and, with cache.blend, its sums (docs/cache.md) */
     double cache_hit_rate;       /* fraction of scatter events served by the cache in
                                     the last step */
     double cache_routed;         /* fraction of the scatter events reaching the cache that
@@ -859,19 +767,16 @@ typedef struct picvr_stats {
                                     rounds without the cache (moving average; 0 where
                                     none ran or the device has no timestamps) */
     double kernel_ms_cached[3];  /* the same in rounds with the cache */
-    double auto_cached_share;    /* share of the recent device time (the last ~200
-                                    rounds, exponentially weighted) spent in rounds
-                                    that ran the cache: 1 with a forced cache, 0
-                                    without, in between with PICVR_CACHE_AUTO */
+    double auto_cached_share;    /* share of the recent device time (docs/cache.md) spent
+                                    in rounds that ran the cache: 1 with a forced cache,
+                                    0 without, in between with PICVR_CACHE_AUTO */
     /* scheduler: measured shares of device time over the last second, and the §6 targets */
     double fraction_render, fraction_create, fraction_update;
     double target_create, target_update;
     uint32_t validation_messages;/* Khronos validation messages seen by this context */
-    uint32_t pipeline_variants;  /* pipeline variants the context holds for its
-                                    procedures: one per procedure it runs and scene it
-                                    met (plain: 1, cached: 3), at most 8 per procedure;
-                                    a rendering variant is 2 pipelines (tracking,
-                                    shading), 3 with the cache (and its lookup) */
+    uint32_t pipeline_variants;  /* pipeline variants the context holds: one per
+                                    procedure it runs and scene it met, at most 8 per
+                                    procedure (docs/api.md) */
     uint32_t validation_enabled; /* 1 when the validation layer is active */
     uint32_t width, height;
     char device_name[256];

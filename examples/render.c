@@ -588,7 +588,7 @@ typedef struct env_map {
     uint32_t width, height;
 } env_map;
 
-/* Loads --env (examples/env_io.h: a Radiance .hdr, "-Y H +X W", of at most
+/* Loads --env (cli/env_io.h: a Radiance .hdr, "-Y H +X W", of at most
    PICVR_MAX_ENV_SIZE texels a side, not all black).  0 after reporting why not. */
 static int load_env(const char *path, env_map *env)
 {
@@ -732,7 +732,33 @@ static int finish_round(render_state *r, double fraction)
     return 1;
 }
 
-/* Rounds of picvr_step() until time_ms of rendering (time inside picvr_step). */
+/* A budget too short for every pixel to receive a sample would leave an image with
+   black holes (at a large size, an almost black one).  Rather than write that, the
+   render goes on, round by round, until the pass completes, and says how long past the
+   budget it ran.  An interrupt still stops it: that image is incomplete, as the summary
+   line's pixels_unsampled says. */
+static int complete_pass(render_state *r, double rendered, double round_ms)
+{
+    uint64_t holes = r->stats.pixels_unsampled;
+    if (holes == 0 || interrupted) return 1;
+    double budget = rendered;
+    while (r->stats.pixels_unsampled > 0 && !interrupted) {
+        turn_wait(&r->turns);
+        double t0 = pvc_now_ms();
+        if (!pvc_check(picvr_step(r->ctx, round_ms), "picvr_step")) return 0;
+        rendered += pvc_now_ms() - t0;
+        if (!finish_round(r, 1.0)) return 0;
+        turn_pass(&r->turns);
+    }
+    end_progress_line(r->progress);
+    fprintf(stderr, PROGRAM ": the budget ended with %llu of the pixels still without a sample: "
+            "rendered %.1f s more, until %s\n", (unsigned long long)holes, (rendered - budget) / 1e3,
+            interrupted ? "interrupted (the image is incomplete)" : "every pixel had one");
+    return 1;
+}
+
+/* Rounds of picvr_step() until time_ms of rendering (time inside picvr_step), then on
+   until every pixel holds a sample (complete_pass). */
 static int render_for_time(render_state *r, double time_ms, double round_ms)
 {
     double rendered = 0.0;
@@ -745,7 +771,7 @@ static int render_for_time(render_state *r, double time_ms, double round_ms)
         if (!finish_round(r, rendered >= time_ms ? 1.0 : rendered / time_ms)) return 0;
         turn_pass(&r->turns);
     }
-    return 1;
+    return complete_pass(r, rendered, round_ms);
 }
 
 /* Fills the cache for o->warm_ms at PVP_WARM_CREATE_SHARE, then switches to the shares of
@@ -1104,7 +1130,10 @@ static int render(render_options *o, const picvr_io_layout *layout)
     r.progress = &prog;
     r.turns.path = o->turns_path[0] ? o->turns_path : NULL;
     r.turns.id = o->turns_id;
-    int ok = !o->log_path || open_log(o->log_path, &r.log);
+    /* The outputs first: a typo in a path must not cost the whole render. */
+    int ok = (!o->out_png || pvc_check_writable(o->out_png)) && (!o->out_pfm || pvc_check_writable(o->out_pfm)) &&
+             (!o->json_path || pvc_check_writable(o->json_path));
+    ok = ok && (!o->log_path || open_log(o->log_path, &r.log));
     /* The files first: a bad file should not cost a Vulkan start-up.  The host copies
        are freed right after the upload (picvr keeps its own). */
     picvr_io_volume vol;

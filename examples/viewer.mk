@@ -7,22 +7,22 @@
 # example helpers it shares with picvr-render are C objects of their own.
 .PHONY: viewer test-viewer deps-viewer
 
-VIEWER_CXXFLAGS := -O2 -g -std=c++17 -Wall -Wextra -Wpedantic -Wshadow -I. -Iexamples
+VIEWER_CXXFLAGS := -O2 -g -std=c++17 -Wall -Wextra -Wpedantic -Wshadow -I. -Icli
 # Deferred (=): pkg-config runs only when the viewer is linked, after GLFW is installed.
 VIEWER_LIBS = $(shell pkg-config --libs glfw3 2>/dev/null || echo -lglfw) -lstb -lz
-VIEWER_C_OBJ := $(patsubst examples/%.c,$(B)/viewer/%.o,examples/cli.c examples/presets.c examples/env_io.c)
+VIEWER_C_OBJ := $(patsubst cli/%.c,$(B)/viewer/%.o,cli/cli.c cli/presets.c cli/env_io.c)
 
 deps-viewer: $(B)/.deps-viewer
 $(B)/.deps-viewer: tools/install-deps.sh | $(B)/.deps
 	@sh tools/install-deps.sh viewer
 	@touch $@
 
-$(B)/viewer/%.o: examples/%.c examples/%.h picvr.h | $(B)/.deps
+$(B)/viewer/%.o: cli/%.c cli/%.h picvr.h | $(B)/.deps
 	@mkdir -p $(B)/viewer
 	$(CC) $(CFLAGS) -c -o $@ $<
 
-$(B)/picvr-viewer: examples/viewer.cpp $(VIEWER_C_OBJ) $(LIB_SRC) examples/cli.h examples/presets.h \
-                   picvr_io.h examples/env_io.h $(B)/libpicvr_io.a | $(B)/.deps-viewer
+$(B)/picvr-viewer: examples/viewer.cpp $(VIEWER_C_OBJ) $(LIB_SRC) cli/cli.h cli/presets.h \
+                   picvr_io.h cli/env_io.h $(B)/libpicvr_io.a | $(B)/.deps-viewer
 	$(CXX) $(VIEWER_CXXFLAGS) -o $@ examples/viewer.cpp $(VIEWER_C_OBJ) $(B)/libpicvr_io.a $(LDLIBS) $(VIEWER_LIBS) $(IO_LIBS)
 
 viewer: $(B)/picvr-viewer

@@ -34,10 +34,9 @@
 #    To show that the check can fail, the viewer's image with R and B swapped, and upside
 #    down, must each fail it.
 # Prints what it measured; exit status 1 on a failure.  About 25 s on 2 cores (lavapipe).
-# DATA: the data folder (../shared/data).
+# The volume: the repository's cloud (data/).
 set -u
 B=${1:-build}
-DATA=${DATA:-../shared/data}
 FRAMES=${FRAMES:-120}
 ORBIT_FRAMES=${ORBIT_FRAMES:-24}
 REF_SPP=${REF_SPP:-256}
@@ -47,8 +46,8 @@ T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 fail() { echo "check_viewer: FAIL: $*"; exit 1; }
 
-VOLUME="$DATA/wdas_cloud_sixteenth_126x86x154_float32.raw.gz"
-[ -f "$VOLUME" ] || fail "$VOLUME not found (README, Data)"
+VOLUME=data/wdas_cloud_sixteenth_126x86x154_float32.raw.gz
+[ -f "$VOLUME" ] || fail "$VOLUME not found (run from the repository root)"
 command -v xvfb-run > /dev/null || fail "xvfb-run is missing (tools/install-deps.sh viewer)"
 command -v python3 > /dev/null || fail "python3 is missing"
 SCENE="--volume $VOLUME --spacing 3.33,3.33,3.33 --tf cloud --lights sun-sky --camera 35,-8,0.75 --size 160x120"

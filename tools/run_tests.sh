@@ -1,6 +1,6 @@
 #!/bin/sh
 # run_tests.sh - `make test`: runs every check and the test suite, goes on past a
-# failure, and ends with one line "N passed, N failed" (", N skipped" if any) that sums
+# failure, and ends with one line "N passed, N failed, N skipped" that sums
 # them all: each check counts once, except those that report their own counts
 # (check_build.sh's builds, cmocka's tests in picvr-tests).  Exit status 1 if anything
 # failed.  Environment: MAKE, B (build folder), DATA (the data folder, absolute).
@@ -31,9 +31,9 @@ fi
 # the command-line renderer's options and file checks (its own summary line)
 out=$(sh tools/check_cli.sh "$B"); rc=$?
 echo "$out"
-line=$(echo "$out" | sed -n 's/^check_cli: \([0-9]*\) passed, \([0-9]*\) failed$/\1 \2/p')
+line=$(echo "$out" | sed -n 's/^check_cli: \([0-9]*\) passed, \([0-9]*\) failed, \([0-9]*\) skipped$/\1 \2 \3/p')
 if [ -n "$line" ]; then
-    set -- $line; pass=$((pass + $1)); fail=$((fail + $2))
+    set -- $line; pass=$((pass + $1)); fail=$((fail + $2)); skip=$((skip + $3))
     [ "$2" = 0 ] || failed="$failed check-cli"
 else
     count check-cli 1
@@ -59,5 +59,5 @@ else
     if [ "${f:-0}" = 0 ] && [ "$rc" != 0 ]; then count picvr-tests-exit 1; fi
 fi
 [ -z "$failed" ] || echo "failed:$failed"
-if [ "$skip" -gt 0 ]; then echo "$pass passed, $fail failed, $skip skipped"; else echo "$pass passed, $fail failed"; fi
+echo "$pass passed, $fail failed, $skip skipped"
 [ "$fail" = 0 ]

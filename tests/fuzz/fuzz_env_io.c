@@ -1,4 +1,4 @@
-/* fuzz_env_io.c - libFuzzer harness for the Radiance .hdr loader in examples/env_io.c.
+/* fuzz_env_io.c - libFuzzer harness for the Radiance .hdr loader in cli/env_io.c.
  *
  * Built by `make fuzz` with clang -fsanitize=fuzzer,address,undefined.  One input is
  * the whole contents of a .hdr file (the seeds in tests/fuzz/corpus_env are real files;

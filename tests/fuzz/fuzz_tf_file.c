@@ -1,5 +1,5 @@
 /* fuzz_tf_file.c - libFuzzer harness for the transfer-function file reader
- * (examples/presets.c, pvp_tf_load: picvr-render --tf FILE).
+ * (cli/presets.c, pvp_tf_load: picvr-render --tf FILE).
  *
  * The input is written as a file and read; every call must return a status without a
  * sanitizer report.  On success the table must be what picvr_set_transfer_function

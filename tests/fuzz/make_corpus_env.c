@@ -4,7 +4,7 @@
  *     /tmp/make_corpus_env tests/fuzz/corpus_env
  *
  * The seeds (committed, so `make fuzz` does not run this) are small Radiance files
- * that reach every branch of the checks in examples/env_io.c and of stb_image's
+ * that reach every branch of the checks in cli/env_io.c and of stb_image's
  * decoder: valid flat and RLE maps (one written by stb_image_write, which uses RLE for
  * widths 8..32767), a map whose second scanline switches to flat texels, truncated and
  * corrupt ones, bad size lines, headers that end in a line "\0..." (the regression

@@ -55,6 +55,12 @@ static inline int pvc_check(picvr_status status, const char *what)
 /* Milliseconds of CLOCK_MONOTONIC (an arbitrary origin: for differences only). */
 double pvc_now_ms(void);
 
+/* 1 if the program may write `path` (an output file it will write after a long render),
+   else 0 after pvc_fail naming the path and the reason (a missing folder, a folder in
+   the way, no permission, a read-only file system).  An existing file is opened for
+   writing without truncating it; a new one is created and removed again. */
+int pvc_check_writable(const char *path);
+
 /* ---- options ------------------------------------------------------------------------ */
 
 /* One row of a program's option table, which ends with a row whose name is NULL. */

@@ -5,11 +5,13 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 /* ---- messages ---------------------------------------------------------------------- */
 
@@ -480,5 +482,22 @@ int pvc_has_extension(const char *path, const char *ext)
         if (a >= 'A' && a <= 'Z') a += 'a' - 'A';
         if (a != b) return 0;
     }
+    return 1;
+}
+
+int pvc_check_writable(const char *path)
+{
+    int fd = open(path, O_WRONLY);   /* an existing file: kept as it is */
+    int created = 0;
+    if (fd < 0 && errno == ENOENT) {
+        fd = open(path, O_WRONLY | O_CREAT | O_EXCL, 0666);
+        created = fd >= 0;
+    }
+    if (fd < 0) {
+        pvc_fail("cannot write %s: %s", path, strerror(errno));
+        return 0;
+    }
+    close(fd);
+    if (created) unlink(path);
     return 1;
 }
