@@ -89,15 +89,27 @@ lib: $(B)/libpicvr.a
 
 # ---- picvr_io: the file readers (picvr_io.h, io/), a library of their own ------------
 # The core library links none of this.  NIfTI through niftilib, DICOM through GDCM,
-# OpenVDB through OpenVDB (C++, inside the module only).  The bench tools read raw files
-# alone and build io/picvr_io.c with PICVR_IO_RAW_NRRD_ONLY instead.
+# OpenVDB through OpenVDB (C++, inside the module only).  A build reads the formats whose
+# files it links: IO_SRC (every reader: libpicvr_io.a) or IO_RAW_SRC (raw and NRRD alone,
+# without those libraries: the bench programs and the raw/NRRD fuzz harness).  The two
+# differ in the format table that picvr_io_load consults (io/formats_all.c or
+# io/formats_raw_nrrd.c); IO_COMMON_SRC is what every reader calls.
 CXX         ?= g++
 IO_CFLAGS   := -I/usr/include/nifti
 IO_CXXFLAGS := -O2 -g -std=c++17 -Wall -Wextra -I. -I/usr/include/gdcm-3.0
 IO_LIBS     := -lgdcmMSFF -lgdcmDSED -lgdcmDICT -lgdcmIOD -lgdcmCommon -lopenvdb -ltbb -lImath-3_1 -lblosc \
                -lnifti2 -lznz -lz -lm -lstdc++
-IO_HDR      := picvr_io.h io/internal.h
-IO_OBJ      := $(B)/io/picvr_io.o $(B)/io/nifti.o $(B)/io/dicom.o $(B)/io/vdb.o
+IO_HDR      := picvr_io.h io/internal.h io/dicom.h
+IO_COMMON_SRC := io/common.c io/volume.c
+IO_BASE_SRC := $(IO_COMMON_SRC) io/picvr_io.c io/raw.c io/nrrd.c
+IO_NIFTI_SRC := io/nifti.c
+IO_DICOM_SRC := io/dicom.cpp io/dicom_walk.cpp io/dicom_slice.cpp io/dicom_pixels.cpp io/dicom_series.cpp
+IO_VDB_SRC  := io/vdb.cpp
+IO_RAW_SRC  := $(IO_BASE_SRC) io/formats_raw_nrrd.c
+IO_SRC      := $(IO_BASE_SRC) io/formats_all.c $(IO_NIFTI_SRC) $(IO_DICOM_SRC) $(IO_VDB_SRC)
+# $(call io_objects,DIR,SOURCES): the object files of SOURCES under DIR.
+io_objects   = $(patsubst %,$(1)/%.o,$(basename $(2)))
+IO_OBJ      := $(call io_objects,$(B),$(IO_SRC))
 $(B)/io/%.o: io/%.c $(IO_HDR) | $(B)/.deps
 	@mkdir -p $(B)/io
 	$(CC) $(CFLAGS) $(IO_CFLAGS) -c -o $@ $<
@@ -218,7 +230,7 @@ $(BA)/io/%.o: io/%.c $(IO_HDR) | $(B)/.deps
 $(BA)/io/%.o: io/%.cpp $(IO_HDR) | $(B)/.deps
 	@mkdir -p $(BA)/io
 	$(CXX) $(IO_CXXFLAGS) $(ASAN_FLAGS) -c -o $@ $<
-$(BA)/libpicvr_io.a: $(patsubst $(B)/%,$(BA)/%,$(IO_OBJ))
+$(BA)/libpicvr_io.a: $(call io_objects,$(BA),$(IO_SRC))
 	ar rcs $@ $^
 $(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
               tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a $(BA)/libpicvr_io.a $(TEST_CXX_OBJ)
@@ -242,7 +254,7 @@ ASAN_TESTS := test_status_strings*,test_device_type_reported,test_create_destroy
   test_frames_leave_no_hole,test_frames_turned_on_later,test_step_begin_end,test_write_image_*,test_reuse_moves_the_image,\
   test_reuse_extreme_moves,test_voxel_types_*,test_nifti_*,test_dicom_*,test_vdb_*,test_nrrd_*,test_volume_io_*,\
   test_real_data_*,test_same_seed_bit_identical*,test_bad_placement_and_clip,test_cache_math_*,\
-  test_cache_off_by_default*,test_cache_variants_switch_and_replace,test_pipelines_made_for_the_scene,\
+  test_cache_off_by_default*,test_pipelines_made_for_the_scene,\
   test_cache_moments_only_with_bounces,test_cache_pool_full_is_reported_and_safe,test_cache_invalidation_and_camera*,\
   test_sweep_volume_shapes_and_spacing,test_sweep_float32_huge_range*,test_sweep_cameras_and_image_sizes,\
   test_sweep_transfer_function_step*,test_sweep_clip_and_placement,test_sweep_lights_inside*
@@ -263,37 +275,39 @@ valgrind: deps-robust $(B)/picvr-render
 	  $(B)/picvr-render --volume $(DEMO_VOLUME) $(DEMO_SCENE) --size 32x32 --time 500 --out $(B)/valgrind.png
 
 # libFuzzer on the file readers, FUZZ_TIME seconds each from the committed seed corpora
-# (new inputs go to $(BF)/corpus and $(BF)/corpus_env, crashes to $(BF)/): the loaders
-# of io/picvr_io.c, and the Radiance .hdr loader of cli/env_io.c with
+# (new inputs go to $(BF)/corpus and $(BF)/corpus_env, crashes to $(BF)/): the raw and
+# NRRD loaders (IO_RAW_SRC), and the Radiance .hdr loader of cli/env_io.c with
 # stb_image's decoder compiled into the harness, instrumented (-timeout: a hang fails).
-$(BF)/fuzz_volume_io: tests/fuzz/fuzz_volume_io.c io/picvr_io.c picvr_io.h | $(B)/.deps-robust
+# The C++ harnesses link IO_COMMON_SRC compiled here, instrumented, without libFuzzer's main.
+$(BF)/io/%.o: io/%.c $(IO_HDR) | $(B)/.deps-robust
+	@mkdir -p $(BF)/io
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -fsanitize=fuzzer-no-link,address,undefined \
+	  -fno-sanitize-recover=undefined -c -o $@ $<
+$(BF)/fuzz_volume_io: tests/fuzz/fuzz_volume_io.c $(IO_RAW_SRC) $(IO_HDR) | $(B)/.deps-robust
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Icli -fsanitize=fuzzer,address,undefined \
-	  -fno-sanitize-recover=undefined -DPICVR_IO_RAW_NRRD_ONLY -o $@ tests/fuzz/fuzz_volume_io.c io/picvr_io.c -lz
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_volume_io.c $(IO_RAW_SRC) -lz
 $(BF)/fuzz_env_io: tests/fuzz/fuzz_env_io.c cli/env_io.c cli/env_io.h | $(B)/.deps-robust
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Icli -fsanitize=fuzzer,address,undefined \
 	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_env_io.c cli/env_io.c -lm
-$(BF)/fuzz_nifti: tests/fuzz/fuzz_nifti.c io/nifti.c io/picvr_io.c $(IO_HDR) | $(B)/.deps-robust
+$(BF)/fuzz_nifti: tests/fuzz/fuzz_nifti.c $(IO_NIFTI_SRC) $(IO_COMMON_SRC) $(IO_HDR) | $(B)/.deps-robust
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. $(IO_CFLAGS) -fsanitize=fuzzer,address,undefined \
-	  -fno-sanitize-recover=undefined -DPICVR_IO_RAW_NRRD_ONLY -o $@ tests/fuzz/fuzz_nifti.c io/nifti.c io/picvr_io.c \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_nifti.c $(IO_NIFTI_SRC) $(IO_COMMON_SRC) \
 	  -lnifti2 -lznz -lz -lm
 # OpenVDB's own code is not instrumented; io/vdb.cpp checks every byte it will read first.
-$(BF)/fuzz_vdb: tests/fuzz/fuzz_vdb.cpp io/vdb.cpp io/picvr_io.c $(IO_HDR) | $(B)/.deps-robust
+$(BF)/fuzz_vdb: tests/fuzz/fuzz_vdb.cpp $(IO_VDB_SRC) $(call io_objects,$(BF),$(IO_COMMON_SRC)) $(IO_HDR) | $(B)/.deps-robust
 	@mkdir -p $(BF)
-	clang -g -O1 -std=c11 -D_GNU_SOURCE -DPICVR_IO_RAW_NRRD_ONLY -I. -fsanitize=fuzzer-no-link,address,undefined \
-	  -fno-sanitize-recover=undefined -c -o $(BF)/picvr_io_vdb.o io/picvr_io.c
 	clang++ -g -O1 -std=c++17 -I. '-DPICVR_IO_VDB_MAX_BYTES=((uint64_t)64<<20)' -fsanitize=fuzzer,address,undefined \
-	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_vdb.cpp io/vdb.cpp $(BF)/picvr_io_vdb.o \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_vdb.cpp $(IO_VDB_SRC) $(call io_objects,$(BF),$(IO_COMMON_SRC)) \
 	  -lopenvdb -ltbb -lImath-3_1 -lblosc -lz
-# GDCM's code is not instrumented either; io/dicom.cpp checks each file's structure first.
-$(BF)/fuzz_dicom: tests/fuzz/fuzz_dicom.cpp io/dicom.cpp io/picvr_io.c $(IO_HDR) | $(B)/.deps-robust
+# GDCM's code is not instrumented either; io/dicom_walk.cpp checks each file's structure first.
+$(BF)/fuzz_dicom: tests/fuzz/fuzz_dicom.cpp $(IO_DICOM_SRC) $(call io_objects,$(BF),$(IO_COMMON_SRC)) $(IO_HDR) | $(B)/.deps-robust
 	@mkdir -p $(BF)
-	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -fsanitize=fuzzer-no-link,address,undefined \
-	  -fno-sanitize-recover=undefined -DPICVR_IO_RAW_NRRD_ONLY -c -o $(BF)/picvr_io_dicom.o io/picvr_io.c
 	clang++ -g -O1 -std=c++17 -I. -isystem /usr/include/gdcm-3.0 '-DPICVR_IO_DICOM_MAX_BYTES=((uint64_t)256<<20)' \
-	  -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_dicom.cpp io/dicom.cpp $(BF)/picvr_io_dicom.o \
+	  -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_dicom.cpp $(IO_DICOM_SRC) \
+	  $(call io_objects,$(BF),$(IO_COMMON_SRC)) \
 	  -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
 # picvr-render's transfer-function files (cli/presets.c, pvp_tf_load).
 $(BF)/fuzz_tf_file: tests/fuzz/fuzz_tf_file.c cli/presets.c cli/presets.h | $(B)/.deps-robust

@@ -6,11 +6,12 @@
 .PHONY: bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-paths bench-frames
 
 # ---- programs ---------------------------------------------------------------------------
-$(B)/picvr-bench-speed: bench/bench_speed.c $(CLI_SRC) io/picvr_io.c reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -fopenmp -Icli -DPICVR_IO_RAW_NRRD_ONLY -o $@ bench/bench_speed.c cli/cli.c io/picvr_io.c $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
+# The programs read raw and NRRD files alone: IO_RAW_SRC, without niftilib, GDCM and OpenVDB.
+$(B)/picvr-bench-speed: bench/bench_speed.c $(CLI_SRC) $(IO_RAW_SRC) $(IO_HDR) reference/cpu_reference.h $(B)/cpu_reference.o $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -fopenmp -Icli -o $@ bench/bench_speed.c cli/cli.c $(IO_RAW_SRC) $(B)/cpu_reference.o $(B)/libpicvr.a $(LDLIBS) -lz
 
-$(B)/picvr-bench-sampling: bench/bench_sampling.c $(CLI_SRC) io/picvr_io.c cli/presets.c cli/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Icli -DPICVR_IO_RAW_NRRD_ONLY -o $@ bench/bench_sampling.c cli/cli.c io/picvr_io.c cli/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
+$(B)/picvr-bench-sampling: bench/bench_sampling.c $(CLI_SRC) $(IO_RAW_SRC) $(IO_HDR) cli/presets.c cli/presets.h $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -Icli -o $@ bench/bench_sampling.c cli/cli.c $(IO_RAW_SRC) cli/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 # ---- side-by-side benchmarks ------------------------------------------------------------
 bench-speed: deps $(B)/picvr-bench-speed
 	$(B)/picvr-bench-speed --volume $(DATA)/bonsai_256x256x256_uint8.raw.gz
@@ -99,8 +100,8 @@ BENCH_MS_ARGS ?= --scenes bench/scenes_ms.txt --size 320x180 --time 60000 --slic
 # made with other library code is never reused (bench/error/runs.c, run_signature).
 BENCH_BUILD = $(shell cat $(LIB_SRC) shaders/*.glsl shaders/*.comp | cksum | cut -d' ' -f1)
 BENCH_ERROR_SRC := $(wildcard bench/error/*.c)
-$(B)/picvr-bench-error: $(BENCH_ERROR_SRC) bench/error/bench_error.h $(CLI_SRC) io/picvr_io.c picvr_io.h cli/presets.c cli/presets.h $(B)/libpicvr.a
-	$(CC) $(CFLAGS) -Wno-format-truncation -Icli -DPICVR_IO_RAW_NRRD_ONLY -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ $(BENCH_ERROR_SRC) cli/cli.c io/picvr_io.c cli/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
+$(B)/picvr-bench-error: $(BENCH_ERROR_SRC) bench/error/bench_error.h $(CLI_SRC) $(IO_RAW_SRC) $(IO_HDR) cli/presets.c cli/presets.h $(B)/libpicvr.a
+	$(CC) $(CFLAGS) -Wno-format-truncation -Icli -DPICVR_BENCH_BUILD='"$(BENCH_BUILD)"' -o $@ $(BENCH_ERROR_SRC) cli/cli.c $(IO_RAW_SRC) cli/presets.c $(B)/libpicvr.a $(LDLIBS) -lz
 
 $(B)/picvr-bench-fig9: bench/bench_fig9.c $(CLI_SRC) shaders/cache_math.glsl reference/cache_math_host.h | $(B)/.deps
 	$(CC) $(CFLAGS) -Icli -o $@ bench/bench_fig9.c cli/cli.c -lm

@@ -2,7 +2,9 @@
  * (Table 1 defaults), the pools of entries, octree nodes, references and creation
  * requests (allocated only when the cache is on), the world-space parameters of Eq. 5-11
  * in the uniform block, the pre-built top of the octree (§4.4), the creation batch, and
- * the counters each round leaves.  The cache procedures themselves are
+ * the counters each round leaves; what the configuration turns on (the blend, the
+ * multiply scattered cache, the lookup's event) and the creation kernel's loop budgets
+ * it implies on the device.  The cache procedures themselves are
  * shaders/cache_create.comp (§4.2), cache_update.comp (§4.3) and cache_rebuild.comp
  * (§4.4).  Part of picvr_vk.c; uses util, vulkan, schedule. */
 
@@ -44,6 +46,63 @@ static picvr_status picvr_resolve_cache_config(const picvr_cache_config *in, pic
     if (c->max_nodes < 4681 || c->max_refs < 2 || c->max_nodes > (1u << 28) || c->max_refs > (1u << 28))
         return PICVR_ERROR_INVALID_ARGUMENT;
     return PICVR_OK;
+}
+
+/* The resolved configuration against the device, before anything is made for it: on a
+   CPU device cache.max_samples is at most PICVR_CACHE_MAX_SAMPLES_CPU (llvmpipe's loop
+   bound, docs/lavapipe.md). */
+static picvr_status picvr_check_cache_device(picvr_context *ctx) {
+    if (!ctx->cache.on || !picvr_on_cpu_device(ctx) || ctx->cache.cfg.max_samples <= PICVR_CACHE_MAX_SAMPLES_CPU)
+        return PICVR_OK;
+    picvr_log_message(ctx, PICVR_LOG_ERROR, "cache.max_samples %u: at most %u on a CPU device (loop bound)",
+                      ctx->cache.cfg.max_samples, PICVR_CACHE_MAX_SAMPLES_CPU);
+    return PICVR_ERROR_INVALID_ARGUMENT;
+}
+
+/* The consistent blend of cached and plain shading (shaders/cache_blend.glsl). */
+static int picvr_blend_on(const picvr_context *ctx) {
+    return ctx->cache.on && ctx->cache.cfg.blend == PICVR_SWITCH_ON;
+}
+
+/* Whether the cache holds the multiply scattered light: with bounces (a fluence: any
+   phase function); without, it holds the single-scattered light (picvr_cache_serves in
+   host/pipelines.c says when that serves). */
+static int picvr_cache_multiple(const picvr_context *ctx) {
+    return ctx->cache.on && ctx->scene.scattering.max_bounces > 0;
+}
+
+/* The scatter event at which a camera path takes the cache (LOOKUP_EVENT): cache.lookup_event
+   for the multiply scattered cache with unlimited bounces, else 1 (with a bounce limit an
+   entry holds the light of more events than a later event may still have). */
+/* LOOKUP_EVENT - 1 takes 3 bits of the variant key (a compile-time check that C and C++
+   both accept: the array's size is negative if it fails). */
+typedef char picvr_lookup_event_fits_key[PICVR_CACHE_MAX_LOOKUP_EVENT - 1u <= 7u ? 1 : -1];
+static uint32_t picvr_lookup_event(const picvr_context *ctx) {
+    return picvr_cache_multiple(ctx) && ctx->scene.scattering.max_bounces == PICVR_BOUNCES_UNLIMITED
+           ? ctx->cache.cfg.lookup_event : 1u;
+}
+
+/* Creation's rounds per point (CREATE_MAX_ROUNDS): cache.max_samples / 128, and with the
+   multiply scattered cache on a CPU device at most PICVR_CACHE_MS_ROUNDS_CPU. */
+static uint32_t picvr_create_rounds(const picvr_context *ctx) {
+    uint32_t rounds = ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP;
+    if (picvr_cache_multiple(ctx) && picvr_on_cpu_device(ctx) && rounds > PICVR_CACHE_MS_ROUNDS_CPU)
+        rounds = PICVR_CACHE_MS_ROUNDS_CPU;
+    return rounds;
+}
+
+/* The loop iterations one multiply scattered creation sample may take
+   (CREATE_SAMPLE_STEPS, shaders/cache_create.comp).  On a CPU device an invocation's
+   PICVR_CACHE_MS_LANE_SAMPLES * rounds samples share llvmpipe's 65535 less 1000 for the
+   rest of the kernel: a sample of S takes at most S/2 tracking steps (each scatter event
+   charged vertex_cost >= 64 of them), ray marching's order loops (at most 2 * 16 per
+   event, so S/4), S/4 ray-marching steps and a lookup of S/8 references (two iterations
+   each) plus its two passes over at most 64 candidates, their predictions and the levels
+   (at most 400), so 5S/4 + 400 in all.  A GPU has no such cap. */
+static uint32_t picvr_create_sample_steps(const picvr_context *ctx) {
+    if (!picvr_on_cpu_device(ctx)) return PICVR_PATH_STEPS;
+    uint32_t samples = PICVR_CACHE_MS_LANE_SAMPLES * picvr_create_rounds(ctx);
+    return (65535u - 1000u - 400u * samples) * 4u / (5u * samples);
 }
 
 /* The entries' first moments (binding 22) as a cache with max_bounces needs them: one per

@@ -1,5 +1,6 @@
-/* host/clip.c - picvr_set_clip, and the packing of every world-space input into the
- * volume's frame (the kernels' space; picvr_scene.rot and shift). */
+/* host/clip.c - picvr_set_clip: clip planes and the box's faces, validated in world
+ * space and packed in the volume's frame (the kernels' space; picvr_scene.rot and
+ * shift).  Part of picvr_vk.c; uses util, cache, image. */
 
 /* Plane n . x + d >= 0 (world) in the volume's frame, scaled to a unit normal: n' =
    rot^T n, d' = d + n . shift, both over |n|.  0 when the result is not finite (a
@@ -60,19 +61,4 @@ picvr_status picvr_set_clip(picvr_context *ctx, const picvr_clip *clip) {
     ctx->scene.gpu.clip_count = probe.clip_count;
     picvr_status s = picvr_cache_clear(ctx);
     return s ? s : picvr_clear_accumulation(ctx);
-}
-
-/* Every world-space input packed again in the volume's frame (a volume with another
-   placement was uploaded).  A clip plane that no longer maps to finite numbers (a far
-   origin) is dropped with a warning: the volume is in place, and a context with a
-   half-applied clip would be worse. */
-static void picvr_pack_world(picvr_context *ctx) {
-    if (ctx->scene.has_camera) picvr_pack_camera(ctx);
-    picvr_place_lights(ctx);
-    picvr_pack_env_basis(ctx);
-    if (!picvr_pack_clip_planes(&ctx->scene, &ctx->scene.clip, &ctx->scene.gpu)) {
-        picvr_log_message(ctx, PICVR_LOG_WARNING, "clip planes out of float range in the new volume's frame: clipping off");
-        memset(&ctx->scene.clip, 0, sizeof ctx->scene.clip);
-        ctx->scene.gpu.clip_count = 0;
-    }
 }

@@ -28,6 +28,7 @@ static picvr_status picvr_context_init(picvr_context *ctx, const picvr_config *c
         return PICVR_ERROR_UNSUPPORTED_TYPE;
     }
     ctx->vk.float_volume_format = picvr_format_filters(ctx, VK_FORMAT_R32_SFLOAT) ? VK_FORMAT_R32_SFLOAT : VK_FORMAT_R16_UNORM;
+    if ((s = picvr_check_cache_device(ctx))) return s;
 
     VkCommandPoolCreateInfo pi;
     PICVR_VK_INIT(pi, VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);

@@ -1,10 +1,10 @@
 /* host/environment.c - the background's environment map (picvr_background.environment):
  * validation, and the buffer the kernels sample it from (binding 19; the layout is
- * described at `Environment` in shaders/common.glsl): per texel its radiance and the
+ * described at `Environment` in shaders/background.glsl): per texel its radiance and the
  * solid-angle pdf of the luminance sampling, then the marginal CDF over rows and one CDF
  * over the columns of each row.  A constant background, or a 1x1 map, needs none of it:
- * the binding then holds a placeholder and USE_ENV_MAP compiles its code out.  Also
- * picvr_set_scattering.  Part of picvr_vk.c; uses util, vulkan, pipelines. */
+ * the binding then holds a placeholder and USE_ENV_MAP compiles its code out.  Part of
+ * picvr_vk.c; uses util, vulkan. */
 
 /* What picvr_set_lights takes from a background: validated, in doubles. */
 typedef struct picvr_env_info {
@@ -143,7 +143,7 @@ static picvr_status picvr_env_build(picvr_context *ctx, const picvr_background *
     return PICVR_OK;
 }
 
-/* The map's frame from the volume's (shaders/common.glsl env_texel): the volume's
+/* The map's frame from the volume's (shaders/background.glsl env_texel): the volume's
    orientation into world space, then the map's rotation about world +y turned back,
    e = R_y(-rotation) rot w. */
 static void picvr_pack_env_basis(picvr_context *ctx) {
@@ -168,24 +168,4 @@ static void picvr_env_install(picvr_context *ctx, const picvr_background *bg, co
     picvr_pack_env_basis(ctx);
     memcpy(ctx->scene.gpu.background, info->constant, sizeof info->constant);
     ctx->pipes.descriptors_dirty = 1;
-}
-
-/* ---- scattering -------------------------------------------------------------------- */
-
-picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *sc) {
-    if (!ctx) return PICVR_ERROR_NULL_POINTER;
-    PICVR_REFUSE_IF_BUSY(ctx);
-    picvr_scattering z;
-    memset(&z, 0, sizeof z);
-    if (!sc) sc = &z;
-    if (!isfinite(sc->back_g) || !isfinite(sc->back_weight)) return PICVR_ERROR_NON_FINITE;
-    if (!(fabsf(sc->back_g) < 1.0f) || sc->back_weight < 0.0f || sc->back_weight >= 1.0f) return PICVR_ERROR_INVALID_ARGUMENT;
-    picvr_status s = picvr_cache_fit_moments(ctx, sc->max_bounces);   /* before any change */
-    if (s) return s;
-    ctx->scene.scattering = *sc;
-    ctx->scene.gpu.max_bounces = sc->max_bounces;
-    ctx->scene.gpu.back_g = sc->back_g;
-    ctx->scene.gpu.back_weight = sc->back_weight;
-    s = picvr_cache_clear(ctx);
-    return s ? s : picvr_clear_accumulation(ctx);
 }

@@ -38,7 +38,7 @@
 #define PICVR_CONTROL_FRACTION 0.25      /* residual ratio tracking where at least this fraction
                                       of the bricks with medium have a control */
 #define PICVR_EQ_FALLOFF 25.0            /* equiangular sampling serves lights whose 1/d^2 varies
-                                      more than this across the volume (host/pipelines.c) */
+                                      more than this across the volume (host/lights.c) */
 
 /* Sizes of the shaders' buffer elements (std430), mirrored here; `make check-layout`
    (part of `make test`) compares them with glslang's reflection of the shaders. */
@@ -72,27 +72,49 @@
 
 enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 
-/* Pipeline variants.  The kernels' specialization constants (shaders/common.glsl,
-   cache.glsl) compile out what the scene does not use; the key of a procedure's variant
-   holds those that vary with the scene (picvr_variant_key).  Each procedure keeps up to
+/* Pipeline variants.  The kernels' specialization constants (shaders/specialization.glsl)
+   compile out what the scene does not use; the key of a procedure's variant holds those
+   that vary with the scene (picvr_variant_key).  Each procedure keeps up to
    VARIANT_SLOTS variants, made by the first step that needs one; a new one replaces
    the least recently used. */
 #define PICVR_VARIANT_SLOTS 8u
-#define PICVR_KEY_PHASE_MIS 1u      /* constant 0 USE_PHASE_MIS */
-#define PICVR_KEY_FINE 2u           /* constant 1 USE_FINE */
-#define PICVR_KEY_DEBUG_VIEW 4u     /* constant 3 USE_DEBUG_VIEW */
-#define PICVR_KEY_MONO_SHIFT 3u     /* constant 4 MONO_CHANNEL: 2 bits, 3 = colours differ */
-#define PICVR_KEY_EQUIANGULAR 32u   /* constant 7 USE_EQUIANGULAR */
-#define PICVR_KEY_RESIDUAL 64u      /* constant 8 USE_RESIDUAL */
-#define PICVR_KEY_QMC 128u          /* constant 9 USE_QMC */
-#define PICVR_KEY_BOUNCES 256u      /* constant 10 USE_BOUNCES */
-#define PICVR_KEY_HG 512u           /* constant 11 USE_HG */
-#define PICVR_KEY_ENV_MAP 1024u     /* constant 12 USE_ENV_MAP */
-#define PICVR_KEY_REUSE 2048u       /* constant 13 USE_REUSE */
-#define PICVR_KEY_CLIP 4096u        /* constant 14 USE_CLIP */
+#define PICVR_KEY_PHASE_MIS 1u      /* USE_PHASE_MIS */
+#define PICVR_KEY_FINE 2u           /* USE_FINE */
+#define PICVR_KEY_DEBUG_VIEW 4u     /* USE_DEBUG_VIEW */
+#define PICVR_KEY_MONO_SHIFT 3u     /* MONO_CHANNEL: 2 bits, 3 = colours differ */
+#define PICVR_KEY_EQUIANGULAR 32u   /* USE_EQUIANGULAR */
+#define PICVR_KEY_RESIDUAL 64u      /* USE_RESIDUAL */
+#define PICVR_KEY_QMC 128u          /* USE_QMC */
+#define PICVR_KEY_BOUNCES 256u      /* USE_BOUNCES */
+#define PICVR_KEY_HG 512u           /* USE_HG */
+#define PICVR_KEY_ENV_MAP 1024u     /* USE_ENV_MAP */
+#define PICVR_KEY_REUSE 2048u       /* USE_REUSE */
+#define PICVR_KEY_CLIP 4096u        /* USE_CLIP */
 #define PICVR_KEY_PLAIN 8192u       /* PICVR_CACHE_AUTO's plain rounds: the plain tracking module */
-#define PICVR_KEY_LOOKUP_SHIFT 14u  /* constant 17 LOOKUP_EVENT - 1: 3 bits (render_shade_cache.comp) */
-#define PICVR_SPEC_CONSTANTS 18u   /* 15 CACHE_BLEND: fixed per context; 16 CREATE_SAMPLE_STEPS; 17 LOOKUP_EVENT */
+#define PICVR_KEY_LOOKUP_SHIFT 14u  /* LOOKUP_EVENT - 1: 3 bits (render_shade_cache.comp) */
+/* The specialization constants' ids: PICVR_SPEC_<name> is the constant_id of <name> in
+   shaders/specialization.glsl (`make check-layout` compares the two lists). */
+enum {
+    PICVR_SPEC_USE_PHASE_MIS = 0,
+    PICVR_SPEC_USE_FINE = 1,
+    PICVR_SPEC_CREATE_MAX_ROUNDS = 2,
+    PICVR_SPEC_USE_DEBUG_VIEW = 3,
+    PICVR_SPEC_MONO_CHANNEL = 4,
+    PICVR_SPEC_SCREEN_LOCKING = 5,
+    PICVR_SPEC_CACHE_MAX_LOOKUP_REFS = 6,
+    PICVR_SPEC_USE_EQUIANGULAR = 7,
+    PICVR_SPEC_USE_RESIDUAL = 8,
+    PICVR_SPEC_USE_QMC = 9,
+    PICVR_SPEC_USE_BOUNCES = 10,
+    PICVR_SPEC_USE_HG = 11,
+    PICVR_SPEC_USE_ENV_MAP = 12,
+    PICVR_SPEC_USE_REUSE = 13,
+    PICVR_SPEC_USE_CLIP = 14,
+    PICVR_SPEC_CACHE_BLEND = 15,
+    PICVR_SPEC_CREATE_SAMPLE_STEPS = 16,
+    PICVR_SPEC_LOOKUP_EVENT = 17,
+    PICVR_SPEC_CONSTANTS            /* their number */
+};
 /* The multiply scattered cache on a CPU device (llvmpipe's loop cap of 65535 per
    invocation): a creation thread traces one whole path per point and round, so it takes
    at most this many rounds (128 samples per point) and each sample's loops share
@@ -122,7 +144,7 @@ typedef struct picvr_variant_slot {
 
 #define PICVR_PI 3.14159265358979323846
 
-/* ---- host mirror of the std140 uniform block in shaders/common.glsl ---- */
+/* ---- host mirror of the std140 uniform block in shaders/scene.glsl ---- */
 typedef struct picvr_gpu_light {
     float pos[3];
     int32_t type;
@@ -278,8 +300,9 @@ typedef struct picvr_pipelines {
     VkSampler linear_sampler;
 } picvr_pipelines;
 
-/* What is rendered: volume, transfer function, lights, camera (host/volume.c,
-   transfer.c, lights.c, camera.c), and their uniform block. */
+/* What is rendered: volume, transfer function, lights and background, scattering,
+   clipping, camera (host/volume.c, transfer.c, lights.c, environment.c, scattering.c,
+   clip.c, camera.c), and their uniform block. */
 typedef struct picvr_scene {
     picvr_gpu_scene gpu;             /* the uniform block as the kernels read it */
     picvr_buffer ubo;                /* persistently mapped copy of gpu */
@@ -322,7 +345,7 @@ typedef struct picvr_scene {
 } picvr_scene;
 
 /* The image: accumulation planes, the rendering procedure's queues, block order
-   (host/camera.c). */
+   (host/image.c). */
 typedef struct picvr_image_state {
     picvr_buffer planes[3];          /* mean rgba, Kahan terms, (lum mean, M2, n, bad) */
     picvr_buffer depth;              /* binding 20: per pixel (mean depth of its scatter

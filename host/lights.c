@@ -1,7 +1,8 @@
 /* host/lights.c - lights and background: validation, packing into the uniform block,
- * the power that chooses a light, and the scene facts the kernels specialize on
- * (delta lights only, one chromaticity for every emitter).  Part of picvr_vk.c; uses
- * util, vulkan, cache, image. */
+ * the power that chooses a light, the lights equiangular sampling serves, and the scene
+ * facts the kernels specialize on (delta lights only, one chromaticity for every
+ * emitter).  The background's map: host/environment.c.  Part of picvr_vk.c; uses util,
+ * cache, image, environment. */
 
 static picvr_status picvr_validate_light(const picvr_light *l) {
     if (l->type < PICVR_LIGHT_SPHERE || l->type > PICVR_LIGHT_POINT) return PICVR_ERROR_INVALID_LIGHT;
@@ -131,6 +132,45 @@ static void picvr_light_chromaticity(const float (*emit)[3], uint32_t n, float l
     for (int c = 0; c < 3; c++)
         log_k[c] = k[c] > 0.0f ? (float)log((double)k[c] / k[m]) : -138.2f;
     *channel = (float)m;
+}
+
+/* The lights equiangular sampling serves (shaders/distance.glsl): point, sphere and rect
+   lights with power whose irradiance falls off steeply across the volume, chosen in
+   proportion to their power (eq_pmf, eq_cdf; the last served light's eq_cdf is exactly
+   1).  The falloff: (d_far / d_near)^2 over the volume's bounding sphere (radius R),
+   d_near = max(centre distance - R, the light's radius, 1e-3 R), d_far = centre distance
+   + R; served above PICVR_EQ_FALLOFF.  Where the light's 1/d^2 varies less, delta tracking
+   samples it as well at less cost: bonsai under a distant sphere (falloff 2) and the
+   engine under three large spheres near it (falloff 15) took longer to a given error
+   with equiangular sampling, a thin medium under a point light just outside it (falloff
+   1700) far less (docs/sampling.md).  Sets scene.use_equiangular: some light is served.
+   Called when the lights or the volume's box change. */
+static void picvr_update_equiangular(picvr_context *ctx) {
+    picvr_gpu_light *g = ctx->scene.gpu.lights;
+    uint32_t n = ctx->scene.gpu.light_count;
+    double R = ctx->scene.has_volume ? ctx->scene.gpu.bound_radius : 1.0, total = 0.0, cdf = 0.0;
+    int served[PICVR_MAX_LIGHTS], last = -1;
+    for (uint32_t i = 0; i < n; i++) {
+        double d = picvr_len3(g[i].pos), size = g[i].type == PICVR_LIGHT_SPHERE ? g[i].size : 0.0;
+        if (g[i].type == PICVR_LIGHT_RECT) size = 0.5 * sqrt((double)g[i].area);
+        double near = fmax(fmax(d - R, size), 1e-3 * R), far = d + R;
+        served[i] = g[i].type != PICVR_LIGHT_DIRECTIONAL && g[i].pmf > 0.0f &&
+                    (far / near) * (far / near) > PICVR_EQ_FALLOFF;
+        if (served[i]) total += g[i].pmf;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        g[i].eq_pmf = served[i] ? (float)(g[i].pmf / total) : 0.0f;
+        cdf += served[i] ? g[i].pmf / total : 0.0;
+        g[i].eq_cdf = (float)cdf;
+        if (served[i]) last = (int)i;
+    }
+    if (last >= 0) g[last].eq_cdf = 1.0f;
+    ctx->scene.use_equiangular = last >= 0;
+    /* The pool charge of a path's event (shaders/path.glsl) for its loops other than
+       tracking: over the lights (choice, area-light hits, sun cones), the map's two
+       binary searches and, with equiangular sampling, the segment's three passes over
+       the lights and its walk through at most 3 x 64 coarse cells. */
+    ctx->scene.gpu.vertex_cost = 4u * n + 64u + (last >= 0 ? 3u * n + 3u * PICVR_MAX_GRID : 0u);
 }
 
 picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uint32_t count,

@@ -54,7 +54,7 @@ static void picvr_empty_distance(const uint32_t g[3], const float *maj, float *d
    1 + 1e-3 against float rounding of the filtered lookups.  Minorant, the control of
    residual ratio tracking: D times the smallest opacity over the same range, times
    1 - 1e-3 (0 where the range reaches opacity 0).  The buffer holds the majorants, the
-   empty-space distances and the minorants, one part each (shaders/common.glsl). */
+   empty-space distances and the minorants, one part each (shaders/majorant.glsl). */
 static picvr_status picvr_update_majorant(picvr_context *ctx) {
     if (!ctx->scene.has_volume) return PICVR_OK;
     size_t cells = (size_t)ctx->scene.grid[0] * ctx->scene.grid[1] * ctx->scene.grid[2];

@@ -1,8 +1,8 @@
 /* host/pipelines.c - shader modules, the descriptor set shared by every kernel, and the
  * pipeline variants: specialization constants compile out what the scene does not use
  * (phase-function MIS, voxel-level majorants, the debug views, per-channel light), and
- * each procedure keeps up to PICVR_VARIANT_SLOTS variants.  Part of picvr_vk.c; uses
- * host/util.c and host/vulkan.c. */
+ * each procedure keeps up to PICVR_VARIANT_SLOTS variants; the kernels outside the
+ * procedures.  Part of picvr_vk.c; uses util, vulkan, schedule, cache, scattering. */
 
 static picvr_status picvr_create_shader(picvr_context *ctx, const uint32_t *code, size_t size, VkShaderModule *out) {
     VkShaderModuleCreateInfo ci;
@@ -48,106 +48,18 @@ static picvr_status picvr_create_priority_pipeline(picvr_context *ctx) {
 }
 
 /* True when the cached rendering procedure runs its debug-view variant. */
-/* The consistent blend of cached and plain shading (shaders/cache_blend.glsl). */
-static int picvr_blend_on(const picvr_context *ctx) {
-    return ctx->cache.on && ctx->cache.cfg.blend == PICVR_SWITCH_ON;
-}
-
 static int picvr_debug_view_on(const picvr_context *ctx) {
     return ctx->cache.on && ctx->scene.gpu.debug_view != PICVR_VIEW_IMAGE;
 }
 
-/* The lights equiangular sampling serves (shaders/distance.glsl): point, sphere and rect
-   lights with power whose irradiance falls off steeply across the volume, chosen in
-   proportion to their power (eq_pmf, eq_cdf; the last served light's eq_cdf is exactly
-   1).  The falloff: (d_far / d_near)^2 over the volume's bounding sphere (radius R),
-   d_near = max(centre distance - R, the light's radius, 1e-3 R), d_far = centre distance
-   + R; served above PICVR_EQ_FALLOFF.  Where the light's 1/d^2 varies less, delta tracking
-   samples it as well at less cost: bonsai under a distant sphere (falloff 2) and the
-   engine under three large spheres near it (falloff 15) took longer to a given error
-   with equiangular sampling, a thin medium under a point light just outside it (falloff
-   1700) far less (docs/sampling.md).  Sets scene.use_equiangular: some light is served.
-   Called when the lights or the volume's box change. */
-static void picvr_update_equiangular(picvr_context *ctx) {
-    picvr_gpu_light *g = ctx->scene.gpu.lights;
-    uint32_t n = ctx->scene.gpu.light_count;
-    double R = ctx->scene.has_volume ? ctx->scene.gpu.bound_radius : 1.0, total = 0.0, cdf = 0.0;
-    int served[PICVR_MAX_LIGHTS], last = -1;
-    for (uint32_t i = 0; i < n; i++) {
-        double d = picvr_len3(g[i].pos), size = g[i].type == PICVR_LIGHT_SPHERE ? g[i].size : 0.0;
-        if (g[i].type == PICVR_LIGHT_RECT) size = 0.5 * sqrt((double)g[i].area);
-        double near = fmax(fmax(d - R, size), 1e-3 * R), far = d + R;
-        served[i] = g[i].type != PICVR_LIGHT_DIRECTIONAL && g[i].pmf > 0.0f &&
-                    (far / near) * (far / near) > PICVR_EQ_FALLOFF;
-        if (served[i]) total += g[i].pmf;
-    }
-    for (uint32_t i = 0; i < n; i++) {
-        g[i].eq_pmf = served[i] ? (float)(g[i].pmf / total) : 0.0f;
-        cdf += served[i] ? g[i].pmf / total : 0.0;
-        g[i].eq_cdf = (float)cdf;
-        if (served[i]) last = (int)i;
-    }
-    if (last >= 0) g[last].eq_cdf = 1.0f;
-    ctx->scene.use_equiangular = last >= 0;
-    /* The pool charge of a path's event (shaders/path.glsl) for its loops other than
-       tracking: over the lights (choice, area-light hits, sun cones), the map's two
-       binary searches and, with equiangular sampling, the segment's three passes over
-       the lights and its walk through at most 3 x 64 coarse cells. */
-    ctx->scene.gpu.vertex_cost = 4u * n + 64u + (last >= 0 ? 3u * n + 3u * PICVR_MAX_GRID : 0u);
-}
-
-/* Whether the phase function is anisotropic somewhere (USE_HG): some transfer-function
-   point's g, or a second lobe that is not isotropic itself. */
-static int picvr_use_hg(const picvr_context *ctx) {
-    const picvr_scattering *sc = &ctx->scene.scattering;
-    return ctx->scene.tf_has_g || (sc->back_weight > 0.0f && sc->back_g != 0.0f);
-}
-
 /* Whether the cache serves the scene.  With bounces it holds the multiply scattered
-   light (a fluence: any phase function); without, the single-scattered light for an
-   isotropic phase function, so with an anisotropic one alone it idles (the rendering
-   variant queues every event for plain shading, shaders/render_track.glsl, and the
-   rounds plan no creation or update). */
-static int picvr_cache_multiple(const picvr_context *ctx) {
-    return ctx->cache.on && ctx->scene.scattering.max_bounces > 0;
-}
+   light (picvr_cache_multiple); without, the single-scattered light for an isotropic
+   phase function, so with an anisotropic one alone it idles (the rendering variant
+   queues every event for plain shading, shaders/render_track.glsl, and the rounds plan
+   no creation or update).  Here, not in host/cache.c: it asks the phase function
+   (host/scattering.c), whose setter uses the cache's part. */
 static int picvr_cache_serves(const picvr_context *ctx) {
     return picvr_cache_multiple(ctx) || (ctx->cache.on && !picvr_use_hg(ctx));
-}
-
-/* The scatter event at which a camera path takes the cache (LOOKUP_EVENT): cache.lookup_event
-   for the multiply scattered cache with unlimited bounces, else 1 (with a bounce limit an
-   entry holds the light of more events than a later event may still have). */
-/* LOOKUP_EVENT - 1 takes 3 bits of the variant key (a compile-time check that C and C++
-   both accept: the array's size is negative if it fails). */
-typedef char picvr_lookup_event_fits_key[PICVR_CACHE_MAX_LOOKUP_EVENT - 1u <= 7u ? 1 : -1];
-static uint32_t picvr_lookup_event(const picvr_context *ctx) {
-    return picvr_cache_multiple(ctx) && ctx->scene.scattering.max_bounces == PICVR_BOUNCES_UNLIMITED
-           ? ctx->cache.cfg.lookup_event : 1u;
-}
-
-/* Creation's rounds per point (CREATE_MAX_ROUNDS): cache.max_samples / 128, and with the
-   multiply scattered cache on a CPU device at most PICVR_CACHE_MS_ROUNDS_CPU. */
-static uint32_t picvr_create_rounds(const picvr_context *ctx) {
-    uint32_t rounds = ctx->cache.cfg.max_samples / PICVR_CACHE_CREATE_GROUP;
-    if (picvr_cache_multiple(ctx) && picvr_on_cpu_device(ctx) && rounds > PICVR_CACHE_MS_ROUNDS_CPU)
-        rounds = PICVR_CACHE_MS_ROUNDS_CPU;
-    return rounds;
-}
-
-/* The loop iterations one multiply scattered creation sample may take
-   (CREATE_SAMPLE_STEPS, shaders/cache_create.comp).  On a CPU device an invocation's
-   PICVR_CACHE_MS_LANE_SAMPLES * rounds samples share llvmpipe's 65535 less 1000 for the
-   rest of the kernel: a
-   sample of S takes at most S/2 tracking steps (each scatter event charged
-   vertex_cost >= 64 of them), ray marching's order loops (at most 2 * 16 per event, so
-   S/4), S/4 ray-marching steps and a lookup of S/8 references (two iterations each)
-   plus its two passes over at most 64 candidates, their predictions and the levels (at
-   most 400), so 5S/4 + 400 in all.  A GPU has no such cap. */
-static uint32_t picvr_create_sample_steps(const picvr_context *ctx) {
-    if (!picvr_on_cpu_device(ctx)) return PICVR_PATH_STEPS;
-    uint32_t samples = PICVR_CACHE_MS_LANE_SAMPLES * picvr_create_rounds(ctx);
-    return (65535u - 1000u - 400u * samples) * 4u / (5u * samples);
 }
 
 /* The key of procedure proc's variant for the current scene.  Only the constants a
@@ -186,12 +98,10 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain)
 
 /* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
    the procedure has no such kernel; on a failure none is left).  One set of constants
-   for all kernels (a kernel ignores those it lacks): 0-1 and 3-4 from the key, 2 the
-   creation procedure's rounds (CREATE_MAX_ROUNDS), 5 SCREEN_LOCKING and 6
-   MAX_LOOKUP_REFS, fixed per context, 7 USE_EQUIANGULAR, 8 USE_RESIDUAL, 9 USE_QMC, 10
-   USE_BOUNCES, 11 USE_HG, 12 USE_ENV_MAP, 13 USE_REUSE and 14 USE_CLIP from the key, 15
-   CACHE_BLEND fixed per context, 16 CREATE_SAMPLE_STEPS, 17 LOOKUP_EVENT from the key
-   (with LOOKUP_EVENT > 1 the shading kernel is render_shade_cache.comp). */
+   for all kernels (a kernel ignores those it lacks), each at its PICVR_SPEC_ id
+   (shaders/specialization.glsl): from the key, or fixed per context (the creation
+   procedure's rounds and sample steps, SCREEN_LOCKING, CACHE_MAX_LOOKUP_REFS,
+   CACHE_BLEND); with LOOKUP_EVENT > 1 the shading kernel is render_shade_cache.comp. */
 static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
     VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
@@ -203,15 +113,26 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
         mod[PICVR_KERNEL_SHADE] = later ? ctx->pipes.shade_cache_module : ctx->pipes.shade_module;
         if (ctx->cache.on && !plain) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
     }
-    uint32_t value[PICVR_SPEC_CONSTANTS] = {(key & PICVR_KEY_PHASE_MIS) != 0, (key & PICVR_KEY_FINE) != 0, picvr_create_rounds(ctx),
-                         (key & PICVR_KEY_DEBUG_VIEW) != 0, (key >> PICVR_KEY_MONO_SHIFT) & 3u,
-                         ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE,
-                         ctx->cache.on ? ctx->cache.cfg.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS,
-                         (key & PICVR_KEY_EQUIANGULAR) != 0, (key & PICVR_KEY_RESIDUAL) != 0,
-                         (key & PICVR_KEY_QMC) != 0, (key & PICVR_KEY_BOUNCES) != 0,
-                         (key & PICVR_KEY_HG) != 0, (key & PICVR_KEY_ENV_MAP) != 0,
-                         (key & PICVR_KEY_REUSE) != 0, (key & PICVR_KEY_CLIP) != 0, picvr_blend_on(ctx) != 0,
-                         picvr_create_sample_steps(ctx), ((key >> PICVR_KEY_LOOKUP_SHIFT) & 7u) + 1u};
+    uint32_t value[PICVR_SPEC_CONSTANTS];
+    value[PICVR_SPEC_USE_PHASE_MIS] = (key & PICVR_KEY_PHASE_MIS) != 0;
+    value[PICVR_SPEC_USE_FINE] = (key & PICVR_KEY_FINE) != 0;
+    value[PICVR_SPEC_CREATE_MAX_ROUNDS] = picvr_create_rounds(ctx);
+    value[PICVR_SPEC_USE_DEBUG_VIEW] = (key & PICVR_KEY_DEBUG_VIEW) != 0;
+    value[PICVR_SPEC_MONO_CHANNEL] = (key >> PICVR_KEY_MONO_SHIFT) & 3u;
+    value[PICVR_SPEC_SCREEN_LOCKING] = ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_SCREEN_SPACE;
+    value[PICVR_SPEC_CACHE_MAX_LOOKUP_REFS] =
+        ctx->cache.on ? ctx->cache.cfg.max_lookup_refs : PICVR_CACHE_MAX_LOOKUP_REFS;
+    value[PICVR_SPEC_USE_EQUIANGULAR] = (key & PICVR_KEY_EQUIANGULAR) != 0;
+    value[PICVR_SPEC_USE_RESIDUAL] = (key & PICVR_KEY_RESIDUAL) != 0;
+    value[PICVR_SPEC_USE_QMC] = (key & PICVR_KEY_QMC) != 0;
+    value[PICVR_SPEC_USE_BOUNCES] = (key & PICVR_KEY_BOUNCES) != 0;
+    value[PICVR_SPEC_USE_HG] = (key & PICVR_KEY_HG) != 0;
+    value[PICVR_SPEC_USE_ENV_MAP] = (key & PICVR_KEY_ENV_MAP) != 0;
+    value[PICVR_SPEC_USE_REUSE] = (key & PICVR_KEY_REUSE) != 0;
+    value[PICVR_SPEC_USE_CLIP] = (key & PICVR_KEY_CLIP) != 0;
+    value[PICVR_SPEC_CACHE_BLEND] = picvr_blend_on(ctx) != 0;
+    value[PICVR_SPEC_CREATE_SAMPLE_STEPS] = picvr_create_sample_steps(ctx);
+    value[PICVR_SPEC_LOOKUP_EVENT] = ((key >> PICVR_KEY_LOOKUP_SHIFT) & 7u) + 1u;
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;
@@ -282,11 +203,9 @@ static picvr_status picvr_select_variants(picvr_context *ctx) {
     ctx->pipes.variant_clock++;
     picvr_status s = PICVR_OK;
     if (picvr_auto_plain_allowed(ctx)) {
-        /* the time a rendering variant takes to make (a new one: pipelines compiled) */
-        double t0 = picvr_clock_ms();
+        double t0 = picvr_clock_ms();   /* a new variant: its pipelines compile (the auto mode's pause) */
         s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 1);
-        double made_ms = picvr_clock_ms() - t0;
-        if (made_ms > ctx->sched.auto_mode.compile_ms) ctx->sched.auto_mode.compile_ms = made_ms;
+        picvr_auto_note_compile(&ctx->sched.auto_mode, picvr_clock_ms() - t0);
         ctx->pipes.plain_slot = ctx->pipes.current_slot[PICVR_PROC_RENDER];
         /* the cached kind's pipelines wait for its first round (picvr_auto_choose) */
         if (s || !ctx->sched.auto_mode.cached_ready) return s;
@@ -360,12 +279,6 @@ static picvr_status picvr_create_pipelines(picvr_context *ctx) {
     if (!s) s = picvr_create_shader(ctx, picvr_spv_block_select, sizeof picvr_spv_block_select, &ctx->pipes.select_module);
     if (!s) s = picvr_create_pipeline(ctx, ctx->pipes.select_module, ctx->pipes.layout, NULL, &ctx->pipes.select_pipe);
     if (!s && ctx->sched.use_priorities) s = picvr_create_priority_pipeline(ctx);
-    if (!s && ctx->cache.on && picvr_on_cpu_device(ctx) &&
-        ctx->cache.cfg.max_samples > PICVR_CACHE_MAX_SAMPLES_CPU) {
-        picvr_log_message(ctx, PICVR_LOG_ERROR, "cache.max_samples %u: at most %u on a CPU device (loop bound)",
-              ctx->cache.cfg.max_samples, PICVR_CACHE_MAX_SAMPLES_CPU);
-        s = PICVR_ERROR_INVALID_ARGUMENT;
-    }
     if (!s && ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_AUTO)
         s = picvr_create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->pipes.plain_track_module);
     if (!s && ctx->cache.on) {

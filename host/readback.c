@@ -1,7 +1,7 @@
 /* host/readback.c - reading the image (linear RGBA, tone-mapped sRGB, sample counts)
  * and the statistics: the stats kernel reduces the per-pixel Eq. 5 error on the device,
  * the host adds the cache's counters and the scheduler's measured shares.  Part of
- * picvr_vk.c; uses util, vulkan, schedule, pipelines, image, step. */
+ * picvr_vk.c; uses util, vulkan, schedule, cache, pipelines, image, step. */
 
 /* Copies accumulation plane `plane` (0: mean rgba, 2: lum mean, M2, n, bad) to readback. */
 static picvr_status picvr_read_plane(picvr_context *ctx, int plane) {

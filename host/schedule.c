@@ -131,7 +131,7 @@ static void picvr_sched_account(picvr_sched *sc, const double dev[3], double reb
                                 uint32_t update_groups, uint32_t blocks, double wall_ms, int cache_on) {
     /* Rule: a pipeline variant's first dispatch neither enters the cost model nor is
        charged to its procedure's credit.  llvmpipe compiles a pipeline at its first
-       dispatch, inside the round's timestamps (../shared/LAVAPIPE.md); taken for the
+       dispatch, inside the round's timestamps (docs/lavapipe.md); taken for the
        procedure's own cost, that time held the update procedure (1 % of a round) back
        for seconds of credit with a cold shader cache. */
     const int *first = sc->first_dispatch;
@@ -216,6 +216,13 @@ static double picvr_auto_efficiency(const picvr_auto *a) {
     double v = 1.0 - a->served * a->gain;
     if (!(v >= PICVR_AUTO_MIN_VARIANCE)) v = PICVR_AUTO_MIN_VARIANCE;
     return a->cost[0] / (a->cost[1] * v);
+}
+
+/* PICVR_CACHE_AUTO: a selection of the plain rendering variant took made_ms of wall time
+   (a new variant's making compiles its pipelines); the longest is the plain variant's
+   compile time that picvr_auto_choose defers the cached kind by. */
+static void picvr_auto_note_compile(picvr_auto *a, double made_ms) {
+    if (made_ms > a->compile_ms) a->compile_ms = made_ms;
 }
 
 /* Whether the next round is plain.  Plain rounds first; the cached kind's first round

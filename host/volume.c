@@ -1,7 +1,8 @@
 /* host/volume.c - uploading a volume: validation against overflow and device limits,
  * the value range, the 3D image (float data as R16_UNORM where R32F cannot be
- * filtered), the bricks of the majorant grid and the world box.  Part of picvr_vk.c;
- * uses util, vulkan, cache, image, majorant. */
+ * filtered), the bricks of the majorant grid, the placement (every world-space input
+ * packed again in the new volume's frame) and the world box.  Part of picvr_vk.c; uses
+ * util, vulkan, cache, image, camera, majorant, environment, lights, clip. */
 
 static size_t picvr_voxel_bytes(picvr_voxel_type t) {
     switch (t) {
@@ -51,9 +52,6 @@ static double picvr_normalize_value(picvr_value_map m, double v) {
     double x = m.hi > m.lo ? (v - m.lo) / (m.hi - m.lo) : v;
     return x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
 }
-
-/* host/clip.c (after the lights: it packs every world-space input again). */
-static void picvr_pack_world(picvr_context *ctx);
 
 /* desc's placement (picvr_volume_desc.direction, has_origin, origin) as rot and shift
    (picvr_scene), for a box of size `size` centred in the volume's frame.  Rules: all-zero
@@ -264,6 +262,21 @@ static void picvr_shader_value_map(picvr_context *ctx, const picvr_volume_desc *
     }
     ctx->scene.gpu.value_map[0] = (float)scale;
     ctx->scene.gpu.value_map[1] = (float)offset;
+}
+
+/* Every world-space input packed again in the volume's frame (a volume with another
+   placement was uploaded).  A clip plane that no longer maps to finite numbers (a far
+   origin) is dropped with a warning: the volume is in place, and a context with a
+   half-applied clip would be worse. */
+static void picvr_pack_world(picvr_context *ctx) {
+    if (ctx->scene.has_camera) picvr_pack_camera(ctx);
+    picvr_place_lights(ctx);
+    picvr_pack_env_basis(ctx);
+    if (!picvr_pack_clip_planes(&ctx->scene, &ctx->scene.clip, &ctx->scene.gpu)) {
+        picvr_log_message(ctx, PICVR_LOG_WARNING, "clip planes out of float range in the new volume's frame: clipping off");
+        memset(&ctx->scene.clip, 0, sizeof ctx->scene.clip);
+        ctx->scene.gpu.clip_count = 0;
+    }
 }
 
 picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *desc) {

@@ -329,7 +329,7 @@ const char *picvr_device_type_string(picvr_device_type type) {
 }
 
 /* lavapipe and other CPU drivers: llvmpipe's loop bound and one workgroup per core
-   (../shared/LAVAPIPE.md) shape the sample cap and the creation batch. */
+   (docs/lavapipe.md) shape the sample cap and the creation batch. */
 static int picvr_on_cpu_device(const picvr_context *ctx) {
     return ctx->vk.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
 }

@@ -4,7 +4,12 @@
  * shaders) and in float (functions cmf_<name>, the shaders' precision).  All functions
  * are static inline, so any number of translation units may include this header.
  * The macro contract (real, CM_FN, CM_API, CM_REAL, cm_log ...) is described at the top
- * of cache_math.glsl. */
+ * of cache_math.glsl.
+ * Each instantiation also compiles the host-only formulas at the end of this file (the
+ * file includes itself with CM_HOST_FORMULAS defined): closed forms that the tests and
+ * bench/bench_fig9.c use and the kernels do not, written in the same common subset, so
+ * that the shaders' cache_math.glsl holds only what the library runs. */
+#ifndef CM_HOST_FORMULAS
 #ifndef PICVR_CACHE_MATH_HOST_H
 #define PICVR_CACHE_MATH_HOST_H
 
@@ -28,6 +33,9 @@
 #define cm_atan2(y, x) atan2(y, x)
 #define cm_tan(x) tan(x)
 #include "shaders/cache_math.glsl"
+#define CM_HOST_FORMULAS 1
+#include "cache_math_host.h"
+#undef CM_HOST_FORMULAS
 #include "shaders/sampling_math.glsl"
 #undef real
 #undef CM_FN
@@ -54,6 +62,9 @@
 #define cm_atan2(y, x) atan2f(y, x)
 #define cm_tan(x) tanf(x)
 #include "shaders/cache_math.glsl"
+#define CM_HOST_FORMULAS 1
+#include "cache_math_host.h"
+#undef CM_HOST_FORMULAS
 #include "shaders/sampling_math.glsl"
 #undef real
 #undef CM_FN
@@ -74,3 +85,47 @@
 #define CM_REAL(x) (x)
 
 #endif /* PICVR_CACHE_MATH_HOST_H */
+
+#else /* CM_HOST_FORMULAS: the host-only formulas, once per instantiation */
+
+/* The radius of the half-axis on the point's side: r_pos for c >= 0 (the centre and
+   -0 included), r_neg for c < 0 (and for NaN).  (The kernels pick the half-axis's
+   index instead: cache.glsl, zone_at.) */
+CM_API real CM_FN(half_axis)(real c, real r_pos, real r_neg) {
+    return c >= CM_REAL(0.0) ? r_pos : r_neg;
+}
+
+/* Eq. 7: E(x) = E_0 exp(-sigma_v x) = irradiance_from_ln(log_extrapolate): in
+   [0, 1e30], exactly 0 where the log is at the code for 0.  (The kernels average the
+   logs first, Eq. 11, and take the exp once: log_average_finalize.) */
+CM_API real CM_FN(extrapolate)(real E0, real sigma, real dist) {
+    return CM_FN(irradiance_from_ln)(CM_FN(log_extrapolate)(E0, sigma, dist));
+}
+
+/* |x| without overflow or underflow: M sqrt(sum (x_i / M)^2), M = max |x_i|.
+   Rules: coordinates by san_coord; 0 at the centre (max |x_i| <= CM_CENTRE). */
+CM_API real CM_FN(length3)(real x, real y, real z) {
+    real a = CM_FN(san_coord)(x), b = CM_FN(san_coord)(y), c = CM_FN(san_coord)(z);
+    real m = cm_max(a, cm_max(b, c));
+    if (!(m > CM_CENTRE)) return CM_REAL(0.0);
+    a = a / m; b = b / m; c = c / m;
+    return m * cm_sqrt(a * a + b * b + c * c);
+}
+
+/* ln E at local coordinates (x, y, z) of the octant whose half-axes have sx, sy, sz:
+   Eq. 7 with sigma = sigma_interp (Eq. 8) and the distance length1.  (The kernels add
+   the medium model's stretch of the normal coordinate: cache.glsl, predict.) */
+CM_API real CM_FN(log_extrapolate_octant)(real E0, real sx, real sy, real sz,
+                                          real x, real y, real z) {
+    return CM_FN(log_extrapolate)(E0, CM_FN(sigma_interp)(sx, sy, sz, x, y, z),
+                                  CM_FN(length1)(x, y, z));
+}
+
+/* One term w ln E_k of Eq. 11's numerator.  Rules: w NaN -> 0, clamped to [0, 1];
+   ln E by san_ln; so each term lies in [-69.1, 69.1]. */
+CM_API real CM_FN(weighted_ln)(real w, real lnE) {
+    real ws = cm_isfinite(w) ? cm_clamp(w, CM_REAL(0.0), CM_REAL(1.0)) : CM_REAL(0.0);
+    return ws * CM_FN(san_ln)(lnE);
+}
+
+#endif /* CM_HOST_FORMULAS */

@@ -2,19 +2,21 @@
 // rendering procedure and the entry-creation procedure: the entry, node, reference
 // and request pools, the local frame, lookup with extrapolation (Eq. 7, 8, 11 and the
 // Fig. 4 discard), insertion into the multi-reference octree, and node locks.
-// Include after common.glsl.  The scalar formulas live in cache_math.glsl, which the
-// host tests compile in double precision.
+// The scalar formulas live in cache_math.glsl, which the host tests compile in double
+// precision.  Specialization (specialization.glsl): MONO_CHANNEL, the lights' channel
+// when they share one chromaticity; SCREEN_LOCKING, the locking mode;
+// CACHE_MAX_LOOKUP_REFS, the walk's bound.
+#include "specialization.glsl"
+#include "scene.glsl"
+#include "geometry.glsl"
+#include "views.glsl"
+#include "medium.glsl"
+#include "phase.glsl"
 #include "cache_math.glsl"
 
 #define CACHE_MAX_DEPTH 10u        // octree depth limit (root = 0)
 #define CACHE_NIL 0u               // index 0 of the ref pool, and as a child index, means "none"
 #define CACHE_NO_NODE 0xffffffffu  // descend_create failed (node 0 is the root)
-
-// Specialization (host/pipelines.c, picvr_variant_key): the lights' channel when they share one
-// chromaticity (scene.light_log_k; 3: colours differ, every channel is extrapolated),
-// and the locking mode, fixed per context (true: screen space, §5.2).
-layout(constant_id = 4) const uint MONO_CHANNEL = 3u;
-layout(constant_id = 5) const bool SCREEN_LOCKING = false;
 
 // One entry: centre, irradiance E_0 at the centre (RGB), virtual extinction per
 // half-axis and channel (Eq. 6) and validity radius per half-axis (Eq. 9, 10).
@@ -235,17 +237,17 @@ uint child_containing(uint ch, vec3 x, inout vec3 lo, inout vec3 size) {
 // deepest node enclosing x (an entry is referenced wherever its zone may reach, §4.4),
 // shared by the lookup and the update procedure.
 // Bounded in total, not per node: llvmpipe cuts an invocation's loops past 65535
-// iterations in all (../shared/LAVAPIPE.md), and a render invocation's tracking loops
+// iterations in all (docs/lavapipe.md), and a render invocation's tracking loops
 // (at most 5 x MAX_TRACK_STEPS with the error view) leave room for 8192 references
 // (two loop iterations each, with walk_next's descent loop), the 11 levels and the
 // lookup's two passes over its candidates (cache_lookup).  A walk
 // that reaches the bound with references left says so in cache_counters.lookups_cut
 // (stats.cache_lookups_cut) and ignores the rest.  The bound is cache.max_lookup_refs
-// (a specialization constant, at most the default; picvr.h).  Not per node: lists grow
+// (CACHE_MAX_LOOKUP_REFS, a specialization constant, at most the default; picvr.h).
+// Not per node: lists grow
 // long (entries flat along n but wide along t, b sit high in the tree), and a lookup that
 // missed the entries past a per-node bound created redundant ones (docs/cache.md,
 // "Long lists").
-layout(constant_id = 6) const uint CACHE_MAX_LOOKUP_REFS = 8192u;
 // A walk's bound (at most CACHE_MAX_LOOKUP_REFS; creation's lookups take a smaller one out
 // of their sample's loop budget) and the entries a lookup may use: those below
 // lookup_entry_limit.  Rendering and update read the cache after a barrier and use all;

@@ -30,8 +30,6 @@
 
 layout(set = 0, binding = 21, std430) buffer CacheBlend { vec4 cache_blend[]; };  // sum d, sum d^2, m (uint bits), -
 
-layout(constant_id = 15) const bool CACHE_BLEND = true;
-
 // The weight from the sums (s1 = sum d, s2 = sum d^2) of m hits.
 // Rules: m < 2 -> 0 (no variance estimate yet); b^ = 0 -> 0 (no sign of a bias);
 // var < 0 from rounding -> 0, so a constant nonzero difference gives 1; sums that

@@ -16,7 +16,7 @@
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 128) in;
 
-// Transmittance by unbiased ray marching (common.glsl, ray_marching_transmittance), not
+// Transmittance by unbiased ray marching (transmittance.glsl, ray_marching_transmittance), not
 // ratio tracking: far fewer samples meet Eq. 5.
 // Loop budget (llvmpipe truncates past 65535 loop iterations per invocation, summed over
 // all loops): the estimates' combs share the pool rm_pool = CREATE_MAX_ROUNDS * 7 points
@@ -24,15 +24,28 @@ layout(local_size_x = 128) in;
 // order loops add at most RM_MAX_ORDER each: 6*7*2*(640+16) = 55104, plus the light
 // loops (at most 4 * 32 per sample: 5376) and the reductions (about 350).  So on a CPU
 // device at most 6 rounds, 6 * 128 = 768 samples per point (the default cap; the host
-// rejects more there).  A specialization constant set from cache.max_samples; a GPU has
-// no such bound (the host allows up to 64 rounds).
+// rejects more there).  CREATE_MAX_ROUNDS, a specialization constant, is set from
+// cache.max_samples; a GPU has no such bound (the host allows up to 64 rounds).
 #define TRANSMITTANCE_RAY_MARCHING
 #define RM_POOL_PER_ESTIMATE 640u
 #define RM_BUDGET 4096u
-layout(constant_id = 2) const uint CREATE_MAX_ROUNDS = 6u;
 
-#include "common.glsl"
+// The shared code it uses, in dependency order (each file includes what it uses, once).
+#include "specialization.glsl"
+#include "scene.glsl"
 #include "sampling_math.glsl"
+#include "random.glsl"
+#include "geometry.glsl"
+#include "clip.glsl"
+#include "views.glsl"
+#include "medium.glsl"
+#include "phase.glsl"
+#include "majorant.glsl"
+#include "tracking.glsl"
+#include "transmittance.glsl"
+#include "background.glsl"
+#include "lights.glsl"
+#include "direct_light.glsl"
 #include "distance.glsl"
 #include "path.glsl"
 #include "cache.glsl"
@@ -72,8 +85,9 @@ const uint REFINE_FLAG = 0x80000000u;
 // generation; the blend (cache_blend.glsl) removes what reaches the image.  With a bounce
 // limit the entries of x' would hold one event too many, so a path is traced in full.
 //
-// Loop budget on a CPU device: each sample adds CREATE_SAMPLE_STEPS / 2 to path_pool,
-// which its tracking loops draw from, a quarter to rm_pool, which its ray-marched
+// Loop budget on a CPU device: each sample adds half of CREATE_SAMPLE_STEPS (a
+// specialization constant) to path_pool, which its tracking loops draw from, a quarter
+// to rm_pool, which its ray-marched
 // transmittances draw from, and its lookup's walk takes at most a quarter (walk_cap, two
 // iterations per reference), so that an invocation's MS_LANE_SAMPLES * CREATE_MAX_ROUNDS
 // samples (sample_points_ms, refine_main) stay within llvmpipe's cap (the host sets it:
@@ -82,7 +96,6 @@ const uint REFINE_FLAG = 0x80000000u;
 // first): what short paths leave, a long one later may use, and the sum stays within the
 // cap.  A path that still runs dry is cut (path.glsl: biased toward dark, counted in
 // cache_samples_truncated).
-layout(constant_id = 16) const uint CREATE_SAMPLE_STEPS = PATH_STEPS;
 // Multiply scattered samples an invocation takes per round (sample_points_ms; the host's
 // PICVR_CACHE_MS_LANE_SAMPLES, for CREATE_SAMPLE_STEPS).
 const uint MS_LANE_SAMPLES = 8u;
@@ -269,7 +282,7 @@ vec3 ms_lane_sample(vec3 p, uint stream, uint key, uint salt, bool centre, inout
 // apart and end together, where lanes of independent paths (an invocation running its
 // seven points in turn) would wait for the longest path of their group: a sample is a
 // whole path of tens of events in a cloud, and coherence is the main lever on this
-// driver (../shared/LAVAPIPE.md).  Eq. 5 per point as in sample_points; the lanes of a
+// driver (docs/lavapipe.md).  Eq. 5 per point as in sample_points; the lanes of a
 // finished point idle.  Leaves s_E, s_rounds, s_point_done and the first moment s_aniso.
 void sample_points_ms(vec3 p[7], uint req) {
     uint lid = gl_LocalInvocationID.x, k = lid & 7u, slot = lid >> 3u;

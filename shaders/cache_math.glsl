@@ -2,7 +2,9 @@
 // Eq. 6-11, the Fig. 4 discard radius and the Fig. 6 radius reduction), written once
 // in the common subset of C and GLSL.  The shaders compile it in float (this file
 // defines the GLSL side of its macros); the host tests compile it twice, in double and
-// in float, through the prelude reference/cache_math_host.h.
+// in float, through the prelude reference/cache_math_host.h.  It holds what the kernels
+// use; formulas that only the tests and benchmarks use (closed forms they compare
+// against) are in that prelude, in the same subset.
 //
 // Common-subset rules: scalar code only; no out-parameters (a function returns one
 // scalar, several values mean one call per axis); no vectors, structs, arrays, casts or
@@ -131,12 +133,6 @@ CM_API real CM_FN(san_sigma)(real s) {
     return cm_clamp(s, -CM_SIGMA_V_MAX, CM_SIGMA_V_MAX);
 }
 
-// The radius of the half-axis on the point's side: r_pos for c >= 0 (the centre and
-// -0 included), r_neg for c < 0 (and for NaN).
-CM_API real CM_FN(half_axis)(real c, real r_pos, real r_neg) {
-    return c >= CM_REAL(0.0) ? r_pos : r_neg;
-}
-
 // ---- Eq. 6: virtual extinction along one half-axis ----------------------------------
 
 // sigma_v = -ln(E_delta / E_0) / delta = (ln E_0 - ln E_delta) / delta, from the logs.
@@ -180,12 +176,6 @@ CM_API real CM_FN(ln_extrapolate)(real lnE0, real sigma, real dist) {
 // The same from E_0 (as the entry stores it): ln(E_0 exp(-sigma_v x)).
 CM_API real CM_FN(log_extrapolate)(real E0, real sigma, real dist) {
     return CM_FN(ln_extrapolate)(CM_FN(ln_irradiance)(E0), sigma, dist);
-}
-
-// Eq. 7: E(x) = E_0 exp(-sigma_v x) = irradiance_from_ln(log_extrapolate): in
-// [0, 1e30], exactly 0 where the log is at the code for 0.
-CM_API real CM_FN(extrapolate)(real E0, real sigma, real dist) {
-    return CM_FN(irradiance_from_ln)(CM_FN(log_extrapolate)(E0, sigma, dist));
 }
 
 // ---- Eq. 8: barycentric interpolation within an octant -----------------------------
@@ -272,16 +262,6 @@ CM_API real CM_FN(interp_validity_radius)(real sx, real sy, real sz, real x, rea
 
 // ---- §4.2: anisotropic (ellipsoidal) radius, Eq. 11 weight ----------------------------
 
-// |x| without overflow or underflow: M sqrt(sum (x_i / M)^2), M = max |x_i|.
-// Rules: coordinates by san_coord; 0 at the centre (max |x_i| <= CM_CENTRE).
-CM_API real CM_FN(length3)(real x, real y, real z) {
-    real a = CM_FN(san_coord)(x), b = CM_FN(san_coord)(y), c = CM_FN(san_coord)(z);
-    real m = cm_max(a, cm_max(b, c));
-    if (!(m > CM_CENTRE)) return CM_REAL(0.0);
-    a = a / m; b = b / m; c = c / m;
-    return m * cm_sqrt(a * a + b * b + c * c);
-}
-
 // The distance that multiplies Eq. 8's sigma_v in Eq. 7: |x| + |y| + |z|, Eq. 8's own
 // denominator, so that sigma_v(x,y,z) (|x| + |y| + |z|) = sx |x| + sy |y| + sz |z|.
 // With it Eq. 7 + 8 reproduce exactly any field whose logarithm is linear in the local
@@ -294,14 +274,6 @@ CM_API real CM_FN(length3)(real x, real y, real z) {
 // Rules: coordinates by san_coord, so the sum is at most 3 CM_LEN_MAX.
 CM_API real CM_FN(length1)(real x, real y, real z) {
     return CM_FN(san_coord)(x) + CM_FN(san_coord)(y) + CM_FN(san_coord)(z);
-}
-
-// ln E at local coordinates (x, y, z) of the octant whose half-axes have sx, sy, sz:
-// Eq. 7 with sigma = sigma_interp (Eq. 8) and the distance length1.
-CM_API real CM_FN(log_extrapolate_octant)(real E0, real sx, real sy, real sz,
-                                          real x, real y, real z) {
-    return CM_FN(log_extrapolate)(E0, CM_FN(sigma_interp)(sx, sy, sz, x, y, z),
-                                  CM_FN(length1)(x, y, z));
 }
 
 // The normalized ellipsoidal distance rho = |x| / r(x) = sqrt(sum x_i^2 / r_i^2) of the
@@ -354,13 +326,8 @@ CM_API real CM_FN(weight)(real dist, real r) {
 }
 
 // ---- Eq. 11: log-space weighted average ------------------------------------------------
-
-// One term w ln E_k of the numerator (the shader sums it and w itself).  Rules: w NaN
-// -> 0, clamped to [0, 1]; ln E by san_ln; so each term lies in [-69.1, 69.1].
-CM_API real CM_FN(weighted_ln)(real w, real lnE) {
-    real ws = cm_isfinite(w) ? cm_clamp(w, CM_REAL(0.0), CM_REAL(1.0)) : CM_REAL(0.0);
-    return ws * CM_FN(san_ln)(lnE);
-}
+// The sums sum_k w_k ln E_k and sum_k w_k are taken in cache.glsl (eval_entry), from
+// weight and the logs of Eq. 7.
 
 // True when the sum of weights makes a cache hit: finite and > CM_W_MIN (1e-12).
 CM_API bool CM_FN(log_average_valid)(real sum_w) {

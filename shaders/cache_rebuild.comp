@@ -6,7 +6,7 @@
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 64) in;
 
-#include "common.glsl"
+#include "specialization.glsl"
 #include "cache.glsl"
 
 void main() {

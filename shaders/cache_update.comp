@@ -9,7 +9,13 @@
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 16, local_size_y = 8) in;
 
-#include "common.glsl"
+#include "specialization.glsl"
+#include "scene.glsl"
+#include "random.glsl"
+#include "clip.glsl"
+#include "views.glsl"
+#include "tracking.glsl"
+#include "camera.glsl"
 #include "cache.glsl"
 
 layout(push_constant) uniform Push { uint sched_round; uint seed; } pc;

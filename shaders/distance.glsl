@@ -1,8 +1,8 @@
 // distance.glsl - where a camera ray's light is gathered (paper §3, Eq. 4 along the ray):
 // free-flight sampling by delta tracking combined with equiangular sampling toward the
 // lights (Kulla and Fajardo 2012) by multiple importance sampling, so that a ray through
-// thin medium still gathers the in-scattered light of a nearby light.  Include after
-// common.glsl; the scalar formulas are in sampling_math.glsl.
+// thin medium still gathers the in-scattered light of a nearby light.  The scalar
+// formulas are in sampling_math.glsl; USE_EQUIANGULAR (specialization.glsl) turns it on.
 //
 // The estimator.  Along the camera ray over its medium segment [t0, t1] the pixel sees
 //   L = int_t0^t1 T(t) sigma_s(t) L_s(t) dt + T(t1) L_end,
@@ -30,9 +30,14 @@
 // Leave-out: USE_EQUIANGULAR is on only when some light is served (host/pipelines.c,
 // picvr_update_equiangular: a point, sphere or rect light whose 1/d^2 falls off steeply
 // across the volume); otherwise the camera ray is the paper's delta tracking alone.
-
-// Specialization: equiangular sampling and the MIS above (false: delta tracking only).
-layout(constant_id = 7) const bool USE_EQUIANGULAR = false;
+#ifndef DISTANCE_GLSL_ONCE
+#define DISTANCE_GLSL_ONCE 1
+#include "specialization.glsl"
+#include "limits.glsl"
+#include "scene.glsl"
+#include "sampling_math.glsl"
+#include "majorant.glsl"
+#include "tracking.glsl"
 
 // The perpendicular from light i's centre to the ray: x = Delta, y = D (at least
 // 1e-3 of the smallest voxel spacing, the floor the point light's distance has).
@@ -106,3 +111,5 @@ vec2 minorant_depths(vec3 ro, vec3 rd, float t0, float ta, float tb) {
 // q(t) = sigma_t exp(-tau_min), the free-flight proxy density (underflows to 0 deep in
 // dense media, where mis_power's rules apply).
 float free_flight_proxy(float sigma, float tau_min) { return sigma * exp(-min(tau_min, 87.0)); }
+
+#endif

@@ -1,6 +1,5 @@
 // path.glsl - the light scattered at a camera path's first scatter event, with the rest
 // of the path (picvr_scattering.max_bounces > 0, USE_BOUNCES): a volumetric path tracer.
-// Include after common.glsl.
 //
 // At every scatter event x_k (k = 1, 2, ...; the first is the camera ray's, from delta
 // tracking) the path adds next-event estimation: one light or the background chosen by
@@ -29,11 +28,25 @@
 // bright ones (albedo near 1) go on until they leave the medium.
 //
 // Bound.  llvmpipe caps an invocation's loop iterations at 65535 in all, so the path's
-// tracking loops draw from one pool (common.glsl, path_pool, PATH_STEPS) and each event
-// is charged scene.vertex_cost more for its other loops (lights, the environment's
-// search).  A path that runs the pool dry ends there, and a continuation cut at its
+// tracking loops draw from one pool (tracking.glsl, path_pool; limits.glsl, PATH_STEPS)
+// and each event is charged scene.vertex_cost more for its other loops (lights, the
+// environment's search).  A path that runs the pool dry ends there, and a continuation cut at its
 // bound ends the path without what it would have seen: biased toward dark (never a leak
 // of light through medium it could not track), and counted in stats.truncated_paths.
+
+#include "specialization.glsl"
+#include "limits.glsl"
+#include "scene.glsl"
+#include "sampling_math.glsl"
+#include "random.glsl"
+#include "clip.glsl"
+#include "medium.glsl"
+#include "phase.glsl"
+#include "tracking.glsl"
+#include "transmittance.glsl"
+#include "lights.glsl"
+#include "direct_light.glsl"
+#include "distance.glsl"
 
 #define BOUNCES_UNLIMITED 0xffffffffu
 

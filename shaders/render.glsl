@@ -10,8 +10,23 @@
 // under one mask, a GPU 32: in one kernel a single scattering or missing lane makes the
 // whole group run the rays), and each kernel is smaller (docs/cache.md, "The rendering
 // procedure as three kernels").
-#include "common.glsl"
+// The shared code it uses, in dependency order (each file includes what it uses, once).
+#include "specialization.glsl"
+#include "scene.glsl"
 #include "sampling_math.glsl"
+#include "random.glsl"
+#include "geometry.glsl"
+#include "clip.glsl"
+#include "views.glsl"
+#include "medium.glsl"
+#include "phase.glsl"
+#include "majorant.glsl"
+#include "tracking.glsl"
+#include "transmittance.glsl"
+#include "background.glsl"
+#include "lights.glsl"
+#include "camera.glsl"
+#include "direct_light.glsl"
 #include "distance.glsl"
 #include "path.glsl"
 #include "queue.glsl"
@@ -37,11 +52,6 @@ layout(set = 0, binding = 16, std430) buffer ShadeQueue { uvec4 head; uint ev[];
 layout(set = 0, binding = 17, std430) buffer LookupQueue { uvec4 head; uint ev[]; } lookup_queue;
 #endif
 #define EVENT_WORDS 3u
-// The scatter event of a camera path at which the cache is looked up (cache.lookup_event,
-// with the multiply scattered cache and unlimited bounces; else 1): at the first, the
-// lookup kernel; at a later one, the shading kernel (render_shade_cache.comp), to which
-// the tracking kernel then queues every event.
-layout(constant_id = 17) const uint LOOKUP_EVENT = 1u;
 // Threads per workgroup of the event kernels: one dispatch holds at most MAX_QUEUE
 // (65535) blocks of 128 pixels, so 128 keeps its workgroups within the 65535 that
 // every Vulkan device allows.

@@ -43,7 +43,7 @@ View view_at(uint o) {
     return v;
 }
 
-// The centre ray of pixel px (common.glsl's camera_ray with the jitter at 1/2).
+// The centre ray of pixel px (camera.glsl's camera_ray with the jitter at 1/2).
 vec3 centre_ray(View v, uvec2 px) {
     float sx = (2.0 * (float(px.x) + 0.5) / float(pc.width) - 1.0) * v.tan_half * v.aspect;
     float sy = (1.0 - 2.0 * (float(px.y) + 0.5) / float(pc.height)) * v.tan_half;

@@ -192,7 +192,7 @@ void test_beer_lambert_loose_majorant_and_brick_apron(void **state) {
 }
 
 /* ---- entry creation's unbiased ray-marching estimator, on the host -------------------
-   The loop of common.glsl's ray_marching_transmittance and comb_optical_depth, copied in
+   The loop of transmittance.glsl's ray_marching_transmittance and comb_optical_depth, copied in
    double with the same constants, on 1D extinction profiles whose optical depth is
    known: bricks of 8 voxels with a majorant each, a stratified comb (n strata per
    non-empty brick, n = ceil(majorant depth / RM_TAU_STEP), at most one per voxel), the

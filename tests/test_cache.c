@@ -658,7 +658,7 @@ void test_cache_points_stop_on_their_own(void **state) {
 }
 
 /* stats.cache_samples_truncated counts creation samples whose transmittance estimate was
-   cut (common.glsl, ray_marching_transmittance: RM_MAX_ORDER orders or the loop pool).  A
+   cut (transmittance.glsl, ray_marching_transmittance: RM_MAX_ORDER orders or the loop pool).  A
    sheet two voxels thick and dense (sigma_t up to 40 per voxel) in empty space, under a
    sun that crosses it: one comb sample per voxel either lands in the sheet's core or in
    its thin tail, so the combs differ by tens of optical depths, the expansion's terms

@@ -1,4 +1,4 @@
-/* test_dicom.c - the DICOM series reader (picvr_io_load_dicom, io/dicom.cpp): synthetic CT
+/* test_dicom.c - the DICOM series reader (picvr_io_load_dicom, io/dicom*.cpp): synthetic CT
  * series written by tests/dicom_writer.cpp into private folders, read back and compared
  * with the attributes written (geometry computed here from the orientation and positions
  * asked for, values from dw_value); the warnings for uneven spacing, gantry tilt, several

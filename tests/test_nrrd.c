@@ -1,4 +1,4 @@
-/* test_nrrd.c - the NRRD loader of io/picvr_io.c and its percentile range (picvr_io_load_nrrd, and picvr_io_load
+/* test_nrrd.c - the NRRD loader of io/nrrd.c and its percentile range (picvr_io_load_nrrd, and picvr_io_load
  * by extension): files written here byte by byte from the format's specification
  * (teem.sourceforge.net/nrrd/format.html), read back and compared with the values,
  * spacings, orientation and origin written; and malformed or unsupported headers, each

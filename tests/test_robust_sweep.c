@@ -812,7 +812,7 @@ void test_sweep_long_run_precision_1e6(void **state) {
     double *expv = tu_expected_image(&cam, 4, tu_homog_ray, &hm);
     memcpy(ex, expv, sizeof ex);
     free(expv);
-    /* PICVR_LONG_RUN: fewer samples for instrumented runs (make test-asan: 2e5). */
+    /* PICVR_LONG_RUN=N: N samples instead of 1e6, for a quick local run. */
     const char *env = getenv("PICVR_LONG_RUN");
     uint32_t total = env && atoi(env) > 0 ? (uint32_t)atoi(env) : 1000000u;
     uint32_t done = 0;

@@ -98,5 +98,26 @@ int main(void)
     printf("CACHE_NODE_RADII %g\n", (double)PICVR_CACHE_NODE_RADII);
     printf("EVENT_WORDS %u\nEVENT_GROUP %u\n", PICVR_EVENT_WORDS, PICVR_EVENT_GROUP);
     printf("PATH_STEPS %u\n", PICVR_PATH_STEPS);
+    /* the specialization constants' ids (shaders/specialization.glsl) and their number */
+#define PICVR_SPEC(name) printf("SPEC.%s %d\n", #name, (int)PICVR_SPEC_##name)
+    PICVR_SPEC(USE_PHASE_MIS);
+    PICVR_SPEC(USE_FINE);
+    PICVR_SPEC(CREATE_MAX_ROUNDS);
+    PICVR_SPEC(USE_DEBUG_VIEW);
+    PICVR_SPEC(MONO_CHANNEL);
+    PICVR_SPEC(SCREEN_LOCKING);
+    PICVR_SPEC(CACHE_MAX_LOOKUP_REFS);
+    PICVR_SPEC(USE_EQUIANGULAR);
+    PICVR_SPEC(USE_RESIDUAL);
+    PICVR_SPEC(USE_QMC);
+    PICVR_SPEC(USE_BOUNCES);
+    PICVR_SPEC(USE_HG);
+    PICVR_SPEC(USE_ENV_MAP);
+    PICVR_SPEC(USE_REUSE);
+    PICVR_SPEC(USE_CLIP);
+    PICVR_SPEC(CACHE_BLEND);
+    PICVR_SPEC(CREATE_SAMPLE_STEPS);
+    PICVR_SPEC(LOOKUP_EVENT);
+    printf("SPEC_CONSTANTS %d\n", (int)PICVR_SPEC_CONSTANTS);
     return 0;
 }

@@ -1,13 +1,14 @@
-/* fuzz_dicom.cpp - libFuzzer harness for the DICOM reader (io/dicom.cpp).
+/* fuzz_dicom.cpp - libFuzzer harness for the DICOM reader (io/dicom*.cpp).
  *
- * Built with clang++ -fsanitize=fuzzer,address,undefined, linked with io/picvr_io.c and
- * GDCM.  One input is the bytes of one file, written as x.dcm in a private folder under
- * $TMPDIR and loaded twice: through the file (its series) and through the folder.  Every
- * call must return a status without a sanitizer report; a failure must leave the volume
- * zeroed with a message; a success must be consistent (size == product of dims * voxel
- * size, dims in 1..PICVR_IO_MAX_DIM, positive finite spacing, finite geometry, strings
- * terminated) and is fed to picvr_io_value_range and picvr_io_to_desc.  Seeds:
- * tests/fuzz/corpus_dicom (small slices of tests/dicom_writer.cpp).
+ * Built with clang++ -fsanitize=fuzzer,address,undefined, linked with the readers' shared
+ * helpers (the Makefile's IO_COMMON_SRC) and GDCM.  One input is the bytes of one file,
+ * written as x.dcm in a private folder under $TMPDIR and loaded twice: through the file
+ * (its series) and through the folder.  Every call must return a status without a
+ * sanitizer report; a failure must leave the volume zeroed with a message; a success
+ * must be consistent (size == product of dims * voxel size, dims in 1..PICVR_IO_MAX_DIM,
+ * positive finite spacing, finite geometry, strings terminated) and is fed to
+ * picvr_io_value_range and picvr_io_to_desc.  Seeds: tests/fuzz/corpus_dicom (small
+ * slices of tests/dicom_writer.cpp).
  */
 #include "picvr_io.h"
 

@@ -1,4 +1,5 @@
-/* fuzz_volume_io.c - libFuzzer harness for the loaders in io/picvr_io.c.
+/* fuzz_volume_io.c - libFuzzer harness for the raw and NRRD loaders (picvr_io_load and
+ * picvr_io_parse_name of the raw and NRRD build: the Makefile's IO_RAW_SRC).
  *
  * Built by `make fuzz` with clang -fsanitize=fuzzer,address,undefined.  One input is
  *

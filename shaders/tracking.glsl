@@ -1,0 +1,161 @@
+// tracking.glsl - delta (Woodcock) tracking and (residual) ratio tracking through the
+// majorant grids (paper Eq. 1-3): free-flight sampling of scatter events and the
+// transmittance estimate of shadow rays, in one walk for both, with the loop bounds of
+// limits.glsl and, with bounces, the path's shared loop pool.
+#ifndef TRACKING_GLSL_ONCE
+#define TRACKING_GLSL_ONCE 1
+#include "specialization.glsl"
+#include "limits.glsl"
+#include "scene.glsl"
+#include "random.glsl"
+#include "medium.glsl"
+#include "majorant.glsl"
+
+// One ratio-tracking collision with extinction s under majorant m: T *= 1 - s / m (Eq.
+// 2), and Russian roulette below 0.1, which ends long, dark paths early without bias
+// (a survivor is raised to 0.1).  Returns true when the path ended (T = 0).
+bool ratio_collide(inout float T, float s, float m, inout Rng rng) {
+    // s <= m by construction; the clamp keeps T >= 0 under rounding
+    T *= clamp(1.0 - s / m, 0.0, 1.0);
+    if (T < 0.1) {
+        if (T <= 0.0 || rnd(rng) >= T * 10.0) { T = 0.0; return true; }
+        T = 0.1;
+    }
+    return false;
+}
+
+// The control extinction of residual ratio tracking in coarse cell d: the cell's
+// minorant (the third part of the majorant buffer; 0 where the transfer function
+// reaches 0 over the cell's value range), so sigma_t - control lies in [0, majorant -
+// control] everywhere in the cell.
+float cell_minorant(Dda d) {
+    uint cells = scene.grid.x * scene.grid.y * scene.grid.z;
+    return majorant[2u * cells + cell_index(d)];
+}
+
+// The control c of cell d whose majorant is maj: its minorant with USE_RESIDUAL (at most
+// maj; 0 in empty cells), else 0.
+float cell_control(Dda d, float maj) { return USE_RESIDUAL && maj > 0.0 ? min(cell_minorant(d), maj) : 0.0; }
+
+// One tentative collision at t under majorant m and control c (the minorant with
+// USE_RESIDUAL, else 0).  Delta tracking: real with probability sigma_t / m (returns
+// true); below the control c <= sigma_t that holds without looking sigma_t up.  Ratio
+// tracking: T takes the weight 1 - (sigma_t - c) / (m - c) (residual ratio tracking,
+// Novak et al. 2014, "Residual ratio tracking for estimating attenuation in participating
+// media", §5: the control's part exp(-c l) is applied exactly by the caller along the
+// way, the residual part is ratio-tracked, so E[T] = exp(-tau)); returns true when T
+// fell to 0.
+bool tentative_collision(bool ratio, vec3 x, float m, float c, inout float T, inout Rng rng) {
+    if (!ratio) {
+        float u = rnd(rng) * m;
+        return u < c || u < sigma_t(x);
+    }
+    return ratio_collide(T, sigma_t(x) - c, m - c, rng);
+}
+
+// The next tentative collision after t under majorant m and control c: delta tracking
+// at rate m, ratio tracking at rate m - c (the residual); t_end when the rate is 0.  Ratio
+// tracking's T takes the control's attenuation up to there.  -log(1 - u) is finite
+// because u < 1 (rnd has 24 bits).
+float next_tentative(bool ratio, float t, float t_end, float m, float c, inout float T, inout Rng rng) {
+    float rate = ratio ? m - c : m;
+    float t_try = rate > 0.0 ? t - log(1.0 - rnd(rng)) / rate : t_end;
+    if (ratio && c > 0.0) T *= exp(-c * (min(t_try, t_end) - t));
+    return t_try;
+}
+
+// With USE_BOUNCES, the loop iterations this invocation's tracking loops may still take
+// together (llvmpipe's cap is on their sum, and a path runs two of them per scatter
+// event): each loop runs at most min(MAX_TRACK_STEPS, path_pool) and takes what it ran.
+uint path_pool = PATH_STEPS;
+
+// Tracking through one dense brick at voxel resolution, from t to t_end, with the
+// brick's control c (it bounds sigma_t from below in each voxel too), sharing the
+// caller's step counter and its bound.  Returns true when the walk ended the whole track:
+// a real collision (delta tracking; t holds it) or a zero transmittance (ratio tracking).
+bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, float c, inout float T,
+                  inout Rng rng, inout uint steps, uint limit) {
+    Dda f = fine_start(ro, rd, t);
+    float m = max(fine_majorant(f), c);
+    for (; steps < limit; steps++) {
+        float t_seg = min(dda_exit(f), t_end);
+        float t_try = next_tentative(ratio, t, t_seg, m, c, T, rng);
+        if (t_try < t_seg) {
+            t = t_try;
+            if (tentative_collision(ratio, ro + rd * t, m, c, T, rng)) return true;
+            continue;
+        }
+        t = t_seg;
+        if (t >= t_end || !dda_advance(f)) { t = t_end; return false; }
+        m = max(fine_majorant(f), c);
+    }
+    return false;
+}
+
+// Delta (Woodcock) tracking (ratio false) or ratio tracking (ratio true) in [t0, t1]:
+// one walk through the majorant grid for both; every caller passes a constant, so each
+// compiles to its own loop.  Free flights restart at cell boundaries (the exponential
+// distribution is memoryless), so each cell uses its own majorant and, with
+// USE_RESIDUAL, its minorant as the control (residual ratio tracking; delta tracking
+// saves lookups with it).  One flat loop: every iteration is one tentative collision,
+// cell step or empty-space jump (also inside fine_segment), so that SIMD lanes advance
+// together, and all count against one bound (MAX_TRACK_STEPS, and the path's pool);
+// past it the track is truncated (biased, counted) and treated as passing.  Returns, for
+// delta tracking, the distance of a real collision or -1 when the ray passes; for ratio
+// tracking, the transmittance estimate (Eq. 2).
+float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    Dda d = coarse_start(ro, rd, t0);
+    float t = t0, T = 1.0;
+    float maj = cell_majorant(d);
+    float c = cell_control(d, maj);
+    uint limit = USE_BOUNCES ? min(MAX_TRACK_STEPS, path_pool) : MAX_TRACK_STEPS;
+    uint i = 0u;
+    bool ended = false;      // a collision (delta) or a zero transmittance (ratio)
+    bool passed = false;     // the ray left [t0, t1]
+    for (; i < limit; i++) {
+        float t_cell = min(dda_exit(d), t1);
+        if (maj > 0.0) {
+            if (USE_FINE && (ratio ? maj - c : maj) * (t_cell - t) > FINE_THRESHOLD) {
+                if (fine_segment(ratio, ro, rd, t, t_cell, c, T, rng, i, limit)) { ended = true; break; }
+                if (i >= limit) break;
+            } else {
+                float t_try = next_tentative(ratio, t, t_cell, maj, c, T, rng);
+                if (t_try < t_cell) {
+                    t = t_try;
+                    if (tentative_collision(ratio, ro + rd * t, maj, c, T, rng)) { ended = true; break; }
+                    continue;
+                }
+            }
+            // a control alone does not end a path: roulette it as a collision would
+            if (ratio && T < 0.1 && ratio_collide(T, 0.0, 1.0, rng)) { ended = true; break; }
+        } else {
+            float jump = empty_skip(d, rd);
+            if (jump > 0.0) {
+                t += jump;
+                if (t >= t1) { passed = true; break; }
+                d = coarse_start(ro, rd, t);
+                maj = cell_majorant(d);
+                c = cell_control(d, maj);
+                continue;
+            }
+        }
+        t = t_cell;
+        if (t >= t1 || !dda_advance(d)) { passed = true; break; }
+        maj = cell_majorant(d);
+        c = cell_control(d, maj);
+    }
+    if (USE_BOUNCES) path_pool -= min(i + 1u, path_pool);
+    if (ended) return ratio ? 0.0 : t;
+    if (!passed) truncated = true;
+    return ratio ? T : -1.0;
+}
+
+float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    return track(false, ro, rd, t0, t1, rng, truncated);
+}
+
+float ratio_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
+    return track(true, ro, rd, t0, t1, rng, truncated);
+}
+
+#endif

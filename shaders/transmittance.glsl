@@ -1,0 +1,128 @@
+// transmittance.glsl - the transmittance along a shadow ray: ratio tracking
+// (tracking.glsl) in the rendering kernels, unbiased ray marching in entry creation
+// (TRANSMITTANCE_RAY_MARCHING, defined by cache_create.comp before it includes this).
+#ifndef TRANSMITTANCE_GLSL_ONCE
+#define TRANSMITTANCE_GLSL_ONCE 1
+#include "scene.glsl"
+#include "random.glsl"
+#include "clip.glsl"
+#include "medium.glsl"
+#include "majorant.glsl"
+#include "tracking.glsl"
+
+#ifdef TRANSMITTANCE_RAY_MARCHING
+// ---- unbiased ray-marching transmittance (entry creation) ----
+// Kettunen et al. 2021, "An Unbiased Ray-Marching Transmittance Estimator", simplified.
+// Why, in creation only: ratio tracking against tight majorants is nearly a 0/1
+// estimate, so Eq. 5 needs thousands of samples wherever the light arrives through the
+// medium; most entries then miss it at the sample cap, and their noise darkens the image
+// where several entries meet (docs/cache.md, "Entry noise and the dark pot").  This
+// estimator is exact in a homogeneous medium and low-variance elsewhere, but costs
+// several ratio-tracking samples, so the renderer keeps ratio tracking (one sample per
+// pixel and iteration, no Eq. 5).
+// A kernel that defines TRANSMITTANCE_RAY_MARCHING defines RM_BUDGET, the most loop
+// iterations (DDA steps plus samples, all orders) one estimate may take, and sets the
+// pool rm_pool before its first estimate: the iterations all its estimates may still
+// take together.  An estimate takes at most min(RM_BUDGET, rm_pool); past that it is
+// truncated (biased, flagged like a tracking loop at its bound).  Why a pool:
+// llvmpipe's cap bounds the sum over an invocation, not each estimate, and most
+// estimates take a few dozen iterations, so a long ray through many bricks may use
+// what the short ones left, which a fixed share per estimate would cut (docs/cache.md,
+// "Guards on creation's estimates").
+#define RM_TAU_STEP 0.5     // majorant optical depth per stratum (at most one per voxel)
+#define RM_COMB_SAMPLES 192.0 // long rays: strata at least (t1 - t0) / this apart
+#define RM_DARK 6.9         // pivots darker than exp(-6.9) = 1e-3 go to Russian roulette
+#define RM_MAX_ORDER 16u
+uint rm_pool;               // iterations left to this invocation's estimates (see above)
+
+// X, an unbiased estimate of the optical depth of [t0, t1]: a stratified comb.  Each
+// non-empty brick the ray crosses gets n equal strata with one jittered sample each, n
+// from the brick's majorant depth over RM_TAU_STEP, at most one per smallest voxel
+// spacing or per 1/RM_COMB_SAMPLES of the segment, whichever is longer (so that a comb
+// across a large volume stays within RM_BUDGET); empty bricks (majorant 0, so sigma_t =
+// 0) are skipped.  E[X] = tau exactly.
+float comb_optical_depth(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout uint steps,
+                         uint limit, inout bool truncated) {
+    Dda d = coarse_start(ro, rd, t0);
+    float t = t0, tau = 0.0;
+    float h_min = max(scene.min_spacing, (t1 - t0) / RM_COMB_SAMPLES);
+    while (true) {
+        if (steps >= limit) { truncated = true; break; }
+        steps++;
+        float maj = cell_majorant(d);
+        if (maj <= 0.0) {
+            float jump = empty_skip(d, rd);
+            if (jump > 0.0) {
+                t += jump;
+                if (t >= t1) break;
+                d = coarse_start(ro, rd, t);
+                continue;
+            }
+        }
+        float t_cell = min(dda_exit(d), t1);
+        float len = t_cell - t;
+        if (maj > 0.0 && len > 0.0) {
+            float n_max = max(ceil(len / h_min), 1.0);
+            uint n = uint(clamp(ceil(maj * len / RM_TAU_STEP), 1.0, n_max));
+            if (steps + n > limit) { truncated = true; n = limit - steps; }
+            float h = len / float(max(n, 1u));
+            float u = rnd(rng);
+            float s = 0.0;
+            for (uint i = 0u; i < n; i++) s += sigma_t(ro + rd * (t + (float(i) + u) * h));
+            tau += s * h;
+            steps += n;
+        }
+        t = t_cell;
+        if (t >= t1 || !dda_advance(d)) break;
+    }
+    return tau;
+}
+
+// exp(-tau) = exp(-c) sum_k (c - tau)^k / k! about a pivot c = X_0 (one comb).  The
+// k-th power is estimated by the product of k further independent combs, so each term
+// is unbiased given c; the first order is always taken, order k >= 2 with probability
+// p_k = min(1, |W_{k-1}|) (Russian roulette on the weighted term W, which carries 1 /
+// (p_1 ... p_k)), so the sum is unbiased too (tests/test_beer_lambert.c checks this
+// loop, copied, against exp(-tau) on combs that miss thin sheets).  Rules: a pivot
+// darker than RM_DARK survives with probability exp(RM_DARK - c) and is then weighted
+// by its inverse (unbiased; these paths are dim); past RM_MAX_ORDER orders or RM_BUDGET
+// steps the estimate is truncated and flagged.  The estimate may be negative (rarely,
+// where a comb misses much of the medium); the caller's mean stays unbiased.  Never a
+// shortcut on c = 0: a pivot may miss a thin sheet that the next comb finds.
+float ray_marching_transmittance(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng,
+                                 inout bool truncated) {
+    uint steps = 0u, limit = min(RM_BUDGET, rm_pool);
+    float c = comb_optical_depth(ro, rd, t0, t1, rng, steps, limit, truncated);
+    float base = exp(-c);
+    if (c > RM_DARK) {
+        if (rnd(rng) >= exp(RM_DARK - c)) { rm_pool -= steps; return 0.0; }
+        base = exp(-RM_DARK);            // exp(-c) / exp(RM_DARK - c), without overflow
+    }
+    float sum = 1.0, term = 1.0;
+    for (uint k = 1u; k <= RM_MAX_ORDER; k++) {
+        float p = k == 1u ? 1.0 : min(1.0, abs(term));
+        if (p < 1.0 && rnd(rng) >= p) break;
+        float X = comb_optical_depth(ro, rd, t0, t1, rng, steps, limit, truncated);
+        term *= (c - X) / (float(k) * p);
+        sum += term;
+        if (k == RM_MAX_ORDER) truncated = true;
+    }
+    rm_pool -= steps;                    // steps <= limit <= rm_pool
+    return base * sum;
+}
+#endif
+
+// Transmittance from x along unit w over distance dist (only the part inside the box).
+float transmittance(vec3 x, vec3 w, float dist, inout Rng rng, inout bool truncated) {
+    float t0, t1;
+    if (!box_interval(x, w, t0, t1)) return 1.0;
+    t1 = min(t1, dist);
+    if (t1 <= t0) return 1.0;
+#ifdef TRANSMITTANCE_RAY_MARCHING
+    return ray_marching_transmittance(x, w, t0, t1, rng, truncated);
+#else
+    return ratio_track(x, w, t0, t1, rng, truncated);
+#endif
+}
+
+#endif
