@@ -247,17 +247,20 @@ $(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h cli/pr
 # then picvr-render on the repository's cloud and, where Debian's mricron-data put it,
 # a NIfTI MRI with a clip plane (loader + CLI).  The long statistical tests (million-sample
 # runs, convergence curves, closed-form comparisons) run once, in `make test`: the
-# sanitizers check host code, and those tests spend their time on the device.
+# sanitizers check host code, and those tests spend their time on the device; so do the
+# placement sweep and the voxel types' image comparisons, whose host paths (placement,
+# clip planes, every voxel type's conversion) test_bad_placement_and_clip and
+# test_voxel_types_hostile/extremes take through ASan.
 ASAN_TESTS := test_status_strings*,test_device_type_reported,test_create_destroy_errors,test_step_before_volume*,\
   test_bad_inputs_*,test_calls_in_wrong_order,test_create_config_errors,test_get_config_resolves_defaults,\
   test_empty_volume*,test_no_light_black*,test_camera_looking_away*,test_rgba8_tone*,\
   test_frames_leave_no_hole,test_frames_turned_on_later,test_step_begin_end,test_write_image_*,test_reuse_moves_the_image,\
-  test_reuse_extreme_moves,test_voxel_types_*,test_nifti_*,test_dicom_*,test_vdb_*,test_nrrd_*,test_volume_io_*,\
+  test_reuse_extreme_moves,test_voxel_types_hostile,test_voxel_types_extremes,test_nifti_*,test_dicom_*,test_vdb_*,test_nrrd_*,test_volume_io_*,\
   test_real_data_*,test_same_seed_bit_identical*,test_bad_placement_and_clip,test_cache_math_*,\
   test_cache_off_by_default*,test_pipelines_made_for_the_scene,\
   test_cache_moments_only_with_bounces,test_cache_pool_full_is_reported_and_safe,test_cache_invalidation_and_camera*,\
   test_sweep_volume_shapes_and_spacing,test_sweep_float32_huge_range*,test_sweep_cameras_and_image_sizes,\
-  test_sweep_transfer_function_step*,test_sweep_clip_and_placement,test_sweep_lights_inside*
+  test_sweep_transfer_function_step*,test_sweep_lights_inside*
 MRI := /usr/share/mricron/templates/ch2.nii.gz
 test-asan: deps-robust $(BA)/picvr-tests $(BA)/picvr-render
 	cd $(BA) && $(ASAN_ENV) PICVR_VALIDATION=1 PICVR_TEST_FILTER='$(ASAN_TESTS)' PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
