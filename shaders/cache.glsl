@@ -13,6 +13,7 @@
 #include "medium.glsl"
 #include "phase.glsl"
 #include "cache_math.glsl"
+#include "mutation.glsl"
 
 #define CACHE_MAX_DEPTH 10u        // octree depth limit (root = 0)
 #define CACHE_NIL 0u               // index 0 of the ref pool, and as a child index, means "none"
@@ -180,7 +181,7 @@ Prediction predict(uint e, vec3 x) {
         float sx = entries[e].sigma_v[half_axis.x * 3u + c];
         float sy = entries[e].sigma_v[half_axis.y * 3u + c];
         float sz = entries[e].sigma_v[half_axis.z * 3u + c];
-        float s = CM_FN(sigma_interp)(sx, sy, sz, u.x, u.y, u.z);        // Eq. 8
+        float s = MUTATE(MUT_EXTRAPOLATION, CM_FN(sigma_interp)(sx, sy, sz, u.x, u.y, u.z));  // Eq. 8
         // Fig. 4: discard beyond the validity radius of the interpolated sigma_v.
         if (!(d1 <= CM_FN(interp_validity_radius)(sx, sy, sz, a.x, a.y, a.z, delta_e,
                                                   scene.epsilon, rmin_e,
@@ -362,7 +363,7 @@ bool cache_lookup(vec3 x, out vec3 E, out vec3 aniso, out uint deepest, out bool
     deepest = walk_deepest(w, x);
     E = vec3(0.0);
     if (!CM_FN(log_average_valid)(sum_w)) return false;
-    for (uint c = 0u; c < 3u; c++) E[c] = CM_FN(log_average_finalize)(sum_wlog[c], sum_w);
+    for (uint c = 0u; c < 3u; c++) E[c] = MUTATE(MUT_CACHE, CM_FN(log_average_finalize)(sum_wlog[c], sum_w));
     if (USE_BOUNCES) aniso = sum_wa / sum_w;   // sum_w valid (> 0, finite) here
     return true;
 }

@@ -11,6 +11,7 @@
 #include "transmittance.glsl"
 #include "background.glsl"
 #include "lights.glsl"
+#include "mutation.glsl"
 
 // Light-sampling strategy: one light (or the background) chosen by power.
 // Returns f * L * T * w / pdf with f the phase function ph (1/(4 pi) when isotropic).
@@ -89,9 +90,9 @@ vec3 sample_one_light(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
     // Rule: a direction the phase function does not scatter into needs no shadow ray.
     if (f <= 0.0) return vec3(0.0);
     float T = transmittance(x, w, dist, rng, truncated);
-    if (a <= 0.0) return f * L * T / pmf;                             // delta light
+    if (a <= 0.0) return f * MUTATE(MUT_DIRECT, L) * T / pmf;         // delta light
     float mis = USE_PHASE_MIS ? power_weight(a, f) : 1.0;
-    return f * L * T * (mis / a);
+    return f * MUTATE(MUT_DIRECT, L) * T * (mis / a);
 }
 
 // The emission a phase-sampled direction w from x sees (hit: the area light it hits
@@ -101,7 +102,7 @@ vec3 sample_one_light(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
 vec3 phase_emission(vec3 x, vec3 w, int hit, float t_hit, float f) {
     if (hit >= 0) {
         uint i = uint(hit);
-        return area_light_radiance(i, w) * power_weight(f, scene.lights[i].pmf * light_pdf(i, x, w, t_hit));
+        return MUTATE(MUT_PHASE, area_light_radiance(i, w) * power_weight(f, scene.lights[i].pmf * light_pdf(i, x, w, t_hit)));
     }
     vec3 Le = vec3(0.0);
     if (scene.background_pmf > 0.0) {
@@ -115,7 +116,7 @@ vec3 phase_emission(vec3 x, vec3 w, int hit, float t_hit, float f) {
         if (1.0 - dot(w, l.pos) <= l.size)
             Le += l.radiance * power_weight(f, l.pmf * light_pdf(i, x, w, 0.0));
     }
-    return Le;
+    return MUTATE(MUT_PHASE, Le);
 }
 
 // Phase-sampling strategy: f / pdf = 1 (phase_sample is exact), so the estimate is

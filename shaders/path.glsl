@@ -47,6 +47,7 @@
 #include "lights.glsl"
 #include "direct_light.glsl"
 #include "distance.glsl"
+#include "mutation.glsl"
 
 #define BOUNCES_UNLIMITED 0xffffffffu
 
@@ -161,7 +162,7 @@ bool path_event(inout PathState s, uint first, inout Rng rng, inout bool truncat
     s.x += w * t;
     s.d = w;
     s.events++;
-    s.beta *= albedo_at(s.x) / q;                    // q > 0: the path survived with it
+    s.beta *= MUTATE(MUT_THROUGHPUT, albedo_at(s.x)) / q;                    // q > 0: the path survived with it
     return true;
 }
 

@@ -30,6 +30,7 @@
 #include "distance.glsl"
 #include "path.glsl"
 #include "queue.glsl"
+#include "mutation.glsl"
 
 layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  // rgb, coverage
 layout(set = 0, binding = 5, std430) buffer AccumComp { vec4 accum_comp[]; };  // Kahan terms
@@ -100,7 +101,7 @@ void accumulate_depth(uint idx, float t) {
 void accumulate_sample(uint idx, vec3 radiance, float coverage, bool truncated) {
     bool bad = truncated;
     if (any(isnan(radiance)) || any(isinf(radiance))) { radiance = vec3(0.0); bad = true; }
-    accumulate(idx, radiance, coverage, bad);
+    accumulate(idx, MUTATE(MUT_RENDER, radiance), coverage, bad);
 }
 
 // Random numbers keyed by (pixel, sample index): every pixel's n-th sample is the same

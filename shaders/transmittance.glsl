@@ -9,6 +9,7 @@
 #include "medium.glsl"
 #include "majorant.glsl"
 #include "tracking.glsl"
+#include "mutation.glsl"
 
 #ifdef TRANSMITTANCE_RAY_MARCHING
 // ---- unbiased ray-marching transmittance (entry creation) ----
@@ -31,8 +32,6 @@
 // "Guards on creation's estimates").
 #define RM_TAU_STEP 0.5     // majorant optical depth per stratum (at most one per voxel)
 #define RM_COMB_SAMPLES 192.0 // long rays: strata at least (t1 - t0) / this apart
-#define RM_DARK 6.9         // pivots darker than exp(-6.9) = 1e-3 go to Russian roulette
-#define RM_MAX_ORDER 16u
 uint rm_pool;               // iterations left to this invocation's estimates (see above)
 
 // X, an unbiased estimate of the optical depth of [t0, t1]: a stratified comb.  Each
@@ -78,37 +77,22 @@ float comb_optical_depth(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, in
     return tau;
 }
 
-// exp(-tau) = exp(-c) sum_k (c - tau)^k / k! about a pivot c = X_0 (one comb).  The
-// k-th power is estimated by the product of k further independent combs, so each term
-// is unbiased given c; the first order is always taken, order k >= 2 with probability
-// p_k = min(1, |W_{k-1}|) (Russian roulette on the weighted term W, which carries 1 /
-// (p_1 ... p_k)), so the sum is unbiased too (tests/test_beer_lambert.c checks this
-// loop, copied, against exp(-tau) on combs that miss thin sheets).  Rules: a pivot
-// darker than RM_DARK survives with probability exp(RM_DARK - c) and is then weighted
-// by its inverse (unbiased; these paths are dim); past RM_MAX_ORDER orders or RM_BUDGET
-// steps the estimate is truncated and flagged.  The estimate may be negative (rarely,
-// where a comb misses much of the medium); the caller's mean stays unbiased.  Never a
-// shortcut on c = 0: a pivot may miss a thin sheet that the next comb finds.
+// The estimator: ray_marching_series.glsl (its rules for every degenerate case are
+// there), fed with combs of this ray.  Past RM_BUDGET steps (or the pool) the combs are
+// cut and the estimate flagged as truncated.
+#define RM_PARAMS vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated, \
+                  inout uint steps, uint limit
+#define RM_COMB() comb_optical_depth(ro, rd, t0, t1, rng, steps, limit, truncated)
+#define RM_RND() rnd(rng)
+#define RM_TRUNCATE() truncated = true
+#include "ray_marching_series.glsl"
+
 float ray_marching_transmittance(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng,
                                  inout bool truncated) {
     uint steps = 0u, limit = min(RM_BUDGET, rm_pool);
-    float c = comb_optical_depth(ro, rd, t0, t1, rng, steps, limit, truncated);
-    float base = exp(-c);
-    if (c > RM_DARK) {
-        if (rnd(rng) >= exp(RM_DARK - c)) { rm_pool -= steps; return 0.0; }
-        base = exp(-RM_DARK);            // exp(-c) / exp(RM_DARK - c), without overflow
-    }
-    float sum = 1.0, term = 1.0;
-    for (uint k = 1u; k <= RM_MAX_ORDER; k++) {
-        float p = k == 1u ? 1.0 : min(1.0, abs(term));
-        if (p < 1.0 && rnd(rng) >= p) break;
-        float X = comb_optical_depth(ro, rd, t0, t1, rng, steps, limit, truncated);
-        term *= (c - X) / (float(k) * p);
-        sum += term;
-        if (k == RM_MAX_ORDER) truncated = true;
-    }
+    float T = cm_ray_marching_series(ro, rd, t0, t1, rng, truncated, steps, limit);
     rm_pool -= steps;                    // steps <= limit <= rm_pool
-    return base * sum;
+    return T;
 }
 #endif
 
@@ -119,9 +103,9 @@ float transmittance(vec3 x, vec3 w, float dist, inout Rng rng, inout bool trunca
     t1 = min(t1, dist);
     if (t1 <= t0) return 1.0;
 #ifdef TRANSMITTANCE_RAY_MARCHING
-    return ray_marching_transmittance(x, w, t0, t1, rng, truncated);
+    return MUTATE_POW(MUT_TRANSMITTANCE, ray_marching_transmittance(x, w, t0, t1, rng, truncated));
 #else
-    return ratio_track(x, w, t0, t1, rng, truncated);
+    return MUTATE_POW(MUT_TRANSMITTANCE, ratio_track(x, w, t0, t1, rng, truncated));
 #endif
 }
 

@@ -32,6 +32,30 @@
 #ifdef TU_HAVE_CREF
 #include "reference/cpu_reference.h"
 
+/* The per-pixel statistic R = sum_p d2_p / sum_p var_p (d2: a pixel's squared
+   difference, var: the variance of that difference, estimated), 1 in expectation when
+   the two images have the same means.  Its standard error by the delta method over the
+   pixels, SE(R)^2 = sum_p (d2_p - R var_p)^2 / (sum_p var_p)^2 (it includes the noise of
+   the estimated variances), at least the normal theory's sqrt(2 sum var^2) / sum var.
+   Passes when R <= 1 + z SE(R) (z standard errors of a sum over >= 1024 pixels: the
+   normal quantile holds) and shows its power: R against the mirrored image (d2m) must
+   exceed the same limit.  Rule: all var 0 (exact images) gives R 1 when d2 is 0 too. */
+static int cr_ratio_check(const char *label, const double *d2, const double *d2m, const double *var,
+                          size_t P, double z) {
+    double sd = 0, sdm = 0, sv = 0, sv2 = 0;
+    for (size_t p = 0; p < P; p++) { sd += d2[p]; sdm += d2m[p]; sv += var[p]; sv2 += var[p] * var[p]; }
+    double R = sv > 0 ? sd / sv : (sd > 0 ? INFINITY : 1.0);
+    double Rm = sv > 0 ? sdm / sv : (sdm > 0 ? INFINITY : 1.0);
+    double q = 0;
+    for (size_t p = 0; p < P && sv > 0; p++) q += (d2[p] - R * var[p]) * (d2[p] - R * var[p]);
+    double se = sv > 0 ? fmax(sqrt(q), sqrt(2 * sv2)) / sv : 0.0;
+    double limit = 1 + z * se;
+    int ok = isfinite(R) && R <= limit, powerful = Rm > limit;
+    print_message("    %-40s R %.4g (limit 1 + %g SE = %.4g) %s; mirrored %.4g %s\n", label, R, z, limit,
+                  ok ? "ok" : "FAIL", Rm, powerful ? "rejected" : "NOT REJECTED: no power here");
+    return ok && powerful;
+}
+
 /* The comparison described at the top, for lights l[0..1] and the background bg. */
 static void gpu_cpu_case(const picvr_light l[2], const picvr_background *bg, uint32_t seed) {
     const uint32_t W = 48, H = 48, N = 128;
@@ -96,26 +120,26 @@ static void gpu_cpu_case(const picvr_light l[2], const picvr_background *bg, uin
     }
     /* Per pixel: R = sum_p (L_gpu - L_cpu)^2 / sum_p 2 S_p^2 / N.  A ratio of sums, not
        a sum of ratios: pixels where one run saw no rare event (S_p ~ 0) cannot blow it
-       up.  Both renderers have the same per-pixel variance (seen: R = 1.00-1.11 for
-       GPU/GPU, CPU/CPU and GPU/CPU pairs of seeds), so R ~ 1; limit 1.5.  Power: the
-       same statistic against the mirrored reference image is ~2.4 in this scene. */
-    double sd = 0, sv = 0, sdm = 0;
+       up.  Both renderers have the same per-pixel variance, so R ~ 1; the limit is 1 +
+       5 SE(R), SE by the delta method over the pixels (cr_ratio_limit).  Power: the same
+       statistic against the mirrored reference image must exceed that limit. */
+    double *dd = malloc((size_t)W * H * sizeof *dd), *ddm = malloc((size_t)W * H * sizeof *ddm);
+    double *vv = malloc((size_t)W * H * sizeof *vv);
+    assert_non_null(dd); assert_non_null(ddm); assert_non_null(vv);
     for (size_t p = 0; p < (size_t)W * H; p++) {
         size_t pm = (p / W) * W + (W - 1 - p % W);
         double lg = tu_lum(gpu[4 * p], gpu[4 * p + 1], gpu[4 * p + 2]);
         double lc = tu_lum(cpu[4 * p], cpu[4 * p + 1], cpu[4 * p + 2]);
         double lm = tu_lum(cpu[4 * pm], cpu[4 * pm + 1], cpu[4 * pm + 2]);
-        sd += (lg - lc) * (lg - lc);
-        sdm += (lg - lm) * (lg - lm);
-        sv += 2 * (m2[p] / (N - 1)) / N;
+        dd[p] = (lg - lc) * (lg - lc);
+        ddm[p] = (lg - lm) * (lg - lm);
+        vv[p] = 2 * (m2[p] / (N - 1)) / N;
     }
-    double R = sd / sv;
-    print_message("    gpu vs cpu: per-pixel luminance R %.4g (limit 1.5) %s; mirrored %.4g\n", R,
-                  R <= 1.5 ? "ok" : "FAIL", sdm / sv);
+    ok &= cr_ratio_check("gpu vs cpu: per-pixel luminance", dd, ddm, vv, (size_t)W * H, 5.0);
+    free(dd); free(ddm); free(vv);
     print_message("    gpu %.3g samples/s, truncated %llu; cpu truncated %llu\n",
                   st.samples_per_second, (unsigned long long)st.truncated_paths,
                   (unsigned long long)cst.truncated_paths);
-    ok &= R <= 1.5;
     assert_int_equal(st.truncated_paths, 0);
     cref_free(&s);
     free(gpu); free(cpu); free(m2); free(cpu_d);
@@ -138,6 +162,7 @@ static void gpu_cpu_case_with_sun(const picvr_light *first, uint32_t seed) {
     picvr_background bg = {{0.3f, 0.4f, 0.6f}, 0.7f};
     gpu_cpu_case(l, &bg, seed);
 }
+
 
 /* A sphere light (MIS between light and phase sampling): the renderer's delta tracking
    (the sphere's 1/d^2 varies too little across the volume for equiangular sampling). */
@@ -182,9 +207,10 @@ void test_gpu_matches_cpu_reference_point_light_equiangular(void **state) {
  *     (the sum over P >= 256 pixels has hundreds of degrees of freedom, so the normal
  *     quantile applies: two-sided p = 6e-7 per comparison);
  *   - per pixel: R = sum_p (L_a - L_b)^2 / sum_p (var_a + var_b) on luminance, 1 in
- *     expectation whatever each renderer's own variance; limit 1.5 (a ratio of sums,
- *     so a pixel with a rare bright sample in one batch cannot blow it up).  Each
- *     check prints R against the left-right mirrored image as a power check.
+ *     expectation whatever each renderer's own variance; limit 1 + 5 SE(R) (a ratio of
+ *     sums, so a pixel with a rare bright sample in one batch cannot blow it up;
+ *     cr_ratio_check).  Each check asserts that R against the left-right mirrored image
+ *     exceeds that limit (its power).
  * All seeds are fixed: every run is identical.
  */
 
@@ -338,6 +364,10 @@ static int cr_check_region(const char *label, const cr_img *a, const cr_img *b, 
     /* rule: with no variance at all (exact images), only rounding may differ */
     double bound = se > 0 ? z * se : 1e-9 * (fabs(sa / P) + 1e-12);
     int ok = isfinite(diff) && fabs(diff) <= bound;
+    tu_power_note(diff + sa / P, sa / P, bound);
+    /* pooled: the SE sums P pixels' variances of K - 1 degrees of freedom each; another
+       channel or a quadrant of the same pair is the same pixels (counted once) */
+    tu_pool_add(label, diff + sa / P, sa / P, se, a, 0, x0, y0, x1, y1);
     static const char *cn[CR_CH] = {"R", "G", "B", "alpha", "lum"};
     print_message("    %-40s %-5s %.6g vs %.6g diff %+.3g (%+.2f se, se %.3g) %s\n", label,
                   cn[c], (sa + sd) / P, sa / P, diff, se > 0 ? diff / se : 0.0, se,
@@ -345,18 +375,21 @@ static int cr_check_region(const char *label, const cr_img *a, const cr_img *b, 
     return ok;
 }
 
-/* R of the luminance (see the top of this part); mirror: b read left-right mirrored. */
-static double cr_ratio(const cr_img *a, const cr_img *b, int mirror) {
-    double sd = 0, sv = 0;
+/* The luminance's d^2 and var terms of R (see the top of this part); mirror: b read
+   left-right mirrored.  Malloc'ed arrays of a->w * a->h. */
+static void cr_ratio_terms(const cr_img *a, const cr_img *b, int mirror, double **d2, double **var) {
+    size_t P = (size_t)a->w * a->h;
+    *d2 = malloc(P * sizeof **d2);
+    *var = malloc(P * sizeof **var);
+    assert_non_null(*d2); assert_non_null(*var);
     for (uint32_t y = 0; y < a->h; y++)
         for (uint32_t x = 0; x < a->w; x++) {
             size_t p = (size_t)y * a->w + x;
             size_t q = mirror ? (size_t)y * a->w + (a->w - 1 - x) : p;
             double d = a->mean[CR_CH * p + 4] - b->mean[CR_CH * q + 4];
-            sd += d * d;
-            sv += cr_var(a, p, 4) + cr_var(b, q, 4);
+            (*d2)[p] = d * d;
+            (*var)[p] = cr_var(a, p, 4) + cr_var(b, q, 4);
         }
-    return sv > 0 ? sd / sv : (sd > 0 ? INFINITY : 1.0);   /* rule: exact images agree */
 }
 
 /* The whole comparison: per channel (alpha only when `alpha`), per quadrant (luminance),
@@ -373,10 +406,14 @@ static int cr_compare(const char *label, const cr_img *a, const cr_img *b, int a
         snprintf(l, sizeof l, "%s: quadrant %d", label, q);
         ok &= cr_check_region(l, a, b, 4, x0, y0, x0 + a->w / 2, y0 + a->h / 2, 5.0);
     }
-    double R = cr_ratio(a, b, 0), Rm = cr_ratio(a, b, 1);
-    int rok = isfinite(R) && R <= 1.5;
-    print_message("    %-40s per-pixel R %.4g (limit 1.5) %s; mirrored %.4g\n", label, R,
-                  rok ? "ok" : "FAIL", Rm);
+    double *d2, *var, *d2m, *varm;
+    cr_ratio_terms(a, b, 0, &d2, &var);
+    cr_ratio_terms(a, b, 1, &d2m, &varm);
+    /* The mirrored pair's variances differ from the straight pair's only by which pixel
+       of b each term reads; the check uses the straight pair's (the null's) variance. */
+    snprintf(l, sizeof l, "%s: per pixel", label);
+    int rok = cr_ratio_check(l, d2, d2m, var, (size_t)a->w * a->h, 5.0);
+    free(d2); free(var); free(d2m); free(varm);
     return ok && rok;
 }
 

@@ -76,6 +76,7 @@ int main(void) {
     VkInstance held = hold_driver_loaded();
     print_device();
     int failed = _cmocka_run_group_tests("picvr", tests, count, NULL, NULL);
+    printf("picvr-tests: %u partial skips\n", tu_partial_skips());
     if (held != VK_NULL_HANDLE) vkDestroyInstance(held, NULL);
     return failed;
 }

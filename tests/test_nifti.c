@@ -775,12 +775,25 @@ void test_nifti_nibabel_files(void **state) {
          {-117.8551025390625, 35.72294235229492, -7.248798370361328},
          {{0, 424}, {4176, 265}, {7679, 484}, {1450, 419}}, 3461748LL},
     };
-    int found = 0;
-    for (size_t f = 0; f < sizeof files / sizeof files[0]; f++) {
+    int found = 0, nfiles = (int)(sizeof files / sizeof files[0]);
+    for (int f = 0; f < nfiles; f++) {
         char path[512];
         snprintf(path, sizeof path, "%s%s", NIBABEL_DATA, files[f].file);
-        if (access(path, R_OK) != 0) continue;
-        found++;
+        found += access(path, R_OK) == 0;
+    }
+    if (!found) {   /* none: the whole test is skipped (counted by cmocka) */
+        print_message("    no file of python3-nibabel in %s: skipped\n", NIBABEL_DATA);
+        skip();
+    }
+    for (int f = 0; f < nfiles; f++) {
+        char path[512];
+        snprintf(path, sizeof path, "%s%s", NIBABEL_DATA, files[f].file);
+        if (access(path, R_OK) != 0) {
+            char what[600];
+            snprintf(what, sizeof what, "%s absent (apt-get install python3-nibabel)", path);
+            tu_partial_skip(what);
+            continue;
+        }
         char err[512] = "";
         picvr_io_volume v;
         picvr_io_status st = picvr_io_load_nifti(path, &v, err, sizeof err);
@@ -798,5 +811,4 @@ void test_nifti_nibabel_files(void **state) {
         assert_int_equal(sum, files[f].sum);
         picvr_io_free(&v);
     }
-    if (!found) skip();
 }

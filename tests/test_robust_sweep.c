@@ -222,15 +222,25 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
                the placement of the 47 entries that cover this cube, each up to r_max =
                16 voxels, as one run's statistical error is 0.6 %.  With the medium
                model and the in-box probes (2026-11-29, 12 runs per mode): +1.6 % (sd
-               0.8 %) and +1.0 % (sd 0.35 %).  Bound 5 % as for the thick cases. */
+               0.8 %) and +1.0 % (sd 0.35 %).
+               The bound: outside the model's reach Eq. 10's epsilon bounds nothing, but the
+               lit face is the worst a served lookup does here, and
+               test_cache_full_dense_lit_face asserts an error per served lookup within 3 %
+               there (the debug view's own measure); events the cache does not serve are
+               unbiased, so the mean's bias is at most 3 % x the hit rate <= 3 %, plus the
+               2 % of float32 positions in the thick closed form (above): 5 %, plus 5 SE of
+               the image's noise (8x8 blocks, Student's t for their 8 degrees of freedom). */
             double m = tu_region_mean(img, W, 1, 0, 0, W, H);
             double e = 0;
             for (size_t p = 0; p < (size_t)W * H; p++) e += expv[4 * p + 1];
             e /= (double)W * H;
-            print_message("    %s: mean %.4g, closed form %.4g (bias %+.1f %%), bound %.4g\n", what, m, e,
-                          100 * (m / e - 1), Mc);
+            double se = tu_mean_se(img, expv, W, 1, 0, 0, W, H, N, 0.0);
+            double bound = 0.05 * e + tu_student_quantile(tu_normal_cdf(5.0), 8) * se;
+            print_message("    %s: mean %.4g, closed form %.4g (bias %+.2f %%, SE %.2f %%), bound 5 %% + 5 SE "
+                          "= %.2f %%\n", what, m, e, 100 * (m / e - 1), 100 * se / e, 100 * bound / e);
+            tu_power_note_rel(m, e, bound, 0.07);
             if (!(m <= Mc)) fail_msg("%s: mean %g above albedo E / (4 pi) = %g", what, m, Mc);
-            if (!(fabs(m / e - 1) <= 0.05)) fail_msg("%s: bias %+.1f %% beyond 5 %%", what, 100 * (m / e - 1));
+            if (!(fabs(m - e) <= bound)) fail_msg("%s: bias %+.1f %% beyond the bound", what, 100 * (m / e - 1));
             /* alpha is the camera ray's opacity, which the cache does not touch: the
                plain tolerances (1e-4, 2 % for the thick closed form) */
             char label[128];
@@ -780,23 +790,24 @@ void test_sweep_cameras_and_image_sizes(void **state) {
 
 /* ---- long runs --------------------------------------------------------------------------- */
 
-/* 1e6 samples in one pixel.  Scene: Beer-Lambert with T = exp(-1) on the pixel's rays
+/* 2^18 samples in one pixel.  Scene: Beer-Lambert with T = exp(-1) on the pixel's rays
    (albedo 0, background 1): every sample is exactly 0 or 1 in R, G, B and the complement
    in alpha.  After N samples with k ones the exact mean is k / N, and:
    (1) R is within one float32 ulp of some k / N (|N R - round(N R)| <= N ulp(R), i.e.
-       0.06 for N = 1e6): an accumulator that lost precision drifts from the lattice
-       k / N by a random walk of its rounding errors (~ulp sqrt(N) / 2 = 3e-5 relative,
-       so N R would be off by ~30);
+       0.008 for N = 2^18): an accumulator that lost precision drifts from the lattice
+       k / N by a random walk of its rounding errors (~ulp sqrt(N) / 2 = 1.5e-5 relative,
+       so N R would be off by ~1.5, 200 times the bound: 2^18 samples show it as well as
+       10^6 did, in a quarter of the time);
    (2) R + alpha = 1 within ulp(R) + ulp(alpha) (complementary samples);
    (3) R is within 5 standard errors of T (the mean still converges: a mean that stopped
        changing after 2^24 / ... samples would be stuck at an earlier value);
-   (4) the mean keeps moving: after N and 2N... the checks hold at N = 1e4, 1e5, 1e6
-       (the run continues without reset), so the last 9e5 samples changed it correctly.
-   Cost: 1e6 dispatches of one workgroup. */
-void test_sweep_long_run_precision_1e6(void **state) {
+   (4) the mean keeps moving: the checks hold at N / 100, N / 10 and N (the run
+       continues without reset), so the last 90 % of the samples changed it correctly.
+   Cost: 2^18 dispatches of one workgroup. */
+void test_sweep_long_run_precision(void **state) {
     (void)state;
-    /* A million passes of three dispatches each take minutes on a CPU driver, close to
-       the default budget: this test has its own. */
+    /* 2^18 passes of three dispatches each take half a minute on a CPU driver, and
+       PICVR_LONG_RUN may ask for more: this test has its own budget. */
     tu_watchdog(900);
     picvr_context *ctx = tu_create(70);
     tu_vol vol = tu_vol_new(4, 4, 4, 1.0f, 255);
@@ -812,9 +823,9 @@ void test_sweep_long_run_precision_1e6(void **state) {
     double *expv = tu_expected_image(&cam, 4, tu_homog_ray, &hm);
     memcpy(ex, expv, sizeof ex);
     free(expv);
-    /* PICVR_LONG_RUN=N: N samples instead of 1e6, for a quick local run. */
+    /* PICVR_LONG_RUN=N: N samples instead of 2^18 (10^6 for the old, longer run). */
     const char *env = getenv("PICVR_LONG_RUN");
-    uint32_t total = env && atoi(env) > 0 ? (uint32_t)atoi(env) : 1000000u;
+    uint32_t total = env && atoi(env) > 0 ? (uint32_t)atoi(env) : 1u << 18;
     uint32_t done = 0;
     const uint32_t checkpoints[3] = {total / 100, total / 10, total};
     double t0 = now_s();

@@ -195,7 +195,7 @@
     X(test_sweep_volume_shapes_and_spacing)                         \
     X(test_sweep_float32_huge_range_and_uint16_12bit)               \
     X(test_sweep_cameras_and_image_sizes)                           \
-    X(test_sweep_long_run_precision_1e6)                            \
+    X(test_sweep_long_run_precision)                            \
     X(test_sweep_clip_and_placement)                                \
     X(test_sweep_ms_cache_furnace_thickness)                        \
     /* test_engine.c */                                             \
@@ -239,7 +239,16 @@
     X(test_vdb_selects_grids)                                       \
     X(test_vdb_refuses_bad_files)                                   \
     X(test_vdb_disney_cloud)                                        \
-    X(test_vdb_is_vdb)
+    X(test_vdb_is_vdb)                                              \
+    /* test_high_resolution.c: 0.5 % resolved */                   \
+    X(test_high_resolution_beer_lambert)                            \
+    X(test_high_resolution_single_scatter)                          \
+    X(test_high_resolution_white_furnace)                           \
+    X(test_high_resolution_cache)                                   \
+    /* test_stats.c: the quantiles; the pooled check last, as it */ \
+    /* reads every comparison the tests before it registered */     \
+    X(test_stats_quantiles)                                         \
+    X(test_stats_pooled_z)
 
 #define TU_DECLARE(name) void name(void **state);
 TU_ALL_TESTS(TU_DECLARE)
@@ -260,6 +269,12 @@ void tu_register(picvr_context *ctx, int add);
 void tu_finish(picvr_context *ctx);
 /* 1 when picvr picks a CPU device (lavapipe's llvmpipe, SwiftShader), by its name. */
 int tu_device_is_cpu(void);
+/* A part of a test left out (a data file absent, a row for another kind of device):
+   printed as "PARTIAL SKIP: what" and counted; test_main prints the count after the
+   suite ("picvr-tests: N partial skips") and run_tests.sh adds it to the skipped
+   total, so the suite never shrinks without a word. */
+void tu_partial_skip(const char *what);
+unsigned tu_partial_skips(void);
 /* Per-test setup/teardown: timing (printed) and destruction of leftover contexts. */
 /* Gives the running test `seconds` from now instead of the default watchdog budget:
    for a test whose work is long by design (the budget still catches a hang). */
@@ -404,8 +419,10 @@ double tu_triangle_solid_angle(const double x[3], const double a[3], const doubl
 
 /* ---- images ----------------------------------------------------------------------- */
 
-/* Reads rgba32f (w*h*4 floats, malloc'ed; asserts OK). */
+/* Reads rgba32f (w*h*4 floats, malloc'ed; asserts OK) and counts the read in
+   tu_image_serial (the pool tells a new image at a reused address from the old one). */
 float *tu_read(picvr_context *ctx, uint32_t w, uint32_t h);
+extern unsigned tu_image_serial;
 /* Rec. 709 luminance. */
 static inline double tu_lum(double r, double g, double b) {
     return 0.2126 * r + 0.7152 * g + 0.0722 * b;
@@ -432,24 +449,75 @@ typedef struct tu_mean_result {
 int tu_check_mean_ex(const char *label, const float *img, const double *expected, uint32_t w,
                      int ch, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
                      uint32_t n_iter, double M, double z, double sys_rel, tu_mean_result *res);
+/* Every statistical comparison notes its outcome here (tu_check_mean does so itself; a
+   test comparing by other means calls it with its own bound).  The per-test teardown
+   fails a test that made comparisons of which none would reject its expected value
+   times 1.02 and times 0.98: each statistical test shows that it can see a 2 % error
+   (the power check).  A comparison whose expected value is 0 counts, but cannot show
+   power. */
+void tu_power_note(double measured, double expected, double bound);
+/* The same with the relative error rel the comparison claims to see (tu_power_note: 0.02). */
+void tu_power_note_rel(double measured, double expected, double bound, double rel);
+
+/* A cached image's mean (channel ch, the whole w x h image) against its closed form.
+   A lookup the cache serves is off by at most epsilon (relative) where the field follows
+   the cache's model: Eq. 10's validity radius bounds the first-order extrapolation's
+   error (docs/cache.md); events the cache does not serve are unbiased.  So the mean's
+   bias is at most epsilon * hit_rate * |expected| (hit_rate: an upper bound on the
+   fraction of events served, e.g. the last step's rate while the cache fills).  Each
+   entry carries creation's noise: Eq. 5 stops when 1.96 cv / sqrt(n) < gamma / (1 +
+   gamma), so an entry's relative SE is at most gamma / (1 + gamma) / 1.96, and the
+   image mean averages `entries` independent entries (SE divided by sqrt(entries)).
+   With the image's own SE (8x8 blocks; Student's t for their degrees of freedom) the
+   bound is that bias + z SE, both stated in the printed line.  Power: noted for an
+   error of epsilon * hit_rate + 2 % (a 2 % error beyond what the cache may do). */
+int tu_check_cache_mean(const char *label, const float *img, const double *expected, uint32_t w,
+                        uint32_t h, int ch, uint32_t n_iter, double epsilon, double gamma,
+                        double hit_rate, uint32_t entries, double z);
+/* The SE of that comparison alone (no print, nothing pooled): for sizing a render. */
+double tu_mean_se(const float *img, const double *expected, uint32_t w, int ch, uint32_t x0,
+                  uint32_t y0, uint32_t x1, uint32_t y1, uint32_t n_iter, double M);
 #define tu_check_mean(label, img, expected, w, ch, x0, y0, x1, y1, n, M, z, sys) \
     tu_check_mean_ex(label, img, expected, w, ch, x0, y0, x1, y1, n, M, z, sys, NULL)
 
-/* Per-pixel structure check: chi2 = sum over pixels of (measured - expected)^2 /
-   (max(mu (M - mu), 1e-4 M^2) / N), with M the bound on a sample as above (an upper
-   bound on the variance, so chi2 / P is <= 1 in expectation).  Passes when
-   chi2 / P <= max_reduced.  A misplaced, flipped or mis-scaled volume gives residuals
-   of the size of the image contrast, i.e. chi2 / P >> 2 in the scenes used here
-   (each caller prints the value for the mirrored expectation as a power check). */
+/* Per-pixel structure check: chi2 / P, the mean over the P pixels of the terms
+   (measured - expected)^2 / (max(mu (M - mu), 1e-4 M^2) / N), with M the bound on a
+   sample as above: an upper bound on the variance (exact for Bernoulli samples), so a
+   term is <= 1 in expectation.  The limit is 1 + z s / sqrt(P), z standard errors of
+   that mean (s: the terms' own standard deviation, at least sqrt 2, the normal's), so
+   it holds for small N and skewed samples too.  Passes when chi2 / P is within the limit
+   AND the check shows its power: the perturbed expectation (NULL: the expected image
+   mirrored left-right; a caller whose scene is symmetric passes its own) must exceed
+   the same limit.  A misplaced, flipped or mis-scaled volume gives terms of the size of
+   the image contrast squared over the variance, far above the limit. */
 int tu_check_chi2(const char *label, const float *img, const double *expected, uint32_t w,
-                  uint32_t h, int ch, uint32_t n_iter, double M, double max_reduced);
-/* The chi2 / P of tu_check_chi2 without the check. */
+                  uint32_t h, int ch, uint32_t n_iter, double M, double z, const double *perturbed);
+/* chi2 / P as above; *limit (may be NULL) receives the limit at z standard errors. */
 double tu_chi2(const float *img, const double *expected, uint32_t w, uint32_t h, int ch,
-               uint32_t n_iter, double M);
-/* Prints the power check: chi2 / P of the image against the mirrored expectation. */
-void tu_chi2_power_check(const float *img, const double *expected, uint32_t w, uint32_t h,
-                         int ch, uint32_t n_iter, double M);
-/* The expected image mirrored left-right (for the power check above). */
+               uint32_t n_iter, double M, double z, double *limit);
+/* The expected image mirrored left-right (the default perturbation above). */
 double *tu_mirror_x(const double *expected, uint32_t w, uint32_t h);
+
+/* ---- statistics (test_stats.c) ------------------------------------------------------ */
+
+double tu_normal_cdf(double z);
+/* Phi^-1(p); p outside (0, 1) gives -40 or 40. */
+double tu_normal_quantile(double p);
+/* Student's t quantile: P(T <= t) = p, p in (0.5, 1), nu degrees of freedom. */
+double tu_student_quantile(double p, double nu);
+/* The normal z of the same two-sided tail as t with nu degrees of freedom. */
+double tu_student_as_z(double t, double nu);
+/* The chi-square quantile with k degrees of freedom whose upper tail is the normal
+   upper tail at z (Wilson-Hilferty). */
+double tu_chi2_quantile_upper(double k, double z);
+/* Registers one comparison with the pooled check (test_stats.c says what it pools):
+   measured, expected, their SE (> 0), and the pixels compared (img, tu_image_serial,
+   the rectangle; img NULL: not pixels of an image, never correlated with another
+   entry).  tu_check_mean registers its own; a test comparing by other means calls
+   this. */
+void tu_pool_add(const char *label, double measured, double expected, double se,
+                 const void *img, unsigned serial, uint32_t x0, uint32_t y0, uint32_t x1,
+                 uint32_t y1);
+size_t tu_pool_count(void);
 
 #endif /* PICVR_TEST_UTIL_H */
