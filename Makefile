@@ -173,8 +173,8 @@ test: deps $(B)/picvr_shaders.h $(B)/layout-host $(B)/libpicvr.a $(B)/picvr-test
 # statistical tests on each and succeeds only if every mutation fails one of them.
 # The renderer off by 0.5 %, the cache by 2 %, each component broken: direct light and
 # what a phase-sampled direction sees off by 2 %, transmittance as T^1.02, a path's
-# throughput 2 % low per event, the cache's extrapolation with half its gradient (a
-# finite difference divided by twice its offset).
+# throughput 2 % low per event, the cache's extrapolation with half its slope (Eq. 8's
+# interpolated sigma_v halved: the log-linear Eq. 7 then bends half as much).
 BP := build-power
 POWER_MUTATIONS := render:1:1.005 cache:2:1.02 direct:3:0.98 transmittance:4:1.02 phase:5:0.98 \
                    extrapolation:6:0.5 throughput:7:0.98
