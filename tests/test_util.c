@@ -618,7 +618,7 @@ int tu_check_mean_ex(const char *label, const float *img, const double *expected
     double sig = fmax(se_an, se_emp);
     /* An empirical SE from nb block means has nb - 1 degrees of freedom: where it is the
        larger, the bound is Student's t quantile at the normal z's two-sided p (with 3
-       dof, z = 5 becomes t = 47; with 63, 5.6), not z itself. */
+       dof, z = 5 becomes t = 157; with 15, 8.3; with 63, 5.6), not z itself. */
     /* Rule: fewer than 16 blocks and an analytic bound: the bound with the normal z
        (pixels are independent samples; the spread of so few block means is printed, as
        a diagnostic only).  A caller whose pixels share noise (the cache's entries)
