@@ -597,7 +597,7 @@ int tu_check_cache_mean(const char *label, const float *img, const double *expec
                   "entries %.3f %%); bound epsilon x hit %.3f %% + %.1f SE = %.3f %% %s\n",
                   label, ch, meas, expv, 100 * diff / expv, 100 * se / expv, 100 * se_emp / expv,
                   100 * se_entries / expv, 100 * bias / expv, t, 100 * bound / expv, ok ? "ok" : "FAIL");
-    tu_power_note_rel(meas, expv, bound, epsilon * hit + 0.03);
+    tu_power_note_rel(meas, expv, bound, epsilon * hit + fmax(tu_power_rel, 0.03));
     return ok;
 }
 
