@@ -14,9 +14,9 @@ set -u
 BP=${BP:-build-power}
 POWER_TESTS=${POWER_TESTS:-"
   test_high_resolution_white_furnace
+  test_high_resolution_cache
   test_high_resolution_single_scatter
   test_high_resolution_beer_lambert
-  test_high_resolution_cache
   test_single_scatter_delta_sun_coloured
   test_beer_lambert_optical_depth_5
   test_point_light_single_scatter_closed_form
