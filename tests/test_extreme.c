@@ -69,7 +69,8 @@ void test_extreme_density_range_finite(void **state) {
    The central 12x12 pixels (all on the ball) must match it within 5 SE (Bhatia-Davis:
    a sample lies in [0, albedo E / (4 pi)]) plus 2 % for float32 positions at 1e5 per
    voxel (the stiff sweep's tolerance for its thick closed form, test_robust_sweep.c),
-   and the check must reject the value x 1.02 (tu_check_mean's power note).
+   and the check must reject the value off by 2 % beyond that allowance (tu_check_mean's
+   power note).
    Thin (D = 1e-6) ball with background radiance 1: the image mean is the background
    within 1e-3 (the optical depth is < 3e-5). */
 /* Regression: at D = 1e5 every sample used to hit MAX_TRACK_STEPS while crossing the
