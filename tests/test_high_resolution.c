@@ -76,6 +76,17 @@ static void check_high_resolution(const char *name, const float *img, const doub
     if (!ok) fail_msg("%s: the image mean differs from the closed form", name);
 }
 
+/* render_to_precision, then check_high_resolution; frees expv. */
+static void render_and_check(picvr_context *ctx, const tu_cam *cam, double *expv, int ch, double M,
+                             uint32_t n_cap, const char *name, const char *label) {
+    uint32_t n;
+    float *img = render_to_precision(ctx, cam, expv, ch, M, 64, n_cap, &n, name);
+    tu_assert_image_valid(img, cam->w, cam->hgt, name);
+    check_high_resolution(label, img, expv, cam->w, cam->hgt, ch, n, M);
+    free(img);
+    free(expv);
+}
+
 /* Homogeneous 16^3 cube (box [-8, 8]^3), optical depth 0.5 along the axis (T = 0.61:
    the most relative information per Bernoulli sample among depths that still exercise
    the tracking), camera on +z at 20, fov 40: every ray enters the front face. */
@@ -92,12 +103,7 @@ void test_high_resolution_beer_lambert(void **state) {
     const uint32_t W = 64, H = 64;
     tu_cam cam = tu_set_camera(ctx, 0, 0, 20, 0, 0, 0, 40, W, H);
     double *expv = tu_expected_image(&cam, 16, tu_homog_ray, &hm);
-    uint32_t n;
-    float *img = render_to_precision(ctx, &cam, expv, 0, 1.0, 64, 4000, &n, "beer-lambert");
-    tu_assert_image_valid(img, W, H, "beer-lambert");
-    check_high_resolution("high-resolution beer-lambert tau 0.5", img, expv, W, H, 0, n, 1.0);
-    free(img);
-    free(expv);
+    render_and_check(ctx, &cam, expv, 0, 1.0, 4000, "beer-lambert", "high-resolution beer-lambert tau 0.5");
     tu_vol_free(&vol);
     tu_finish(ctx);
 }
@@ -116,12 +122,7 @@ void test_high_resolution_single_scatter(void **state) {
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
     double *expv = tu_expected_image(&cam, 16, tu_sun_ray, &s);
     double M = s.albedo[1] * s.E[1] / (4 * M_PI);
-    uint32_t n;
-    float *img = render_to_precision(ctx, &cam, expv, 1, M, 64, 6000, &n, "single scatter");
-    tu_assert_image_valid(img, W, H, "single scatter");
-    check_high_resolution("high-resolution single scatter", img, expv, W, H, 1, n, M);
-    free(img);
-    free(expv);
+    render_and_check(ctx, &cam, expv, 1, M, 6000, "single scatter", "high-resolution single scatter");
     tu_finish(ctx);
 }
 
@@ -149,12 +150,7 @@ void test_high_resolution_white_furnace(void **state) {
     const uint32_t W = 64, H = 64;
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
     double *expv = tu_expected_image(&cam, 1, furnace_ray, NULL);
-    uint32_t n;
-    float *img = render_to_precision(ctx, &cam, expv, 1, 0.0, 64, 6000, &n, "white furnace");
-    tu_assert_image_valid(img, W, H, "white furnace");
-    check_high_resolution("high-resolution white furnace", img, expv, W, H, 1, n, 0.0);
-    free(img);
-    free(expv);
+    render_and_check(ctx, &cam, expv, 1, 0.0, 6000, "white furnace", "high-resolution white furnace");
     tu_vol_free(&vol);
     tu_finish(ctx);
 }
