@@ -173,13 +173,11 @@ test: deps $(B)/picvr_shaders.h $(B)/layout-host $(B)/libpicvr.a $(B)/picvr-test
 # statistical tests on each and succeeds only if every mutation fails one of them.
 # The renderer off by 0.5 %, the cache by 2 %, each component broken: direct light and
 # what a phase-sampled direction sees off by 2 %, transmittance as T^1.02, a path's
-# throughput 2 % low per event.  POWER_HOLES are mutations the suite does not catch yet,
-# left out of CI (`make test-power POWER_MUTATIONS='$(POWER_HOLES)'` shows them; docs/testing.md
-# says why): the cache's extrapolation with half its slope (Eq. 8's sigma_v halved).
+# throughput 2 % low per event, the cache's extrapolation with half its slope (Eq. 8's
+# sigma_v halved).
 BP := build-power
 POWER_MUTATIONS := render:1:1.005 cache:2:1.02 direct:3:0.98 transmittance:4:1.02 phase:5:0.98 \
-                   throughput:7:0.98
-POWER_HOLES := extrapolation:6:0.5
+                   throughput:7:0.98 extrapolation:6:0.5
 mutation_field = $(word $(2),$(subst :, ,$(filter $(1):%,$(POWER_MUTATIONS))))
 POWER_TEST_OBJ := $(patsubst tests/%.c,$(BP)/obj/%.o,$(TEST_SRC))
 $(BP)/obj/%.o: tests/%.c tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \

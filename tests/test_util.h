@@ -87,6 +87,7 @@
     X(test_cache_truncated_samples_counted)                         \
     X(test_cache_debug_view)                                        \
     X(test_cache_full_dense_lit_face)                               \
+    X(test_cache_extrapolation_exact_in_log_linear_light)           \
     /* test_scheduler.c */                                          \
     X(test_scheduler_shares_follow_hit_rate)                        \
     X(test_scheduler_measured_shares_track_targets)                 \

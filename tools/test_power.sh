@@ -14,6 +14,7 @@ set -u
 BP=${BP:-build-power}
 POWER_TESTS=${POWER_TESTS:-"
   test_high_resolution_white_furnace
+  test_cache_extrapolation_exact_in_log_linear_light
   test_high_resolution_cache
   test_high_resolution_single_scatter
   test_high_resolution_beer_lambert
