@@ -171,11 +171,10 @@ static int check_values_ex(const char *label, const double *v, const double *e, 
                   student ? " (t quantile)" : "", se_ref, bound, ok ? "ok" : "FAIL");
     /* the claimed resolution beyond the allowance (rule: an expectation of 0 has none) */
     tu_power_note_rel(meas, expv, bound, tu_power_claimed() + (expv != 0 ? sys_abs / fabs(expv) : 0.0));
-    /* Pooled (test_stats.c) when the SE has many degrees of freedom and the allowed
-       systematic error is under a tenth of it; the pixels are those of the image read
-       last (tu_image_serial), over the mask's bounding box, so another channel or a
-       region of the same render is not counted twice. */
-    if ((!student || nb >= 30) && sys_abs <= 0.1 * tot) {
+    /* Pooled (tu_pool_eligible); the pixels are those of the image read last
+       (tu_image_serial), over the mask's bounding box, so another channel or a region of
+       the same render is not counted twice. */
+    if (tu_pool_eligible(student, nb, sys_abs, tot)) {
         uint32_t bx0 = w, by0 = h, bx1 = 0, by1 = 0;
         for (uint32_t y = 0; y < h; y++)
             for (uint32_t x = 0; x < w; x++)

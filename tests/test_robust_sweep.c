@@ -187,49 +187,29 @@ static void sun_thickness_sweep(picvr_cache_mode mode, const float *tau, size_t 
         double Mc = albedo * E / (4 * M_PI);
         const double M[3] = {Mc, Mc, Mc};
         if (mode != PICVR_CACHE_NONE && tau[i] >= 0.5f) {
-            /* Dense media.  With Table 1's fixed Delta = 2 voxels the irradiance fell by
-               e^-20 and more across Eq. 6's offset, and the cache was biased by -45 % at
-               tau 10/voxel, -34 % at 100, +8 % at 1e3, +76 % at 1e4 (measured 2026-11-22).
-               Each entry now takes an offset of at most two mean free paths
-               (entry_delta in shaders/cache_math.glsl): measured 2026-11-28 over four runs
-               -5 % to -15 % from tau 10 to 1e5 per voxel, both locking modes (scale-free,
-               as it should be now).  What
-               remains is the kink of the field at the lit face: every scatter event lies
-               within a few mean free paths of it, so an entry's outward offset point is
-               outside the medium, where E no longer grows, and Eq. 6 underestimates the
-               growth toward the face (the paper's one-sided differences assume a field
-               that is exponential across the whole offset).  That was not it: neither
-               the curvature limit nor a trial rule that used the inner half-axis's rate
-               at the face changed the bias.  The maximum radius was: it stayed at Table
-               1's 16 voxels, so an axis that looked flat over two mean free paths was
-               extrapolated over up to 1.6e6 of them, from the top face into the side
-               faces, lit from another direction.  With r_max scaled like the offset
-               (entry_r_max): -0.2 % to -2.5 % over three runs, both locking modes
-               (2026-11-28).  But these cases use the cache little (47 entries, hit
-               rate 0.2 at tau 10, 0 from tau 100): with a full cache the lit face
-               does darken the image by 12 % under the paper's model, and the medium
-               model (once its probes stopped finding medium beyond the box's faces,
-               sigma_t_in_box) takes that to 5 %: test_cache_full_dense_lit_face.
-               Asserted: finite (above), the
-               physical bound of single scattering under one sun, mean <= albedo E/(4 pi),
-               and |bias| <= 5 % (was up to 76 %, then 15 %; the bound leaves room for
-               the run-to-run spread of the entries' placement, which is
-               scheduling-dependent, and for the 2 % of the thick closed form).
-               tau 0.5 per voxel (optical depth 4 across the cube): the statistical check
-               with 3 % for the cache (check_all) failed once in CI, -6.8 % (screen
-               space), with the paper's model; over 26 runs per mode object space gave
-               -2.4 % (sd 1.2 %), screen space -3.0 % (sd 1.6 %): most of the spread is
-               the placement of the 47 entries that cover this cube, each up to r_max =
-               16 voxels, as one run's statistical error is 0.6 %.  With the medium
-               model and the in-box probes (2026-11-29, 12 runs per mode): +1.6 % (sd
-               0.8 %) and +1.0 % (sd 0.35 %).
-               The bound: outside the model's reach Eq. 10's epsilon bounds nothing, but the
-               lit face is the worst a served lookup does here, and
+            /* From tau 0.5 per voxel (optical depth 4 across the cube) up, a few dozen
+               entries of radii up to 16 voxels cover the cube, placed where scheduling
+               put them, so a run's bias varies more than its noise.  In dense media
+               (tau >= 10) every scatter event lies within a few mean free paths of the
+               lit face.  What keeps the cache honest there: an
+               entry's offset is at most two mean free paths (entry_delta,
+               cache_math.glsl), so Eq. 6 sees the field's own rate at any density; its
+               largest radius scales with that offset (entry_r_max), so a flat-looking
+               axis is not extrapolated over millions of mean free paths into faces lit
+               from another direction; and the medium model (sigma_t_in_box) treats an
+               offset point beyond the face, where E stops growing.  These cases use the
+               cache little (tens of entries, hit rate about 0.2 at tau 10, none from
+               tau 100), and the entries' placement depends on scheduling, so a run's
+               bias varies more than its noise (docs/cache.md, "Dense media").
+               The bound: outside the model's reach Eq. 10's epsilon bounds nothing, but
+               the lit face is the worst a served lookup does here, and
                test_cache_full_dense_lit_face asserts an error per served lookup within 3 %
                there (the debug view's own measure); events the cache does not serve are
                unbiased, so the mean's bias is at most 3 % x the hit rate <= 3 %, plus the
                2 % of float32 positions in the thick closed form (above): 5 %, plus 5 SE of
-               the image's noise (8x8 blocks, Student's t for their 8 degrees of freedom). */
+               the image's noise (8x8 blocks, Student's t for their 8 degrees of freedom).
+               Asserted: finite (above), the physical bound of single scattering under
+               one sun, mean <= albedo E / (4 pi), and that bound. */
             double m = tu_region_mean(img, W, 1, 0, 0, W, H);
             double e = 0;
             for (size_t p = 0; p < (size_t)W * H; p++) e += expv[4 * p + 1];

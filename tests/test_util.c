@@ -601,6 +601,10 @@ int tu_check_cache_mean(const char *label, const float *img, const double *expec
     return ok;
 }
 
+int tu_pool_eligible(int student, uint32_t nb, double sys_abs, double se) {
+    return (!student || nb >= 30) && sys_abs <= 0.1 * se;
+}
+
 double tu_mean_se(const float *img, const double *expected, uint32_t w, int ch, uint32_t x0,
                   uint32_t y0, uint32_t x1, uint32_t y1, uint32_t n_iter, double M) {
     double meas, expv, se_an, se_emp;
@@ -634,10 +638,7 @@ int tu_check_mean_ex(const char *label, const float *img, const double *expected
                   label, ch, meas, expv, diff, sig > 0 ? diff / sig : 0.0, se_an, se_emp,
                   student ? (nb < 16 ? ", t quantile, FEW BLOCKS" : ", t quantile") : "",
                   bound, ok ? "ok" : "FAIL");
-    /* The pool (test_stats.c): comparisons whose SE is analytic or rests on at least 30
-       blocks (t within 3 % of normal at the z used), and whose allowed systematic error
-       is under a tenth of the SE. */
-    if ((!student || nb >= 30) && sys_rel * fabs(expv) <= 0.1 * sig)
+    if (tu_pool_eligible(student, nb, sys_rel * fabs(expv), sig))
         tu_pool_add(label, meas, expv, sig, img, tu_image_serial, x0, y0, x1, y1);
     tu_power_note_rel(meas, expv, bound, tu_power_rel + sys_rel);
     if (res) { res->measured = meas; res->expected = expv; res->se = sig; }

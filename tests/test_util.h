@@ -534,6 +534,11 @@ double tu_chi2_quantile_upper(double k, double z);
    the rectangle; img NULL: not pixels of an image, never correlated with another
    entry).  tu_check_mean registers its own; a test comparing by other means calls
    this. */
+/* Whether a comparison may join the pool: its SE analytic (student 0) or resting on at
+   least 30 blocks (nb; Student's t within 3 % of the normal at the z used), and its
+   allowed systematic error sys_abs (absolute) under a tenth of its SE, so that the
+   pool's z values are those of unbiased comparisons. */
+int tu_pool_eligible(int student, uint32_t nb, double sys_abs, double se);
 void tu_pool_add(const char *label, double measured, double expected, double se,
                  const void *img, unsigned serial, uint32_t x0, uint32_t y0, uint32_t x1,
                  uint32_t y1);
