@@ -43,6 +43,7 @@ help:
 	@echo "  make bench-long-run 10 min plain vs cached: hit rate and error ratio over time"
 	@echo "  make bench-hit-rate hit rate against entry count; time to 0.8 on this device"
 	@echo "  make bench-sampling plain Monte Carlo before/after its distance sampling (~25 min)"
+	@echo "  make bench-forced   the forced point of camera rays against equiangular alone (~20 min)"
 	@echo "  make bench-frames   orbiting real-time frames, temporal reuse off and on (~6 min)"
 	@echo "  make bench-paths    the path tracer: error vs time, 0, 1, 4, unlimited bounces (~25 min)"
 	@echo "  make bench          error against run time, reduced (bonsai, 128x128; minutes)"

@@ -3,7 +3,7 @@
 # DATA and deps).  Every benchmark measures ratios run side by side on the same machine
 # (docs/performance.md); none is part of `make test`, which builds picvr-bench-error only
 # for its --self-test.  `make help` lists the targets.
-.PHONY: bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-paths bench-frames
+.PHONY: bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-forced bench-paths bench-frames
 
 # ---- programs ---------------------------------------------------------------------------
 # The programs read raw and NRRD files alone: IO_RAW_SRC, without niftilib, GDCM and OpenVDB.
@@ -32,6 +32,17 @@ bench-sampling: deps $(B)/picvr-bench-sampling
 	    --ref-time 320000 --out bench/results/sampling/thin
 	$(B)/picvr-bench-sampling --data $(DATA) --scenes bonsai,bonsai-paper4,engine,engine-paper1,cloud \
 	    --size 128x128 --time 30000 --ref-time 120000 --out bench/results/sampling/data
+
+# The forced point of camera rays (docs/sampling.md, "The forced point"): the defaults
+# against MIS with equiangular sampling alone (--before equiangular), side by side, over
+# the thin family (a sun and sky, a distant point light, the point light just outside; 0.1,
+# 1 and 10 times the thin density) and the data sets (~20 min).
+bench-forced: deps $(B)/picvr-bench-sampling
+	$(B)/picvr-bench-sampling --data $(DATA) --before equiangular --size 128x128 --time 15000 --ref-time 60000 \
+	    --scenes thin-sun-0.1,thin-sun,thin-sun-10,thin-headlight-0.1,thin-headlight,thin \
+	    --out bench/results/sampling/forced-thin
+	$(B)/picvr-bench-sampling --data $(DATA) --before equiangular --size 128x128 --time 15000 --ref-time 60000 \
+	    --scenes bonsai,engine,cloud,cloud-sky --out bench/results/sampling/forced-data
 
 # The engine's case: orbiting real-time frames of the cloud, temporal reuse off and on,
 # true error at three frames (docs/engines.md; ~6 min on lavapipe).

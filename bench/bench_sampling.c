@@ -14,8 +14,9 @@
  * camera sample (stats.mean_path_length).  Results go to OUT/paths.md, .csv.
  *
  * Conditions ("before" and "after"): picvr_config.distance_sampling FREE_FLIGHT with
- * transmittance RATIO (the paper's Exposure Render estimator, picvr's former default)
- * against the defaults (MIS with equiangular sampling, residual ratio tracking).  Both
+ * transmittance RATIO (the paper's Exposure Render estimator; --before paper, the
+ * default) or EQUIANGULAR (MIS with equiangular sampling alone, no forced point; --before
+ * equiangular) against the defaults (MIS with the forced point, residual ratio tracking).  Both
  * plain Monte Carlo (cache off, priorities off: whole passes, so every pixel has the
  * same sample count).
  *
@@ -72,6 +73,7 @@ typedef struct options {
     double time_ms, slice_ms, ref_ms;
     uint32_t ref_chunks, seed;
     const char *bounces;      /* NULL: the before/after comparison */
+    const char *before;       /* the "before" sampler: "paper" or "equiangular" */
     uint32_t frames, checkpoints; /* --frames: the engine's case (0: not) */
     double frame_ms, orbit_deg;
 } options;
@@ -79,7 +81,8 @@ typedef struct options {
 /* One condition of a run: the sampler, and the bounce count. */
 typedef struct condition {
     char name[32];
-    int before;               /* the paper's sampler (FREE_FLIGHT, RATIO) */
+    int before;               /* 1: the paper's sampler (FREE_FLIGHT, RATIO); 2: MIS with equiangular
+                                 sampling alone (EQUIANGULAR); 0: the defaults */
     uint32_t bounces;         /* picvr_scattering.max_bounces */
     int frames, reuse;        /* scheduler.frames and .temporal_reuse on (priorities on) */
 } condition;
@@ -88,18 +91,24 @@ typedef struct condition {
 typedef struct scene_def {
     const char *name, *file, *tf, *lights;
     float spacing;
+    float density_scale;      /* the preset's density times this */
 } scene_def;
 
 static const scene_def SCENES[] = {
-    {"thin", NULL, "thin", "point", 1.0f},
-    {"bonsai", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper1", 1.0f},
-    {"engine", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper3", 1.0f},
-    {"cloud", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud-iso", "sun", 3.33f},
-    {"cloud-sky", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud", "sun-sky", 3.33f},
-    {"bonsai-paper3", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper3", 1.0f},
-    {"bonsai-paper4", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper4", 1.0f},
-    {"engine-paper1", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper1", 1.0f},
-    {"engine-paper4", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper4", 1.0f},
+    {"thin", NULL, "thin", "point", 1.0f, 1.0f},
+    {"thin-sun", NULL, "thin", "sun", 1.0f, 1.0f},
+    {"thin-sun-0.1", NULL, "thin", "sun", 1.0f, 0.1f},
+    {"thin-sun-10", NULL, "thin", "sun", 1.0f, 10.0f},
+    {"thin-headlight", NULL, "thin", "headlight", 1.0f, 1.0f},
+    {"thin-headlight-0.1", NULL, "thin", "headlight", 1.0f, 0.1f},
+    {"bonsai", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper1", 1.0f, 1.0f},
+    {"engine", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper3", 1.0f, 1.0f},
+    {"cloud", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud-iso", "sun", 3.33f, 1.0f},
+    {"cloud-sky", "wdas_cloud_sixteenth_126x86x154_float32.raw.gz", "cloud", "sun-sky", 3.33f, 1.0f},
+    {"bonsai-paper3", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper3", 1.0f, 1.0f},
+    {"bonsai-paper4", "bonsai_256x256x256_uint8.raw.gz", "ct-bonsai", "paper4", 1.0f, 1.0f},
+    {"engine-paper1", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper1", 1.0f, 1.0f},
+    {"engine-paper4", "engine_pvm_256x256x256_uint8.raw.gz", "ct-engine", "paper4", 1.0f, 1.0f},
 };
 #define N_SCENES (sizeof SCENES / sizeof SCENES[0])
 
@@ -156,7 +165,9 @@ static int load_scene(const options *o, const scene_def *sd, loaded_scene *ls)
         box_max[i] = 0.5f * ls->desc.dims[i] * sd->spacing;
         box_min[i] = -box_max[i];
     }
-    if (pvp_tf_preset(sd->tf, &ls->tf) || pvp_orbit_camera(box_min, box_max, PVP_DEFAULT_AZIMUTH, PVP_DEFAULT_ELEVATION,
+    if (pvp_tf_preset(sd->tf, &ls->tf)) { pvc_fail("%s: presets", sd->name); return 0; }
+    ls->tf.density *= sd->density_scale;
+    if (pvp_orbit_camera(box_min, box_max, PVP_DEFAULT_AZIMUTH, PVP_DEFAULT_ELEVATION,
                                                          PVP_DEFAULT_DISTANCE, PVP_DEFAULT_FOV, o->width, o->height, &ls->cam) ||
         pvp_lights_preset(sd->lights, box_min, box_max, &ls->cam, &ls->lights)) {
         pvc_fail("%s: presets", sd->name);
@@ -173,7 +184,7 @@ static void free_scene(loaded_scene *ls)
 
 static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const condition *cd)
 {
-    int before = cd->before;
+    int before = cd->before;   /* 1: the paper's sampler, 2: equiangular sampling alone */
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
@@ -181,10 +192,11 @@ static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const 
     cfg.scheduler.priorities = cd->frames ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
     cfg.scheduler.frames = cd->frames ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
     cfg.scheduler.temporal_reuse = cd->reuse ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF;
-    if (before) {
+    if (before == 1) {
         cfg.distance_sampling = PICVR_DISTANCE_FREE_FLIGHT;
         cfg.transmittance = PICVR_TRANSMITTANCE_RATIO;
     }
+    if (before == 2) cfg.distance_sampling = PICVR_DISTANCE_EQUIANGULAR;
     picvr_context *ctx = NULL;
     if (!pvc_check(picvr_create(&cfg, &ctx), "picvr_create")) return NULL;
     if (!pvc_check(picvr_upload_volume(ctx, &ls->desc), "picvr_upload_volume") ||
@@ -356,7 +368,7 @@ static int parse_conditions(const options *o, condition *cd)
     if (!o->bounces) {
         memset(cd, 0, 2 * sizeof *cd);
         snprintf(cd[0].name, sizeof cd[0].name, "before");
-        cd[0].before = 1;
+        cd[0].before = strcmp(o->before, "equiangular") ? 1 : 2;
         snprintf(cd[1].name, sizeof cd[1].name, "after");
         return 2;
     }
@@ -558,7 +570,9 @@ static void print_help(FILE *f)
 {
     fprintf(f,
         "usage: " PROGRAM " [options]   (see the comment at the top of bench/bench_sampling.c)\n"
-        "  --scenes A,B     of thin, bonsai (paper1), engine (paper3), cloud (sun), cloud-sky,\n"
+        "  --scenes A,B     of thin (point), thin-sun, thin-sun-0.1, thin-sun-10 (density x 0.1,\n"
+        "                   x 10), thin-headlight, thin-headlight-0.1, bonsai (paper1),\n"
+        "                   engine (paper3), cloud (sun), cloud-sky,\n"
         "                   bonsai-paper3, bonsai-paper4, engine-paper1, engine-paper4\n"
         "                   (default thin)\n"
         "  --data DIR       data directory (default ../shared/data)\n"
@@ -571,6 +585,8 @@ static void print_help(FILE *f)
         "  --out DIR        sampling.md and sampling.csv go there (default bench/results/sampling)\n"
         "  --write-thin F   write the thin medium to F (name it thin_64x64x64_float32.raw for\n"
         "                   picvr-render --volume) and exit\n"
+        "  --before KIND    the \"before\" sampler: paper (free flight, ratio tracking; the\n"
+        "                   default) or equiangular (MIS with equiangular sampling alone)\n"
         "  --bounces LIST   compare these max_bounces values (0,1,4,unlimited) instead of the\n"
         "                   two samplers; results in OUT/paths.md, .csv\n"
         "  --frames N       the engine's case instead: N real-time frames, temporal reuse off\n"
@@ -582,7 +598,7 @@ static void print_help(FILE *f)
 
 static const pvc_option OPTIONS[] = {
     {"help", 0}, {"scenes", 1}, {"data", 1}, {"size", 1}, {"time", 1}, {"slice", 1},
-    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {"write-thin", 1}, {"bounces", 1},
+    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {"write-thin", 1}, {"bounces", 1}, {"before", 1},
     {"frames", 1}, {"frame-ms", 1}, {"orbit", 1}, {"checkpoints", 1}, {NULL, 0}};
 
 static int apply_option(void *target, const char *name, const char *value)
@@ -593,6 +609,10 @@ static int apply_option(void *target, const char *name, const char *value)
     else if (!strcmp(name, "out")) o->out = value;
     else if (!strcmp(name, "write-thin")) o->write_thin = value;
     else if (!strcmp(name, "bounces")) o->bounces = value;
+    else if (!strcmp(name, "before")) {
+        if (strcmp(value, "paper") && strcmp(value, "equiangular")) { pvc_bad_value(name, value); return 0; }
+        o->before = value;
+    }
     else if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "ref-chunks")) return pvc_parse_u32(value, 2, 1000, &o->ref_chunks) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "seed")) return pvc_parse_u32(value, 0, 999, &o->seed) ? 1 : (pvc_bad_value(name, value), 0);
@@ -618,7 +638,7 @@ int main(int argc, char **argv)
 {
     pvc_set_program(PROGRAM);
     options o = {"thin", "../shared/data", "bench/results/sampling", NULL, 256, 256, 60000.0, 500.0, 240000.0, 4, 101, NULL,
-                 0, 3, 16.0, 1.0};
+                 "paper", 0, 3, 16.0, 1.0};
     int rc = pvc_parse_options(argc, argv, OPTIONS, apply_option, &o, print_help);
     if (rc >= 0) return rc;
     if (o.write_thin) {   /* raw float32, x fastest, host byte order as picvr-render reads it */

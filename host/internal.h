@@ -92,6 +92,7 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_CLIP 4096u        /* USE_CLIP */
 #define PICVR_KEY_PLAIN 8192u       /* PICVR_CACHE_AUTO's plain rounds: the plain tracking module */
 #define PICVR_KEY_LOOKUP_SHIFT 14u  /* LOOKUP_EVENT - 1: 3 bits (render_shade_cache.comp) */
+#define PICVR_KEY_FORCED 131072u    /* USE_FORCED (bit 17, past LOOKUP_EVENT's three) */
 /* The specialization constants' ids: PICVR_SPEC_<name> is the constant_id of <name> in
    shaders/specialization.glsl (`make check-layout` compares the two lists). */
 enum {
@@ -113,6 +114,7 @@ enum {
     PICVR_SPEC_CACHE_BLEND = 15,
     PICVR_SPEC_CREATE_SAMPLE_STEPS = 16,
     PICVR_SPEC_LOOKUP_EVENT = 17,
+    PICVR_SPEC_USE_FORCED = 18,
     PICVR_SPEC_CONSTANTS            /* their number */
 };
 /* The multiply scattered cache on a CPU device (llvmpipe's loop cap of 65535 per
@@ -178,7 +180,8 @@ typedef struct picvr_gpu_scene {
     float back_g, back_weight;
     uint32_t vertex_cost;
     uint32_t env_w, env_h;
-    float env_unused[2];
+    float forced_pmf;                /* strategy B's forced share (host/lights.c) */
+    float env_unused1;
     picvr_gpu_light lights[PICVR_MAX_LIGHTS];
     float env_basis[3][4];
     float clip[PICVR_GPU_CLIP_PLANES][4];
@@ -323,6 +326,7 @@ typedef struct picvr_scene {
     float density;
     int use_phase_mis;               /* some light or the background needs MIS */
     int use_equiangular;             /* some light is served by equiangular sampling */
+    int use_forced;                  /* gpu.forced_pmf > 0: camera rays' forced point */
     int use_control;                 /* enough bricks have a positive minorant for residual
                                         ratio tracking (host/majorant.c) */
     picvr_scattering scattering;     /* as set (picvr_set_scattering) */

@@ -143,7 +143,8 @@ static void picvr_light_chromaticity(const float (*emit)[3], uint32_t n, float l
    samples it as well at less cost: bonsai under a distant sphere (falloff 2) and the
    engine under three large spheres near it (falloff 15) took longer to a given error
    with equiangular sampling, a thin medium under a point light just outside it (falloff
-   1700) far less (docs/sampling.md).  Sets scene.use_equiangular: some light is served.
+   1700) far less (docs/sampling.md).  Sets scene.use_equiangular: some light is served,
+   and scene.use_forced: the forced point has a share (below).
    Called when the lights or the volume's box change. */
 static void picvr_update_equiangular(picvr_context *ctx) {
     picvr_gpu_light *g = ctx->scene.gpu.lights;
@@ -165,11 +166,28 @@ static void picvr_update_equiangular(picvr_context *ctx) {
         if (served[i]) last = (int)i;
     }
     if (last >= 0) g[last].eq_cdf = 1.0f;
+    /* Strategy B's forced share (shaders/distance.glsl, b_sample): the power that
+       equiangular sampling does not serve (suns, the background or environment map,
+       lights of gentle falloff), so that every ray through the medium gathers each
+       light's share of the image by one strategy or the other.  The sum of the unserved
+       shares, not 1 minus the served ones: exactly 0 when every light is served.  Rule:
+       no power at all gives 0 (nothing to gather).  PICVR_DISTANCE_EQUIANGULAR keeps
+       equiangular sampling alone. */
+    double unserved = ctx->scene.gpu.background_pmf;
+    for (uint32_t i = 0; i < n; i++)
+        if (!served[i]) unserved += g[i].pmf;
+    int forced = ctx->config.distance_sampling == PICVR_DISTANCE_MIS && unserved > 0.0;
+    /* exactly 1 when no light is served (the shaders test forced_pmf < 1 for "some light
+       is served"; a rounded sum of shares could fall an ulp short) */
+    ctx->scene.gpu.forced_pmf = !forced ? 0.0f : last < 0 ? 1.0f : (float)fmin(unserved, 1.0);
     ctx->scene.use_equiangular = last >= 0;
+    ctx->scene.use_forced = forced;
     /* The pool charge of a path's event (shaders/path.glsl) for its loops other than
        tracking: over the lights (choice, area-light hits, sun cones), the map's two
        binary searches and, with equiangular sampling, the segment's three passes over
-       the lights and its walk through at most 3 x 64 coarse cells. */
+       the lights and its walk through at most 3 x 64 coarse cells (a path's later
+       segments draw no forced point: the camera ray's walks are charged once,
+       render.glsl, camera_sample). */
     ctx->scene.gpu.vertex_cost = 4u * n + 64u + (last >= 0 ? 3u * n + 3u * PICVR_MAX_GRID : 0u);
 }
 

@@ -75,8 +75,11 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain)
     uint32_t mono = (uint32_t)ctx->scene.gpu.mono_channel << PICVR_KEY_MONO_SHIFT;
     uint32_t residual = ctx->config.transmittance == PICVR_TRANSMITTANCE_RESIDUAL && ctx->scene.use_control
                       ? PICVR_KEY_RESIDUAL : 0u;
-    uint32_t mis_mode = ctx->config.distance_sampling == PICVR_DISTANCE_MIS;
+    uint32_t mis_mode = ctx->config.distance_sampling != PICVR_DISTANCE_FREE_FLIGHT;
     uint32_t equi = ctx->scene.use_equiangular && mis_mode ? PICVR_KEY_EQUIANGULAR : 0u;
+    /* the forced point: plain rendering only (specialization.glsl, USE_FORCED), which
+       turns strategy B on where no light is served */
+    uint32_t forced = ctx->scene.use_forced && mis_mode ? PICVR_KEY_FORCED | PICVR_KEY_EQUIANGULAR : 0u;
     uint32_t qmc = mis_mode ? PICVR_KEY_QMC : 0u;
     uint32_t env = ctx->scene.use_env ? PICVR_KEY_ENV_MAP : 0u;
     uint32_t paths = (ctx->scene.scattering.max_bounces > 0 ? PICVR_KEY_BOUNCES : 0u) |
@@ -89,8 +92,8 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain)
     if (picvr_cache_multiple(ctx)) mono = 3u << PICVR_KEY_MONO_SHIFT;
     if (proc == PICVR_PROC_CREATE) return mis | fine | env | clip | create_paths;
     if (proc == PICVR_PROC_UPDATE) return fine | mono | qmc | clip;
-    if (!ctx->cache.on) return mis | fine | residual | equi | qmc | env | paths | clip;
-    if (plain) return mis | fine | residual | equi | qmc | env | paths | clip | PICVR_KEY_PLAIN;
+    if (!ctx->cache.on) return mis | fine | residual | equi | forced | qmc | env | paths | clip;
+    if (plain) return mis | fine | residual | equi | forced | qmc | env | paths | clip | PICVR_KEY_PLAIN;
     uint32_t lookup = (picvr_lookup_event(ctx) - 1u) << PICVR_KEY_LOOKUP_SHIFT;
     return mis | fine | mono | residual | equi | qmc | env | paths | clip | lookup |
            (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
@@ -133,6 +136,7 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
     value[PICVR_SPEC_CACHE_BLEND] = picvr_blend_on(ctx) != 0;
     value[PICVR_SPEC_CREATE_SAMPLE_STEPS] = picvr_create_sample_steps(ctx);
     value[PICVR_SPEC_LOOKUP_EVENT] = ((key >> PICVR_KEY_LOOKUP_SHIFT) & 7u) + 1u;
+    value[PICVR_SPEC_USE_FORCED] = (key & PICVR_KEY_FORCED) != 0;
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;

@@ -1,8 +1,10 @@
 // distance.glsl - where a camera ray's light is gathered (paper §3, Eq. 4 along the ray):
-// free-flight sampling by delta tracking combined with equiangular sampling toward the
-// lights (Kulla and Fajardo 2012) by multiple importance sampling, so that a ray through
-// thin medium still gathers the in-scattered light of a nearby light.  The scalar
-// formulas are in sampling_math.glsl; USE_EQUIANGULAR (specialization.glsl) turns it on.
+// free-flight sampling by delta tracking combined by multiple importance sampling with a
+// second point drawn inside the ray's medium, equiangular toward the lights that fall off
+// steeply across the volume (Kulla and Fajardo 2012) or forced free flight (a collision
+// conditioned to fall in the segment) for the rest of the light, so that a ray through
+// thin medium still gathers the in-scattered light of every light.  The scalar formulas
+// are in sampling_math.glsl; USE_EQUIANGULAR (specialization.glsl) turns strategy B on.
 //
 // The estimator.  Along the camera ray over its medium segment [t0, t1] the pixel sees
 //   L = int_t0^t1 T(t) sigma_s(t) L_s(t) dt + T(t1) L_end,
@@ -10,8 +12,10 @@
 // camera sample:
 //  A. delta tracking draws t_A with density p_A(t) = sigma_t(t) T(t) (or passes); its
 //     estimate of the integral, albedo L_s(t_A), is weighted by w_A(t_A);
-//  B. equiangular sampling draws t_B with density p_B(t) (a mixture over the lights it
-//     serves, chosen by eq_pmf); its estimate is w_B(t_B) T^(t_B) sigma_s(t_B)
+//  B. draws t_B with density p_B(t), a mixture: with probability f = scene.forced_pmf
+//     the forced density p_F (sampling_math.glsl, forced_norm), else equiangular toward
+//     a served light chosen by eq_pmf, so p_B = f p_F + (1 - f) sum eq_pmf p_eq (b_sample,
+//     b_pdfs); its estimate is w_B(t_B) T^(t_B) sigma_s(t_B)
 //     L_s(t_B) / p_B(t_B), with T^ an unbiased transmittance estimate (residual ratio
 //     tracking) from random numbers drawn after t_B;
 //  C. the end term T^(t1) L_end, with T^(t1) = T^(t_B) times an independent estimate
@@ -27,9 +31,12 @@
 // E[A + B] = the integral, whatever q is; q close to p_A only makes the variance small.
 // Delta tracking's escape contributes nothing (the end term is C), and the coverage is
 // 1 - T^(t1).
-// Leave-out: USE_EQUIANGULAR is on only when some light is served (host/pipelines.c,
+// Leave-out: USE_EQUIANGULAR is on only when B has something to draw for (host/lights.c,
 // picvr_update_equiangular: a point, sphere or rect light whose 1/d^2 falls off steeply
-// across the volume); otherwise the camera ray is the paper's delta tracking alone.
+// across the volume, or light it does not serve, whose share f gets the forced point);
+// without light, or with PICVR_DISTANCE_FREE_FLIGHT, the camera ray is the paper's delta
+// tracking alone, and PICVR_DISTANCE_EQUIANGULAR keeps f = 0.  The forced share's walks
+// run only where f > 0.
 #ifndef DISTANCE_GLSL_ONCE
 #define DISTANCE_GLSL_ONCE 1
 #include "specialization.glsl"
@@ -85,27 +92,99 @@ float eq_sample(vec3 ro, vec3 rd, float t0, float t1, float u_light, float u) {
     return clamp(t0 + cm_eq_advance(t0 - f.x, t1 - f.x, f.y, span, u), t0, t1);
 }
 
-// tau_min at ta and at tb (both in [t0, t1]; a negative one is skipped): the minorant's
-// optical depth from t0, by a walk through the coarse grid
-// (no random numbers).  Empty cells add nothing.  Bounded like the tracking loops; a
-// walk cut short leaves the depths where it stopped (only the proxy q changes).
-vec2 minorant_depths(vec3 ro, vec3 rd, float t0, float ta, float tb) {
-    float t_end = max(ta, tb);
-    vec2 tau = vec2(0.0);
-    if (t_end <= t0) return tau;
+// The coarse-grid walk of a camera ray's segment from t0 to t_end (no random numbers):
+// the minorant's optical depth from t0 (tau_min, for the proxy q) and the majorant's
+// (tau_maj, for p_F) at ta and tb (in [t0, t_end]; a negative one is skipped), the
+// majorant at ta and tb (maj), and the majorant's depth at t_end (tau_maj_end).  Empty
+// cells add nothing.  Bounded like the tracking loops; a walk cut short leaves the depths
+// where it stopped (the pdfs of points past it read 0 majorant: they are never drawn
+// there either, as forced_sample walks the same cells).
+struct SegmentDepths { vec2 tau_min; vec2 tau_maj; vec2 maj; float tau_maj_end; };
+
+SegmentDepths segment_depths(vec3 ro, vec3 rd, float t0, float t_end, float ta, float tb) {
+    SegmentDepths s;
+    s.tau_min = vec2(0.0);
+    s.tau_maj = vec2(0.0);
+    s.maj = vec2(0.0);
+    s.tau_maj_end = 0.0;
+    if (t_end <= t0) return s;
     Dda d = coarse_start(ro, rd, t0);
-    float t = t0, acc = 0.0;
+    float t = t0, acc_min = 0.0, acc_maj = 0.0;
     for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
         float t_cell = min(dda_exit(d), t_end);
-        float maj = cell_majorant(d);
+        float maj = max(cell_majorant(d), 0.0);
         float rate = maj > 0.0 ? min(cell_minorant(d), maj) : 0.0;   // empty: 0
-        if (ta >= t && ta <= t_cell) tau.x = acc + rate * (ta - t);
-        if (tb >= t && tb <= t_cell) tau.y = acc + rate * (tb - t);
-        acc += rate * (t_cell - t);
+        if (ta >= t && ta <= t_cell) {
+            s.tau_min.x = acc_min + rate * (ta - t);
+            s.tau_maj.x = acc_maj + maj * (ta - t);
+            s.maj.x = maj;
+        }
+        if (tb >= t && tb <= t_cell) {
+            s.tau_min.y = acc_min + rate * (tb - t);
+            s.tau_maj.y = acc_maj + maj * (tb - t);
+            s.maj.y = maj;
+        }
+        acc_min += rate * (t_cell - t);
+        acc_maj += maj * (t_cell - t);
         t = t_cell;
         if (t >= t_end || !dda_advance(d)) break;
     }
-    return tau;
+    s.tau_maj_end = acc_maj;
+    return s;
+}
+
+// The forced distance (sampling_math.glsl, forced_norm): the point of [t0, t1] where the
+// majorant's depth from t0 reaches forced_depth(u, Z, tau_total), tau_total the
+// segment's depth (segment_depths' tau_maj_end) and Z = forced_norm(tau_total); -1 when
+// the segment holds no medium (Z = 0).  The walk is segment_depths' (the same cells and
+// sums), so the pdf it computes at the point is the density the point was drawn with.
+float forced_sample(vec3 ro, vec3 rd, float t0, float t1, float tau_total, float z, float u) {
+    if (!(z > 0.0)) return -1.0;
+    float target = cm_forced_depth(u, z, tau_total);
+    Dda d = coarse_start(ro, rd, t0);
+    float t = t0, acc = 0.0, last = -1.0;
+    for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
+        float t_cell = min(dda_exit(d), t1);
+        float maj = max(cell_majorant(d), 0.0);
+        float step = maj * (t_cell - t);
+        if (maj > 0.0) {
+            if (acc + step >= target) return clamp(t + (target - acc) / maj, t, t_cell);
+            last = t_cell;                // rounding: the last cell with medium takes u -> 1
+        }
+        acc += step;
+        t = t_cell;
+        if (t >= t1 || !dda_advance(d)) break;
+    }
+    return last;
+}
+
+// Strategy B's draw on the segment [t0, t1]: with probability f a forced distance, else
+// an equiangular one toward a served light chosen by eq_cdf (u_light rescaled to [0, 1)
+// for that choice).  f is scene.forced_pmf on camera rays in variants with USE_FORCED
+// (the share of the light that equiangular sampling does not serve, host/lights.c; plain
+// rendering only, specialization.glsl), else 0, and 0 on a path's later segments
+// (path.glsl: the forced point serves the camera ray's first event, where the gap to a
+// converged image is).  Returns t_B (-1: none, a degenerate segment); z is the
+// segment's Z for p_F (0 when f = 0: no walk).
+float b_sample(vec3 ro, vec3 rd, float t0, float t1, float f, float u_light, float u, out float z) {
+    z = 0.0;
+    float tau_total = 0.0;
+    if (f > 0.0) {
+        tau_total = segment_depths(ro, rd, t0, t1, -1.0, -1.0).tau_maj_end;
+        z = cm_forced_norm(tau_total);
+    }
+    if (u_light < f) return forced_sample(ro, rd, t0, t1, tau_total, z, u);
+    return eq_sample(ro, rd, t0, t1, (u_light - f) / (1.0 - f), u);   // f < 1 here
+}
+
+// B's density at ta and tb (the mixture f p_F + (1 - f) sum eq_pmf p_eq), with sd the
+// segment's walk to max(ta, tb), f and z b_sample's.
+vec2 b_pdfs(vec3 ro, vec3 rd, float t0, float t1, float ta, float tb, SegmentDepths sd, float f, float z) {
+    vec2 p = f < 1.0 ? (1.0 - f) * eq_mixture_pdfs(ro, rd, t0, t1, ta, tb) : vec2(0.0);
+    if (f > 0.0)
+        p += f * vec2(ta >= 0.0 ? cm_forced_pdf(sd.maj.x, sd.tau_maj.x, z) : 0.0,
+                      tb >= 0.0 ? cm_forced_pdf(sd.maj.y, sd.tau_maj.y, z) : 0.0);
+    return p;
 }
 
 // q(t) = sigma_t exp(-tau_min), the free-flight proxy density (underflows to 0 deep in

@@ -12,9 +12,10 @@
 // collides, x_{k+1} is the next scatter event.  At the last event the path may have, the
 // phase sample's transmittance is estimated by ratio tracking instead (sample_phase:
 // less variance, as single scattering always did).  Where equiangular sampling serves
-// (USE_EQUIANGULAR: a point, sphere or rect light near the volume), every segment also
-// draws a point toward it, as camera rays do, and the direct light along the segment is
-// shared between the two strategies by MIS (segment_equiangular).
+// (USE_EQUIANGULAR with a point, sphere or rect light near the volume: forced_pmf < 1),
+// every segment also draws a point toward it, as camera rays do, and the direct light
+// along the segment is shared between the two strategies by MIS (segment_equiangular).
+// Later segments draw no forced point (distance.glsl, b_sample).
 //
 // Weights.  The throughput beta_k = albedo(x_1) ... albedo(x_k) (RGB): delta tracking
 // samples x_{k+1} with density sigma_t T, the phase sample is exact (f / pdf = 1), so
@@ -68,16 +69,17 @@ float segment_equiangular(vec3 x, vec3 w, float t0, float t1, float t_a, inout R
                           out vec3 L_b) {
     L_b = vec3(0.0);
     float u_light = rnd(rng), u = rnd(rng);
-    float t_b = eq_sample(x, w, t0, t1, u_light, u);
+    float z;
+    float t_b = b_sample(x, w, t0, t1, 0.0, u_light, u, z);
     float s_b = t_b >= 0.0 ? sigma_t(x + w * t_b) : 0.0;
     float T_b = s_b > 0.0 ? transmittance(x, w, t_b, rng, truncated) : 0.0;
     bool b_counts = s_b > 0.0 && T_b > 0.0;
     float tb = b_counts ? t_b : -1.0;
-    vec2 tau = minorant_depths(x, w, t0, t_a, tb);
-    vec2 p_b = eq_mixture_pdfs(x, w, t0, t1, t_a, tb);
-    float w_a = t_a >= 0.0 ? cm_mis_power(free_flight_proxy(sigma_t(x + w * t_a), tau.x), p_b.x) : 1.0;
+    SegmentDepths sd = segment_depths(x, w, t0, max(t_a, tb), t_a, tb);
+    vec2 p_b = b_pdfs(x, w, t0, t1, t_a, tb, sd, 0.0, z);
+    float w_a = t_a >= 0.0 ? cm_mis_power(free_flight_proxy(sigma_t(x + w * t_a), sd.tau_min.x), p_b.x) : 1.0;
     if (b_counts) {
-        float f_b = cm_eq_weight(T_b, s_b, free_flight_proxy(s_b, tau.y), p_b.y);
+        float f_b = cm_eq_weight(T_b, s_b, free_flight_proxy(s_b, sd.tau_min.y), p_b.y);
         vec3 xb = x + w * t_b;
         if (f_b > 0.0) L_b = f_b * albedo_at(xb) * direct_light(xb, phase_at(xb, w), rng, truncated);
     }
@@ -149,7 +151,9 @@ bool path_event(inout PathState s, uint first, inout Rng rng, inout bool truncat
         truncated = truncated || cut;
         if (t < 0.0 && !cut) L += phase_emission(s.x, w, hit, t_light, phase_eval(ph, w));
         end = cut;
-        if (USE_EQUIANGULAR && !cut && t1 > t0) {
+        // equiangular only (b_sample); some light is served unless the variant has the
+        // forced point and its share is all the light (forced_pmf = 1, exactly)
+        if (USE_EQUIANGULAR && !(USE_FORCED && scene.forced_pmf >= 1.0) && !cut && t1 > t0) {
             vec3 L_b;
             w_next = segment_equiangular(s.x, w, t0, t1, t, rng, truncated, L_b);
             s.indirect += s.beta / q * L_b;

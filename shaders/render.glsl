@@ -241,26 +241,43 @@ struct CameraSample { float w_a; float t_b; float f_b; float T_end; };
 
 CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, inout Rng rng, inout bool truncated) {
     vec3 ro = scene.cam_pos;
+    // The forced share's two more walks (the segment's depth, the point), once per
+    // camera ray, come out of the path's loop pool (tracking.glsl): a walk crosses at
+    // most grid.x + grid.y + grid.z cells.
+    float f = USE_FORCED ? scene.forced_pmf : 0.0;
+    if (USE_BOUNCES && f > 0.0)
+        path_pool -= min(path_pool, 2u * (scene.grid.x + scene.grid.y + scene.grid.z));
     CameraSample c;
     float u_light = rnd(rng);
-    c.t_b = eq_sample(ro, e.rd, seg.t0, seg.t1, u_light, qmc(rng, 2u));
+    float z;
+    c.t_b = b_sample(ro, e.rd, seg.t0, seg.t1, f, u_light, qmc(rng, 2u), z);
     c.f_b = 0.0;
     // B's transmittance is needed where it lands in medium, or for the end term
     float s_b = c.t_b >= 0.0 ? sigma_t(ro + e.rd * c.t_b) : 0.0;
+    // Rule: an estimate cut at its loop bound is a partial product, biased bright (a
+    // dense core would leak light); B then contributes nothing and the end is seen as
+    // black (biased dark, counted in `truncated`).
     float T_b = 1.0;
-    if (s_b > 0.0 || (need_end && c.t_b >= 0.0)) T_b = transmittance(ro, e.rd, c.t_b, rng, truncated);
+    bool cut_b = false;
+    if (s_b > 0.0 || (need_end && c.t_b >= 0.0)) T_b = transmittance(ro, e.rd, c.t_b, rng, cut_b);
+    truncated = truncated || cut_b;
+    if (cut_b) T_b = 0.0;
     // the end term: T^(t_B) times an independent estimate over [t_B, t1]
     float t_mid = max(c.t_b, seg.t0);
     c.T_end = -1.0;
-    if (need_end)
-        c.T_end = T_b > 0.0 ? T_b * transmittance(ro + e.rd * t_mid, e.rd, seg.t1 - t_mid, rng, truncated) : 0.0;
+    if (need_end) {
+        bool cut_end = false;
+        c.T_end = T_b > 0.0 ? T_b * transmittance(ro + e.rd * t_mid, e.rd, seg.t1 - t_mid, rng, cut_end) : 0.0;
+        truncated = truncated || cut_end;
+        if (cut_end) c.T_end = 0.0;
+    }
     bool b_counts = s_b > 0.0 && T_b > 0.0;
     float t_b_counts = b_counts ? c.t_b : -1.0;
-    vec2 tau = minorant_depths(ro, e.rd, seg.t0, e.t, t_b_counts);
-    vec2 p_b = eq_mixture_pdfs(ro, e.rd, seg.t0, seg.t1, e.t, t_b_counts);
+    SegmentDepths sd = segment_depths(ro, e.rd, seg.t0, max(e.t, t_b_counts), e.t, t_b_counts);
+    vec2 p_b = b_pdfs(ro, e.rd, seg.t0, seg.t1, e.t, t_b_counts, sd, f, z);
     c.w_a = 1.0;
-    if (e.t >= 0.0) c.w_a = cm_mis_power(free_flight_proxy(sigma_t(e.x), tau.x), p_b.x);
-    if (b_counts) c.f_b = cm_eq_weight(T_b, s_b, free_flight_proxy(s_b, tau.y), p_b.y);
+    if (e.t >= 0.0) c.w_a = cm_mis_power(free_flight_proxy(sigma_t(e.x), sd.tau_min.x), p_b.x);
+    if (b_counts) c.f_b = cm_eq_weight(T_b, s_b, free_flight_proxy(s_b, sd.tau_min.y), p_b.y);
     return c;
 }
 
@@ -287,7 +304,10 @@ vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, vec3 re
     }
     if (c.f_b > 0.0) {
         vec3 xb = scene.cam_pos + e.rd * c.t_b;
-        L += c.f_b * albedo_at(xb) * direct_light(xb, phase_at(xb, e.rd), e.rng, e.truncated);
+        bool cut = false;                 // the rule of camera_sample: a cut estimate adds nothing
+        vec3 L_b = direct_light(xb, phase_at(xb, e.rd), e.rng, cut);
+        e.truncated = e.truncated || cut;
+        if (!cut) L += c.f_b * albedo_at(xb) * L_b;
     }
     coverage = need_end ? clamp(1.0 - c.T_end, 0.0, 1.0) : (e.t >= 0.0 ? 1.0 : 0.0);
     return L;

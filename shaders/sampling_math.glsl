@@ -108,6 +108,63 @@ CM_API real CM_FN(eq_weight)(real T, real sigma, real q, real p) {
     return cm_isfinite(v) ? v : CM_REAL(0.0);
 }
 
+// ---- forced in-segment distance sampling ---------------------------------------------
+//
+// A distance t in a ray's medium segment [t0, t1] drawn with density proportional to
+// m(t) exp(-tau(t)), m the majorant (piecewise constant over the coarse grid) and tau(t)
+// its optical depth from t0: free flight against the majorant, conditioned on colliding
+// inside the segment ("forced"),
+//   p_F(t) = m(t) exp(-tau(t)) / Z,   Z = 1 - exp(-tau(t1)),
+// sampled by inversion, tau(t) = -ln(1 - u Z).  Every ray whose segment crosses medium
+// gets a point however thin the medium is (as tau(t1) -> 0, p_F -> m / tau(t1): uniform
+// in optical depth), and in thick medium p_F tends to free flight's own density.  Both
+// Z and the inversion are computed so that they keep their relative precision as
+// tau -> 0, where 1 - exp(-tau) and ln(1 - u Z) round to 0 in float (tau < 6e-8).
+
+// Z = 1 - exp(-tau) = -expm1(-tau), by Kahan's product form (e - 1) tau / ln e with
+// e = exp(-tau) (e - 1 is exact for e in [0.5, 1], and the ratio of the two rounded
+// quantities cancels their errors).  Rules: tau NaN or <= 0 gives 0 (no medium: nothing
+// to sample); e = 1 (tau below half an ulp) gives tau; e = 0 or tau = +inf gives 1.
+CM_API real CM_FN(forced_norm)(real tau) {
+    if (!(tau > CM_REAL(0.0))) return CM_REAL(0.0);
+    if (!cm_isfinite(tau)) return CM_REAL(1.0);
+    real e = cm_exp(-tau);
+    if (e == CM_REAL(1.0)) return tau;
+    if (!(e > CM_REAL(0.0))) return CM_REAL(1.0);
+    real z = (e - CM_REAL(1.0)) * tau / cm_log(e);
+    return cm_isfinite(z) ? cm_clamp(z, CM_REAL(0.0), CM_REAL(1.0)) : CM_REAL(1.0);
+}
+
+// The optical depth of the forced sample for u in [0, 1): -ln(1 - u Z) = -log1p(-u Z),
+// by Kahan's form ln(w) y / (w - 1), w = 1 + y, y = -u Z.  Rules: u non-finite -> 0,
+// clamped to [0, 1]; Z outside (0, 1] or non-finite gives 0 (the caller does not sample
+// there); w = 1 gives u Z; w <= 0 (u Z = 1) or a non-finite result gives tau_total; the
+// result is clamped to [0, tau_total] (tau_total: the segment's depth, of which Z was
+// computed).
+CM_API real CM_FN(forced_depth)(real u, real z, real tau_total) {
+    if (!(z > CM_REAL(0.0)) || !(z <= CM_REAL(1.0))) return CM_REAL(0.0);
+    real hi = cm_isfinite(tau_total) ? cm_max(tau_total, CM_REAL(0.0)) : CM_REAL(0.0);
+    u = cm_isfinite(u) ? cm_clamp(u, CM_REAL(0.0), CM_REAL(1.0)) : CM_REAL(0.0);
+    real y = -u * z;
+    real w = CM_REAL(1.0) + y;
+    if (w == CM_REAL(1.0)) return cm_min(-y, hi);
+    if (!(w > CM_REAL(0.0))) return hi;
+    real d = -(cm_log(w) * y / (w - CM_REAL(1.0)));
+    return cm_isfinite(d) ? cm_clamp(d, CM_REAL(0.0), hi) : hi;
+}
+
+// p_F at a point where the majorant is m and its depth from t0 is tau: m exp(-tau) / Z.
+// Rules: Z <= 0 or non-finite, m <= 0 or non-finite (no medium there: the strategy cannot
+// draw the point) give 0; tau NaN or < 0 counts as 0; the exponent is capped at 87 (exp
+// stays a normal float); a non-finite result gives 0.
+CM_API real CM_FN(forced_pdf)(real m, real tau, real z) {
+    if (!(z > CM_REAL(0.0)) || !cm_isfinite(z)) return CM_REAL(0.0);
+    if (!(m > CM_REAL(0.0)) || !cm_isfinite(m)) return CM_REAL(0.0);
+    real t = tau > CM_REAL(0.0) ? cm_min(tau, CM_REAL(87.0)) : CM_REAL(0.0);
+    real p = m * cm_exp(-t) / z;
+    return cm_isfinite(p) ? p : CM_REAL(0.0);
+}
+
 // ---- Henyey-Greenstein phase function ------------------------------------------------
 //
 //   p_g(cos) = (1 - g^2) / (4 pi (1 + g^2 - 2 g cos)^(3/2))   per steradian,

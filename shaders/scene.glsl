@@ -66,7 +66,9 @@ layout(set = 0, binding = 0, std140) uniform Scene {
     uint max_bounces; float back_g; float back_weight; uint vertex_cost;
                                               // picvr_scattering (0xffffffff: unlimited);
                                               // path-pool charge per path vertex (path.glsl)
-    uint env_w; uint env_h; float env_unused0; float env_unused1; // environment map texels
+    uint env_w; uint env_h; float forced_pmf; float env_unused1; // environment map texels;
+                                              // the forced share of camera-ray strategy B
+                                              // (distance.glsl, b_sample)
     Light lights[MAX_LIGHTS];
     vec4 env_basis[3];                        // rows (xyz) of the map's frame from the
                                               // volume's: the volume's orientation, then

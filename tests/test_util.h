@@ -51,8 +51,12 @@
     X(test_sampling_equiangular_histogram_matches_pdf)              \
     X(test_sampling_mis_weights_sum_to_one)                         \
     X(test_sampling_extreme_inputs)                                 \
+    X(test_sampling_forced_norm_and_inversion)                      \
+    X(test_sampling_forced_pdf_integrates_and_histogram)            \
+    X(test_sampling_forced_extreme_inputs)                          \
     X(test_sampling_point_light_thin_closed_form)                   \
     X(test_sampling_point_light_inside_closed_form)                 \
+    X(test_sampling_sun_forced_closed_form)                         \
     X(test_sampling_residual_transmittance_heterogeneous)           \
     /* test_cache_math.c */                                         \
     X(test_cache_math_exponential_field)                            \
