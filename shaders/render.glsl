@@ -254,23 +254,15 @@ CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, ino
     c.f_b = 0.0;
     // B's transmittance is needed where it lands in medium, or for the end term
     float s_b = c.t_b >= 0.0 ? sigma_t(ro + e.rd * c.t_b) : 0.0;
-    // Rule: an estimate cut at its loop bound is a partial product, biased bright (a
-    // dense core would leak light); B then contributes nothing and the end is seen as
-    // black (biased dark, counted in `truncated`).
+    // An estimate cut at its loop bound is 0 (tracking.glsl, track): B then contributes
+    // nothing and the end is seen as black (biased dark, counted in `truncated`).
     float T_b = 1.0;
-    bool cut_b = false;
-    if (s_b > 0.0 || (need_end && c.t_b >= 0.0)) T_b = transmittance(ro, e.rd, c.t_b, rng, cut_b);
-    truncated = truncated || cut_b;
-    if (cut_b) T_b = 0.0;
+    if (s_b > 0.0 || (need_end && c.t_b >= 0.0)) T_b = transmittance(ro, e.rd, c.t_b, rng, truncated);
     // the end term: T^(t_B) times an independent estimate over [t_B, t1]
     float t_mid = max(c.t_b, seg.t0);
     c.T_end = -1.0;
-    if (need_end) {
-        bool cut_end = false;
-        c.T_end = T_b > 0.0 ? T_b * transmittance(ro + e.rd * t_mid, e.rd, seg.t1 - t_mid, rng, cut_end) : 0.0;
-        truncated = truncated || cut_end;
-        if (cut_end) c.T_end = 0.0;
-    }
+    if (need_end)
+        c.T_end = T_b > 0.0 ? T_b * transmittance(ro + e.rd * t_mid, e.rd, seg.t1 - t_mid, rng, truncated) : 0.0;
     bool b_counts = s_b > 0.0 && T_b > 0.0;
     float t_b_counts = b_counts ? c.t_b : -1.0;
     SegmentDepths sd = segment_depths(ro, e.rd, seg.t0, max(e.t, t_b_counts), e.t, t_b_counts);
@@ -304,10 +296,7 @@ vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, vec3 re
     }
     if (c.f_b > 0.0) {
         vec3 xb = scene.cam_pos + e.rd * c.t_b;
-        bool cut = false;                 // the rule of camera_sample: a cut estimate adds nothing
-        vec3 L_b = direct_light(xb, phase_at(xb, e.rd), e.rng, cut);
-        e.truncated = e.truncated || cut;
-        if (!cut) L += c.f_b * albedo_at(xb) * L_b;
+        L += c.f_b * albedo_at(xb) * direct_light(xb, phase_at(xb, e.rd), e.rng, e.truncated);
     }
     coverage = need_end ? clamp(1.0 - c.T_end, 0.0, 1.0) : (e.t >= 0.0 ? 1.0 : 0.0);
     return L;

@@ -100,9 +100,13 @@ bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, floa
 // saves lookups with it).  One flat loop: every iteration is one tentative collision,
 // cell step or empty-space jump (also inside fine_segment), so that SIMD lanes advance
 // together, and all count against one bound (MAX_TRACK_STEPS, and the path's pool);
-// past it the track is truncated (biased, counted) and treated as passing.  Returns, for
-// delta tracking, the distance of a real collision or -1 when the ray passes; for ratio
-// tracking, the transmittance estimate (Eq. 2).
+// past it the track is truncated (counted in `truncated`).  Returns, for delta tracking,
+// the distance of a real collision or -1 when the ray passes (a cut walk too: its caller
+// reads `truncated`); for ratio tracking, the transmittance estimate (Eq. 2).
+// Rule: a cut ratio-tracking walk returns 0, not its partial product: the product of the
+// steps it did not take is unknown, and a walk cut before its first step (a path whose
+// pool is dry) would return 1, light leaking through medium it never crossed.  Biased
+// toward dark, counted.
 float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, T = 1.0;
@@ -147,7 +151,7 @@ float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, ino
     if (USE_BOUNCES) path_pool -= min(i + 1u, path_pool);
     if (ended) return ratio ? 0.0 : t;
     if (!passed) truncated = true;
-    return ratio ? T : -1.0;
+    return ratio ? (passed ? T : 0.0) : -1.0;
 }
 
 float delta_track(vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, inout bool truncated) {
