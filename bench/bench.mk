@@ -3,7 +3,7 @@
 # DATA and deps).  Every benchmark measures ratios run side by side on the same machine
 # (docs/performance.md); none is part of `make test`, which builds picvr-bench-error only
 # for its --self-test.  `make help` lists the targets.
-.PHONY: bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-forced bench-paths bench-frames
+.PHONY: bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-sampling-paper bench-paths bench-frames
 
 # ---- programs ---------------------------------------------------------------------------
 # The programs read raw and NRRD files alone: IO_RAW_SRC, without niftilib, GDCM and OpenVDB.
@@ -25,24 +25,29 @@ bench-long-run: deps $(B)/picvr-render
 bench-hit-rate: deps $(B)/picvr-render
 	DATA=$(DATA) sh bench/hit_rate.sh $(SECS)
 
-# Plain Monte Carlo before and after the distance sampling of camera rays, side by side
-# (docs/sampling.md): the thin medium at 256x256, the data sets at 128x128 (~25 min).
+# The sampling family (docs/sampling.md, "The family"): the defaults against MIS with
+# equiangular sampling alone (--before equiangular, the sampler before the forced point),
+# side by side, on the thin medium at optical depths 0.1, 1 and 10 under each family
+# light (point lights at 1.2, 2, 4 and 8 bounding-sphere radii, a sphere, a rect, the
+# sun, a white sky, an environment map), then on the data sets, single and multiple
+# scattering (~35 min on the 2-core machine).
+FAMILY_SCENES := $(foreach d,0.1 1 10,$(foreach l,pt1.2 pt2 pt4 pt8 sphere rect sun sky env,fam-$(d)-$(l)))
+comma := ,
+empty :=
+space := $(empty) $(empty)
 bench-sampling: deps $(B)/picvr-bench-sampling
+	$(B)/picvr-bench-sampling --data $(DATA) --before equiangular --size 128x128 --time 8000 --ref-time 32000 \
+	    --scenes $(subst $(space),$(comma),$(FAMILY_SCENES)) --out bench/results/sampling/family
+	$(B)/picvr-bench-sampling --data $(DATA) --before equiangular --size 128x128 --time 15000 --ref-time 60000 \
+	    --scenes bonsai,engine,cloud,cloud-sky --out bench/results/sampling/family-data
+
+# The paper's sampler (delta tracking, ratio tracking) against the defaults, on the thin
+# medium at 256x256 and the data sets at 128x128 (~25 min).
+bench-sampling-paper: deps $(B)/picvr-bench-sampling
 	$(B)/picvr-bench-sampling --data $(DATA) --scenes thin --size 256x256 --time 90000 \
 	    --ref-time 320000 --out bench/results/sampling/thin
 	$(B)/picvr-bench-sampling --data $(DATA) --scenes bonsai,bonsai-paper4,engine,engine-paper1,cloud \
 	    --size 128x128 --time 30000 --ref-time 120000 --out bench/results/sampling/data
-
-# The forced point of camera rays (docs/sampling.md, "The forced point"): the defaults
-# against MIS with equiangular sampling alone (--before equiangular), side by side, over
-# the thin family (a sun and sky, a distant point light, the point light just outside; 0.1,
-# 1 and 10 times the thin density) and the data sets (~20 min).
-bench-forced: deps $(B)/picvr-bench-sampling
-	$(B)/picvr-bench-sampling --data $(DATA) --before equiangular --size 128x128 --time 15000 --ref-time 60000 \
-	    --scenes thin-sun-0.1,thin-sun,thin-sun-10,thin-headlight-0.1,thin-headlight,thin \
-	    --out bench/results/sampling/forced-thin
-	$(B)/picvr-bench-sampling --data $(DATA) --before equiangular --size 128x128 --time 15000 --ref-time 60000 \
-	    --scenes bonsai,engine,cloud,cloud-sky --out bench/results/sampling/forced-data
 
 # The engine's case: orbiting real-time frames of the cloud, temporal reuse off and on,
 # true error at three frames (docs/engines.md; ~6 min on lavapipe).

@@ -94,6 +94,14 @@ typedef struct scene_def {
     float density_scale;      /* the preset's density times this */
 } scene_def;
 
+/* The benchmark family (make bench-family, docs/sampling.md): the thin medium at three
+   optical depths (about 0.1, 1 and 10 through its centre; family_depth() measures it) under
+   each light of family_lights().  Names "fam-<depth>-<light>". */
+static const char *const FAMILY_DEPTHS[] = {"0.1", "1", "10"};
+static const char *const FAMILY_LIGHTS[] = {"pt1.2", "pt2", "pt4", "pt8", "sphere", "rect", "sun", "sky", "env"};
+#define N_FAMILY_DEPTHS (sizeof FAMILY_DEPTHS / sizeof FAMILY_DEPTHS[0])
+#define N_FAMILY_LIGHTS (sizeof FAMILY_LIGHTS / sizeof FAMILY_LIGHTS[0])
+
 static const scene_def SCENES[] = {
     {"thin", NULL, "thin", "point", 1.0f, 1.0f},
     {"thin-sun", NULL, "thin", "sun", 1.0f, 1.0f},
@@ -140,6 +148,123 @@ typedef struct loaded_scene {
     picvr_camera cam;
 } loaded_scene;
 
+/* ---- the family ---------------------------------------------------------------------- */
+
+static void v3_normalize(float v[3])
+{
+    float l = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int i = 0; i < 3; i++) v[i] = l > 0.0f ? v[i] / l : 0.0f;
+}
+
+/* The family's light `name` (FAMILY_LIGHTS) for the box centred on the origin with
+   bounding-sphere radius R, placed in the camera's frame as the presets are (x right, y
+   up, z toward the camera; the local lights above right in front).  Each gives about the
+   same irradiance at the centre (8), so the images are alike in brightness:
+     ptK     a point light at K R from the centre, intensity 8 (K R)^2;
+     sphere  radius 0.25 R at 2 R, radiance 8 / (pi / 64);
+     rect    a square of side R at 2 R facing the centre, radiance 8 / 0.25;
+     sun     the sun preset's sun (0.0093 rad), without its sky;
+     sky     a white constant background of radiance 1, alone;
+     env     the sun-sky preset's map (Preetham sky over a grey ground), without its sun.
+   Returns 0 for an unknown name. */
+static int family_lights(const char *name, const float box_min[3], const float box_max[3], const picvr_camera *cam,
+                         pvp_lights *out)
+{
+    memset(out, 0, sizeof *out);
+    float R = 0.0f, fw[3], rt[3], up[3] = {0.0f, 1.0f, 0.0f}, dir[3];
+    for (int i = 0; i < 3; i++) {
+        float h = 0.5f * (box_max[i] - box_min[i]);
+        R += h * h;
+        fw[i] = cam->target[i] - cam->position[i];
+    }
+    R = sqrtf(R);
+    v3_normalize(fw);
+    rt[0] = fw[1] * up[2] - fw[2] * up[1];
+    rt[1] = fw[2] * up[0] - fw[0] * up[2];
+    rt[2] = fw[0] * up[1] - fw[1] * up[0];
+    v3_normalize(rt);
+    up[0] = rt[1] * fw[2] - rt[2] * fw[1];
+    up[1] = rt[2] * fw[0] - rt[0] * fw[2];
+    up[2] = rt[0] * fw[1] - rt[1] * fw[0];
+    for (int i = 0; i < 3; i++) dir[i] = 0.5f * rt[i] + 0.6f * up[i] - 0.3f * fw[i];
+    v3_normalize(dir);
+    picvr_light *l = &out->lights[0];
+    for (int i = 0; i < 3; i++) l->color[i] = 1.0f;
+    if (!strncmp(name, "pt", 2)) {
+        float k = (float)atof(name + 2);
+        if (!(k > 1.0f)) return 0;
+        l->type = PICVR_LIGHT_POINT;
+        for (int i = 0; i < 3; i++) l->position[i] = dir[i] * k * R;
+        l->intensity = 8.0f * k * R * k * R;
+        out->count = 1;
+    } else if (!strcmp(name, "sphere")) {
+        l->type = PICVR_LIGHT_SPHERE;
+        for (int i = 0; i < 3; i++) l->position[i] = dir[i] * 2.0f * R;
+        l->radius = 0.25f * R;
+        l->intensity = 8.0f * 64.0f / 3.14159265f;
+        out->count = 1;
+    } else if (!strcmp(name, "rect")) {
+        l->type = PICVR_LIGHT_RECT;
+        /* edges perpendicular to dir: the square faces the centre */
+        float u[3] = {dir[1] * up[2] - dir[2] * up[1], dir[2] * up[0] - dir[0] * up[2], dir[0] * up[1] - dir[1] * up[0]};
+        v3_normalize(u);
+        float v[3] = {dir[1] * u[2] - dir[2] * u[1], dir[2] * u[0] - dir[0] * u[2], dir[0] * u[1] - dir[1] * u[0]};
+        for (int i = 0; i < 3; i++) {
+            l->position[i] = dir[i] * 2.0f * R;
+            l->edge_u[i] = u[i] * R;
+            l->edge_v[i] = v[i] * R;
+        }
+        l->intensity = 8.0f / 0.25f;
+        out->count = 1;
+    } else if (!strcmp(name, "sun") || !strcmp(name, "env")) {
+        pvp_lights preset;
+        if (pvp_lights_preset(!strcmp(name, "sun") ? "sun" : "sun-sky", box_min, box_max, cam, &preset) != PVP_OK)
+            return 0;
+        if (!strcmp(name, "sun")) {
+            for (uint32_t i = 0; i < preset.count; i++)
+                if (preset.lights[i].type == PICVR_LIGHT_DIRECTIONAL) out->lights[out->count++] = preset.lights[i];
+        } else {
+            out->background = preset.background;
+        }
+    } else if (!strcmp(name, "sky")) {
+        for (int i = 0; i < 3; i++) out->background.color[i] = 1.0f;
+        out->background.intensity = 1.0f;
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
+/* The thin volume's optical depth through its centre along x at density D (the `thin`
+   preset: sigma_t = D * value). */
+static double family_depth(const float *v, uint32_t n, double D)
+{
+    double s = 0.0;
+    for (uint32_t x = 0; x < n; x++) s += v[x + (size_t)n * (n / 2 + (size_t)n * (n / 2))];
+    return D * s;
+}
+
+/* The scene named "fam-<depth>-<light>" into *sd (its strings in buf); 0 when the name is
+   not a family member. */
+static int family_scene(const char *name, scene_def *sd, char *buf, size_t size)
+{
+    for (size_t d = 0; d < N_FAMILY_DEPTHS; d++)
+        for (size_t l = 0; l < N_FAMILY_LIGHTS; l++) {
+            char want[64];
+            snprintf(want, sizeof want, "fam-%s-%s", FAMILY_DEPTHS[d], FAMILY_LIGHTS[l]);
+            if (strcmp(want, name)) continue;
+            snprintf(buf, size, "fam:%s", FAMILY_LIGHTS[l]);
+            sd->name = name;
+            sd->file = NULL;
+            sd->tf = "thin";
+            sd->lights = buf;
+            sd->spacing = 1.0f;
+            sd->density_scale = -(float)atof(FAMILY_DEPTHS[d]);   /* < 0: a target depth */
+            return 1;
+        }
+    return 0;
+}
+
 static int load_scene(const options *o, const scene_def *sd, loaded_scene *ls)
 {
     memset(ls, 0, sizeof *ls);
@@ -166,11 +291,23 @@ static int load_scene(const options *o, const scene_def *sd, loaded_scene *ls)
         box_min[i] = -box_max[i];
     }
     if (pvp_tf_preset(sd->tf, &ls->tf)) { pvc_fail("%s: presets", sd->name); return 0; }
-    ls->tf.density *= sd->density_scale;
+    /* density_scale < 0: the family's target optical depth through the centre */
+    if (sd->density_scale < 0.0f && ls->thin)
+        ls->tf.density *= (float)(-sd->density_scale / family_depth(ls->thin, 64, ls->tf.density));
+    else
+        ls->tf.density *= sd->density_scale;
+    if (ls->thin)
+        fprintf(stderr, "%s: optical depth %.3g through the centre\n", sd->name, family_depth(ls->thin, 64, ls->tf.density));
     if (pvp_orbit_camera(box_min, box_max, PVP_DEFAULT_AZIMUTH, PVP_DEFAULT_ELEVATION,
-                                                         PVP_DEFAULT_DISTANCE, PVP_DEFAULT_FOV, o->width, o->height, &ls->cam) ||
-        pvp_lights_preset(sd->lights, box_min, box_max, &ls->cam, &ls->lights)) {
-        pvc_fail("%s: presets", sd->name);
+                         PVP_DEFAULT_DISTANCE, PVP_DEFAULT_FOV, o->width, o->height, &ls->cam)) {
+        pvc_fail("%s: camera", sd->name);
+        return 0;
+    }
+    int lights_ok = strncmp(sd->lights, "fam:", 4)
+                        ? pvp_lights_preset(sd->lights, box_min, box_max, &ls->cam, &ls->lights) == PVP_OK
+                        : family_lights(sd->lights + 4, box_min, box_max, &ls->cam, &ls->lights);
+    if (!lights_ok) {
+        pvc_fail("%s: lights", sd->name);
         return 0;
     }
     return 1;
@@ -683,8 +820,11 @@ int main(int argc, char **argv)
     char *save = NULL;
     for (char *tok = strtok_r(list, ",", &save); tok && ok; tok = strtok_r(NULL, ",", &save)) {
         const scene_def *sd = NULL;
+        static scene_def fam;
+        static char fam_lights[64];
         for (size_t i = 0; i < N_SCENES; i++)
             if (!strcmp(SCENES[i].name, tok)) sd = &SCENES[i];
+        if (!sd && family_scene(tok, &fam, fam_lights, sizeof fam_lights)) sd = &fam;
         if (!sd) { pvc_fail("unknown scene '%s'", tok); ok = 0; break; }
         ok = o.frames ? run_frames(&o, sd, md, csv) : run_scene(&o, sd, md, csv);
     }
