@@ -314,22 +314,24 @@ typedef struct picvr_vulkan {
 } picvr_vulkan;
 
 /* Where a camera ray gathers its light (the distance along the ray of its scatter
-   event).  Both are unbiased; docs/sampling.md measures them. */
+   event).  All are unbiased; docs/sampling.md measures them. */
 typedef enum picvr_distance_sampling {
     PICVR_DISTANCE_DEFAULT = 0,    /* PICVR_DISTANCE_MIS */
-    PICVR_DISTANCE_MIS,            /* delta tracking, and a second point drawn in the ray's
-                                      medium: equiangular toward the point, sphere and rect
-                                      lights that fall off steeply across the volume, a
-                                      forced free flight (a collision inside the medium)
-                                      for the rest of the light (suns, the sky, environment
-                                      maps, distant lights), combined by MIS: every ray
-                                      through the medium gathers light from every light;
-                                      low-discrepancy jitter (docs/sampling.md) */
+    PICVR_DISTANCE_MIS,            /* delta tracking, and equiangular sampling toward the
+                                      point, sphere and rect lights that fall off steeply
+                                      across the volume, combined by MIS: every ray through
+                                      the medium gathers light; low-discrepancy jitter */
     PICVR_DISTANCE_FREE_FLIGHT,    /* delta tracking alone, independent random numbers
                                       (the paper's baseline) */
-    PICVR_DISTANCE_EQUIANGULAR     /* MIS with equiangular sampling alone (no forced
-                                      point): lights of gentle falloff and lights at
-                                      infinity are left to delta tracking */
+    PICVR_DISTANCE_FORCED          /* MIS as above plus a forced free flight (a collision
+                                      inside the medium) for the suns and the lights
+                                      equiangular sampling leaves out: every camera ray
+                                      through the medium gathers their light.  For thin
+                                      media (haze, smoke, thin clouds), where most rays
+                                      pass without an event: there it reaches an error in
+                                      a small fraction of the time; in dense clouds it
+                                      costs more than it brings (docs/sampling.md).  Plain
+                                      rendering only (the cache's rounds use MIS) */
 } picvr_distance_sampling;
 /* How transmittance (shadow rays, and the camera ray with PICVR_DISTANCE_MIS) is
    estimated; both are unbiased. */

@@ -25,9 +25,9 @@ bench-long-run: deps $(B)/picvr-render
 bench-hit-rate: deps $(B)/picvr-render
 	DATA=$(DATA) sh bench/hit_rate.sh $(SECS)
 
-# The sampling family (docs/sampling.md, "The family"): the defaults against MIS with
-# equiangular sampling alone (--before equiangular, the sampler before the forced point),
-# side by side, on the thin medium at optical depths 0.1, 1 and 10 under each family
+# The sampling family (docs/sampling.md, "The family"): the forced point
+# (PICVR_DISTANCE_FORCED) against the default sampler (MIS with equiangular sampling
+# alone), side by side, on the thin medium at optical depths 0.1, 1 and 10 under each family
 # light (point lights at 1.2, 2, 4 and 8 bounding-sphere radii, a sphere, a rect, the
 # sun, a white sky, an environment map), then on the data sets, single and multiple
 # scattering (~35 min on the 2-core machine).
@@ -36,9 +36,9 @@ comma := ,
 empty :=
 space := $(empty) $(empty)
 bench-sampling: deps $(B)/picvr-bench-sampling
-	$(B)/picvr-bench-sampling --data $(DATA) --before equiangular --size 128x128 --time 8000 --ref-time 32000 \
+	$(B)/picvr-bench-sampling --data $(DATA) --before mis --after forced --size 128x128 --time 8000 --ref-time 32000 \
 	    --scenes $(subst $(space),$(comma),$(FAMILY_SCENES)) --out bench/results/sampling/family
-	$(B)/picvr-bench-sampling --data $(DATA) --before equiangular --size 128x128 --time 15000 --ref-time 60000 \
+	$(B)/picvr-bench-sampling --data $(DATA) --before mis --after forced --size 128x128 --time 15000 --ref-time 60000 \
 	    --scenes bonsai,engine,cloud,cloud-sky --out bench/results/sampling/family-data
 
 # The paper's sampler (delta tracking, ratio tracking) against the defaults, on the thin

@@ -5,6 +5,7 @@
  *   picvr-bench-sampling [--scenes thin,bonsai,engine,cloud] [--data ../shared/data]
  *       [--size 256x256] [--time MS] [--slice MS] [--ref-time MS] [--ref-chunks N]
  *       [--seed 101] [--out bench/results/sampling] [--write-thin FILE]
+ *       [--before paper|mis] [--after default|forced]
  *       [--bounces 0,1,4,unlimited]
  *
  * With --bounces the conditions are those picvr_scattering.max_bounces values (the
@@ -15,8 +16,9 @@
  *
  * Conditions ("before" and "after"): picvr_config.distance_sampling FREE_FLIGHT with
  * transmittance RATIO (the paper's Exposure Render estimator; --before paper, the
- * default) or EQUIANGULAR (MIS with equiangular sampling alone, no forced point; --before
- * equiangular) against the defaults (MIS with the forced point, residual ratio tracking).  Both
+ * default) or the default MIS (equiangular sampling alone; --before mis) against the
+ * defaults (--after default: MIS, residual ratio tracking) or FORCED (MIS with the
+ * forced point; --after forced).  Both
  * plain Monte Carlo (cache off, priorities off: whole passes, so every pixel has the
  * same sample count).
  *
@@ -73,7 +75,8 @@ typedef struct options {
     double time_ms, slice_ms, ref_ms;
     uint32_t ref_chunks, seed;
     const char *bounces;      /* NULL: the before/after comparison */
-    const char *before;       /* the "before" sampler: "paper" or "equiangular" */
+    const char *before;       /* the "before" sampler: "paper" or "mis" */
+    const char *after;        /* the "after" sampler: "default" or "forced" */
     uint32_t frames, checkpoints; /* --frames: the engine's case (0: not) */
     double frame_ms, orbit_deg;
 } options;
@@ -321,7 +324,7 @@ static void free_scene(loaded_scene *ls)
 
 static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const condition *cd)
 {
-    int before = cd->before;   /* 1: the paper's sampler, 2: equiangular sampling alone */
+    int before = cd->before;   /* 1: the paper's sampler, 2: the default (MIS), 3: forced */
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
@@ -333,7 +336,7 @@ static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const 
         cfg.distance_sampling = PICVR_DISTANCE_FREE_FLIGHT;
         cfg.transmittance = PICVR_TRANSMITTANCE_RATIO;
     }
-    if (before == 2) cfg.distance_sampling = PICVR_DISTANCE_EQUIANGULAR;
+    if (before == 3) cfg.distance_sampling = PICVR_DISTANCE_FORCED;
     picvr_context *ctx = NULL;
     if (!pvc_check(picvr_create(&cfg, &ctx), "picvr_create")) return NULL;
     if (!pvc_check(picvr_upload_volume(ctx, &ls->desc), "picvr_upload_volume") ||
@@ -399,7 +402,7 @@ static int make_reference(const options *o, const loaded_scene *ls, const condit
     uint64_t total = 0;
     for (uint32_t k = 0; k < K && ok; k++) {
         condition after = *cd;
-        after.before = 0;
+        after.before = strcmp(o->after, "forced") ? 0 : 3;
         picvr_context *ctx = open_context(ls, 1001 + k, &after);
         ok = ctx != NULL;
         double spent = 0.0;
@@ -505,8 +508,9 @@ static int parse_conditions(const options *o, condition *cd)
     if (!o->bounces) {
         memset(cd, 0, 2 * sizeof *cd);
         snprintf(cd[0].name, sizeof cd[0].name, "before");
-        cd[0].before = strcmp(o->before, "equiangular") ? 1 : 2;
+        cd[0].before = strcmp(o->before, "mis") ? 1 : 2;
         snprintf(cd[1].name, sizeof cd[1].name, "after");
+        cd[1].before = strcmp(o->after, "forced") ? 0 : 3;
         return 2;
     }
     char list[256];
@@ -723,7 +727,8 @@ static void print_help(FILE *f)
         "  --write-thin F   write the thin medium to F (name it thin_64x64x64_float32.raw for\n"
         "                   picvr-render --volume) and exit\n"
         "  --before KIND    the \"before\" sampler: paper (free flight, ratio tracking; the\n"
-        "                   default) or equiangular (MIS with equiangular sampling alone)\n"
+        "                   default) or mis (the default sampler: equiangular sampling alone)\n"
+        "  --after KIND     the \"after\" sampler: default, or forced (PICVR_DISTANCE_FORCED)\n"
         "  --bounces LIST   compare these max_bounces values (0,1,4,unlimited) instead of the\n"
         "                   two samplers; results in OUT/paths.md, .csv\n"
         "  --frames N       the engine's case instead: N real-time frames, temporal reuse off\n"
@@ -735,7 +740,7 @@ static void print_help(FILE *f)
 
 static const pvc_option OPTIONS[] = {
     {"help", 0}, {"scenes", 1}, {"data", 1}, {"size", 1}, {"time", 1}, {"slice", 1},
-    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {"write-thin", 1}, {"bounces", 1}, {"before", 1},
+    {"ref-time", 1}, {"ref-chunks", 1}, {"seed", 1}, {"out", 1}, {"write-thin", 1}, {"bounces", 1}, {"before", 1}, {"after", 1},
     {"frames", 1}, {"frame-ms", 1}, {"orbit", 1}, {"checkpoints", 1}, {NULL, 0}};
 
 static int apply_option(void *target, const char *name, const char *value)
@@ -747,8 +752,12 @@ static int apply_option(void *target, const char *name, const char *value)
     else if (!strcmp(name, "write-thin")) o->write_thin = value;
     else if (!strcmp(name, "bounces")) o->bounces = value;
     else if (!strcmp(name, "before")) {
-        if (strcmp(value, "paper") && strcmp(value, "equiangular")) { pvc_bad_value(name, value); return 0; }
+        if (strcmp(value, "paper") && strcmp(value, "mis")) { pvc_bad_value(name, value); return 0; }
         o->before = value;
+    }
+    else if (!strcmp(name, "after")) {
+        if (strcmp(value, "default") && strcmp(value, "forced")) { pvc_bad_value(name, value); return 0; }
+        o->after = value;
     }
     else if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height) ? 1 : (pvc_bad_value(name, value), 0);
     else if (!strcmp(name, "ref-chunks")) return pvc_parse_u32(value, 2, 1000, &o->ref_chunks) ? 1 : (pvc_bad_value(name, value), 0);
@@ -775,7 +784,7 @@ int main(int argc, char **argv)
 {
     pvc_set_program(PROGRAM);
     options o = {"thin", "../shared/data", "bench/results/sampling", NULL, 256, 256, 60000.0, 500.0, 240000.0, 4, 101, NULL,
-                 "paper", 0, 3, 16.0, 1.0};
+                 "paper", "default", 0, 3, 16.0, 1.0};
     int rc = pvc_parse_options(argc, argv, OPTIONS, apply_option, &o, print_help);
     if (rc >= 0) return rc;
     if (o.write_thin) {   /* raw float32, x fastest, host byte order as picvr-render reads it */

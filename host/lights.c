@@ -166,17 +166,19 @@ static void picvr_update_equiangular(picvr_context *ctx) {
         if (served[i]) last = (int)i;
     }
     if (last >= 0) g[last].eq_cdf = 1.0f;
-    /* Strategy B's forced share (shaders/distance.glsl, b_sample): the power that
-       equiangular sampling does not serve (suns, the background or environment map,
-       lights of gentle falloff), so that every ray through the medium gathers each
-       light's share of the image by one strategy or the other.  The sum of the unserved
-       shares, not 1 minus the served ones: exactly 0 when every light is served.  Rule:
-       no power at all gives 0 (nothing to gather).  PICVR_DISTANCE_EQUIANGULAR keeps
-       equiangular sampling alone. */
-    double unserved = ctx->scene.gpu.background_pmf;
+    /* Strategy B's forced share (PICVR_DISTANCE_FORCED; shaders/distance.glsl, b_sample):
+       the power of the lights that equiangular sampling does not serve (suns, lights of
+       gentle falloff), so that every ray through the medium gathers each light's share
+       by one strategy or the other.  The sum of the unserved shares, not 1 minus the
+       served ones: exactly 0 when every light is served.  The background and environment
+       map are left out: a camera ray that passes the medium sees them, so delta
+       tracking's pass or collision already gathers their light with little variance
+       (a white sky over a thin grey medium is nearly a furnace), and the forced point
+       would only add its cost (docs/sampling.md).  Rule: no such power gives 0. */
+    double unserved = 0.0;
     for (uint32_t i = 0; i < n; i++)
         if (!served[i]) unserved += g[i].pmf;
-    int forced = ctx->config.distance_sampling == PICVR_DISTANCE_MIS && unserved > 0.0;
+    int forced = ctx->config.distance_sampling == PICVR_DISTANCE_FORCED && unserved > 0.0;
     /* exactly 1 when no light is served (the shaders test forced_pmf < 1 for "some light
        is served"; a rounded sum of shares could fall an ulp short) */
     ctx->scene.gpu.forced_pmf = !forced ? 0.0f : last < 0 ? 1.0f : (float)fmin(unserved, 1.0);

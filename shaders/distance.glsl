@@ -95,11 +95,19 @@ float eq_sample(vec3 ro, vec3 rd, float t0, float t1, float u_light, float u) {
 // The coarse-grid walk of a camera ray's segment from t0 to t_end (no random numbers):
 // the minorant's optical depth from t0 (tau_min, for the proxy q) and the majorant's
 // (tau_maj, for p_F) at ta and tb (in [t0, t_end]; a negative one is skipped), the
-// majorant at ta and tb (maj), and the majorant's depth at t_end (tau_maj_end).  Empty
-// cells add nothing.  Bounded like the tracking loops; a walk cut short leaves the depths
+// majorant at ta and tb (maj), and the majorant's depth at t_end (tau_maj_end).  Bounded like the tracking loops; a walk cut short leaves the depths
 // where it stopped (the pdfs of points past it read 0 majorant: they are never drawn
-// there either, as forced_sample walks the same cells).
+// there either, as forced_sample walks the same cells).  Empty space is jumped over as
+// tracking jumps it (majorant.glsl, empty_skip): it adds nothing to either depth.
 struct SegmentDepths { vec2 tau_min; vec2 tau_maj; vec2 maj; float tau_maj_end; };
+
+// s with point k's (0: ta, 1: tb) depths and majorant set.
+SegmentDepths segment_capture(SegmentDepths s, uint k, float tau_min, float tau_maj, float maj) {
+    s.tau_min[k] = tau_min;
+    s.tau_maj[k] = tau_maj;
+    s.maj[k] = maj;
+    return s;
+}
 
 SegmentDepths segment_depths(vec3 ro, vec3 rd, float t0, float t_end, float ta, float tb) {
     SegmentDepths s;
@@ -111,19 +119,23 @@ SegmentDepths segment_depths(vec3 ro, vec3 rd, float t0, float t_end, float ta, 
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, acc_min = 0.0, acc_maj = 0.0;
     for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
-        float t_cell = min(dda_exit(d), t_end);
         float maj = max(cell_majorant(d), 0.0);
+        float jump = maj > 0.0 ? 0.0 : empty_skip(d, rd);
+        if (jump > 0.0) {
+            // empty space skipped as tracking skips it: a point in it sees the depths
+            // reached so far and no majorant (p_F 0: forced_sample never lands there)
+            float t_jump = min(t + jump, t_end);
+            if (ta >= t && ta <= t_jump) s = segment_capture(s, 0u, acc_min, acc_maj, 0.0);
+            if (tb >= t && tb <= t_jump) s = segment_capture(s, 1u, acc_min, acc_maj, 0.0);
+            t = t_jump;
+            if (t >= t_end) break;
+            d = coarse_start(ro, rd, t);
+            continue;
+        }
+        float t_cell = min(dda_exit(d), t_end);
         float rate = maj > 0.0 ? min(cell_minorant(d), maj) : 0.0;   // empty: 0
-        if (ta >= t && ta <= t_cell) {
-            s.tau_min.x = acc_min + rate * (ta - t);
-            s.tau_maj.x = acc_maj + maj * (ta - t);
-            s.maj.x = maj;
-        }
-        if (tb >= t && tb <= t_cell) {
-            s.tau_min.y = acc_min + rate * (tb - t);
-            s.tau_maj.y = acc_maj + maj * (tb - t);
-            s.maj.y = maj;
-        }
+        if (ta >= t && ta <= t_cell) s = segment_capture(s, 0u, acc_min + rate * (ta - t), acc_maj + maj * (ta - t), maj);
+        if (tb >= t && tb <= t_cell) s = segment_capture(s, 1u, acc_min + rate * (tb - t), acc_maj + maj * (tb - t), maj);
         acc_min += rate * (t_cell - t);
         acc_maj += maj * (t_cell - t);
         t = t_cell;
@@ -144,8 +156,15 @@ float forced_sample(vec3 ro, vec3 rd, float t0, float t1, float tau_total, float
     Dda d = coarse_start(ro, rd, t0);
     float t = t0, acc = 0.0, last = -1.0;
     for (uint i = 0u; i < MAX_TRACK_STEPS; i++) {
-        float t_cell = min(dda_exit(d), t1);
         float maj = max(cell_majorant(d), 0.0);
+        float jump = maj > 0.0 ? 0.0 : empty_skip(d, rd);
+        if (jump > 0.0) {                 // segment_depths' skip, step for step
+            t = min(t + jump, t1);
+            if (t >= t1) break;
+            d = coarse_start(ro, rd, t);
+            continue;
+        }
+        float t_cell = min(dda_exit(d), t1);
         float step = maj * (t_cell - t);
         if (maj > 0.0) {
             if (acc + step >= target) return clamp(t + (target - acc) / maj, t, t_cell);

@@ -24,8 +24,10 @@ void main() {
         t1 = min(t1, t_light);
         if (t1 > t0) t = delta_track(ro, rd, t0, t1, rng, truncated);
     }
-    // with equiangular sampling every ray through the volume has more to gather
-    if (USE_EQUIANGULAR && t < 0.0 && t1 > t0 && !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE)) {
+    // with strategy B every ray through medium has more to gather (a segment without
+    // medium has nothing: it is seen through, T = 1 exactly, as below)
+    if (USE_EQUIANGULAR && t < 0.0 && t1 > t0 && (track_met_medium || truncated) &&
+        !(USE_DEBUG_VIEW && scene.debug_view != VIEW_IMAGE)) {
         QUEUE_EVENT(shade_queue, idx, t, rng, truncated)
         return;
     }

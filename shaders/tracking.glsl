@@ -69,6 +69,11 @@ float next_tentative(bool ratio, float t, float t_end, float m, float c, inout f
 // event): each loop runs at most min(MAX_TRACK_STEPS, path_pool) and takes what it ran.
 uint path_pool = PATH_STEPS;
 
+// Whether the last walk of track() met a coarse cell with medium (majorant > 0) before
+// it ended: false only for a segment it crossed that holds no medium at all, where
+// nothing scatters and the transmittance is exactly 1 (render_track.glsl).
+bool track_met_medium = false;
+
 // Tracking through one dense brick at voxel resolution, from t to t_end, with the
 // brick's control c (it bounds sigma_t from below in each voxel too), sharing the
 // caller's step counter and its bound.  Returns true when the walk ended the whole track:
@@ -116,9 +121,11 @@ float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, ino
     uint i = 0u;
     bool ended = false;      // a collision (delta) or a zero transmittance (ratio)
     bool passed = false;     // the ray left [t0, t1]
+    track_met_medium = false;
     for (; i < limit; i++) {
         float t_cell = min(dda_exit(d), t1);
         if (maj > 0.0) {
+            track_met_medium = true;
             if (USE_FINE && (ratio ? maj - c : maj) * (t_cell - t) > FINE_THRESHOLD) {
                 if (fine_segment(ratio, ro, rd, t, t_cell, c, T, rng, i, limit)) { ended = true; break; }
                 if (i >= limit) break;

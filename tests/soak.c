@@ -81,7 +81,8 @@ VKAPI_ATTR void VKAPI_CALL vkFreeMemory(VkDevice device, VkDeviceMemory mem, con
 /* Pipeline compiles, counted the same way: each is a driver compile whose memory
    lavapipe keeps in part after the pipeline is destroyed, so RSS is compared only
    across a stretch with no compile (see main). */
-static unsigned long long g_compiles;
+static unsigned long long g_compiles;        /* pipelines whose compile began */
+static unsigned long long g_compiles_done;   /* ... and ended (picvr compiles on a thread) */
 
 VKAPI_ATTR VkResult VKAPI_CALL vkCreateComputePipelines(VkDevice device, VkPipelineCache cache, uint32_t n,
                                                         const VkComputePipelineCreateInfo *infos,
@@ -91,7 +92,19 @@ VKAPI_ATTR VkResult VKAPI_CALL vkCreateComputePipelines(VkDevice device, VkPipel
     pthread_mutex_lock(&g_lock);
     g_compiles += n;
     pthread_mutex_unlock(&g_lock);
-    return real(device, cache, n, infos, cb, out);
+    VkResult r = real(device, cache, n, infos, cb, out);
+    pthread_mutex_lock(&g_lock);
+    g_compiles_done += n;
+    pthread_mutex_unlock(&g_lock);
+    return r;
+}
+
+/* Compiles begun and ended so far, read together. */
+static void compile_counts(unsigned long long *begun, unsigned long long *ended) {
+    pthread_mutex_lock(&g_lock);
+    *begun = g_compiles;
+    *ended = g_compiles_done;
+    pthread_mutex_unlock(&g_lock);
 }
 
 /* ---- picvr host heap accounting (allocator hooks) ------------------------------------ */
@@ -357,13 +370,17 @@ int main(int argc, char **argv) {
            (a variant evicted and made again) has its RSS change set apart: lavapipe keeps
            about 8 MiB of each compile, which no destroy returns (measured: flat between
            compiles, +8 MiB at each).  picvr's own memory is checked exactly above. */
-        unsigned long long c_iter = g_compiles;
+        /* picvr compiles variants on its own thread: an iteration "compiled" when a
+           compile began or ended in it, or one was under way as it began (the driver's
+           memory grows while the compile runs, not when it is counted) */
+        unsigned long long c_begun, c_ended;
+        compile_counts(&c_begun, &c_ended);
         int measured_iter = have_base;
         long long rss_iter = measured_iter ? measure().rss : 0;
         double t = now_s() - t0;
         int finishing = t >= seconds;
-        if (g_compiles != seen_compiles) { seen_compiles = g_compiles; last_compile_t = t; }
-        int warmed = t >= warm && (t - last_compile_t >= 10.0 || t >= 0.75 * seconds);
+        if (c_ended + c_begun != seen_compiles) { seen_compiles = c_ended + c_begun; last_compile_t = t; }
+        int warmed = t >= warm && ((t - last_compile_t >= 10.0 && c_begun == c_ended) || t >= 0.75 * seconds);
         if ((!have_base && warmed) || finishing) {
             /* the reference configuration: the same volume, TF, lights and image size */
             if (cur_vol != 0) { upload(ctx, va, 64, 64, 64); cur_vol = 0; uploads++; }
@@ -436,7 +453,10 @@ int main(int argc, char **argv) {
             }
             reads++;
         }
-        if (measured_iter && g_compiles != c_iter) compile_growth += measure().rss - rss_iter;
+        unsigned long long e_begun, e_ended;
+        compile_counts(&e_begun, &e_ended);
+        if (measured_iter && (e_begun != c_begun || e_ended != c_ended || c_begun != c_ended))
+            compile_growth += measure().rss - rss_iter;
         if (t >= next_report) {
             sample s = measure();
             printf("soak: t %5.0f s  steps %6lu  RSS %7.1f MiB  device %7.2f MiB  picvr heap %8.1f KiB  compiles %llu\n", t, steps,

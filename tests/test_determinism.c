@@ -88,13 +88,7 @@ static void homog2_ray(const double o[3], const double d[3], void *user, double 
 
 void test_error_estimate_halves_with_4x_iterations(void **state) {
     (void)state;
-    /* delta tracking alone, so that the samples are Bernoulli (the default's forced point
-       would see the background through residual tracking, exact here) */
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 5;
-    cfg.distance_sampling = PICVR_DISTANCE_FREE_FLIGHT;
-    picvr_context *ctx = tu_create_config(&cfg);
+    picvr_context *ctx = tu_create(5);
     tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
     tu_upload(ctx, &vol);
     homog2 h = {{-8, -8, -8}, {8, 8, 8}, (double)(float)(1.0 / 16)};

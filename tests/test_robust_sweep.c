@@ -795,13 +795,7 @@ void test_sweep_long_run_precision(void **state) {
     /* 2^18 passes of three dispatches each take half a minute on a CPU driver, and
        PICVR_LONG_RUN may ask for more: this test has its own budget. */
     tu_watchdog(900);
-    /* delta tracking alone: every sample 0 or 1 (the default's forced point would see the
-       background through residual tracking, exact here, so no sample lattice) */
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = 70;
-    cfg.distance_sampling = PICVR_DISTANCE_FREE_FLIGHT;
-    picvr_context *ctx = tu_create_config(&cfg);
+    picvr_context *ctx = tu_create(70);
     tu_vol vol = tu_vol_new(4, 4, 4, 1.0f, 255);
     tu_upload(ctx, &vol);
     tu_homog hm;

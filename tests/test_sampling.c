@@ -406,7 +406,9 @@ static int point_case(const char *name, picvr_distance_sampling ds, picvr_transm
     tu_vol_box(&vol, s.bmin, s.bmax);
     s.sigma = sigma;
     s.albedo = 0.8;
-    s.I = 40.0;
+    /* a distant light is brighter by its distance squared, for the same signal */
+    double d2 = light[0] * light[0] + light[1] * light[1] + light[2] * light[2];
+    s.I = d2 > 400.0 ? 40.0 * d2 / 100.0 : 40.0;
     tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, (float)sigma);
     picvr_light l;
     memset(&l, 0, sizeof l);
@@ -443,6 +445,19 @@ void test_sampling_point_light_inside_closed_form(void **state) {
     if (!ok) fail_msg("single scattering with a point light inside the medium differs from the closed form");
 }
 
+/* The thin cube under a point light about 8 bounding-sphere radii away: its 1/d^2 falls
+   off 1.7x across the volume, below what equiangular sampling serves (host/lights.c), so
+   PICVR_DISTANCE_FORCED draws every strategy-B point forced; and a light just outside
+   (served) with the forced share 0, so B is equiangular alone in the same variant. */
+void test_sampling_point_light_forced_closed_form(void **state) {
+    (void)state;
+    const double far[3] = {20.0, 105.0, 40.0}, near[3] = {3.0, 9.5, 2.0};
+    int ok = 1;
+    ok &= point_case("far light, forced", PICVR_DISTANCE_FORCED, PICVR_TRANSMITTANCE_RESIDUAL, 0.02, far, 35);
+    ok &= point_case("near light, forced variant", PICVR_DISTANCE_FORCED, PICVR_TRANSMITTANCE_RESIDUAL, 0.02, near, 36);
+    if (!ok) fail_msg("single scattering under a point light with the forced point differs from the closed form");
+}
+
 /* A thin cube under a delta sun, rendered with distance sampler ds: its image (G) and
    alpha against single scattering's closed form (tu_sun_ray) at z = 5 with the 8x8-block
    SE and sys_rel 3e-3 (the 4x4 jitter quadrature, as for the point light); *ok cleared on
@@ -474,25 +489,26 @@ static double sun_case(const char *name, picvr_distance_sampling ds, double tau_
     return r.se / fabs(r.expected);
 }
 
-/* Forced in-segment sampling (distance.glsl, b_sample) under a delta sun, which
-   equiangular sampling does not serve: every point strategy B draws is forced.  A
-   homogeneous 16^3 cube of optical depth 0.1 and 1 across an axis, albedo 0.8, against
-   the closed form.  And what the forced point is for: the same scene by delta tracking
-   alone (PICVR_DISTANCE_EQUIANGULAR, which serves no light here, so B is off) at the
-   same samples.  Per camera sample delta tracking gathers light with probability about
-   1 - e^-0.1 = 0.1 at depth 0.1, a relative variance of about 9, where the forced point
-   gathers on every ray through the cube (its variance is the light's spread along the
-   ray); asserted: the forced image's SE below half of delta tracking's at depth 0.1
-   (a 4x lower variance; the expected ratio is larger).  At depth 1 the ratio is
-   printed (each SE rests on 16 blocks, about 18 % uncertain: a comparison near 1 is the
-   benchmark's job, docs/sampling.md). */
+/* Forced in-segment sampling (PICVR_DISTANCE_FORCED; distance.glsl, b_sample) under a
+   delta sun, which equiangular sampling does not serve: every point strategy B draws is
+   forced.  A homogeneous 16^3 cube of optical depth 0.1, 1 and 10 across an axis,
+   albedo 0.8, against the closed form.  And what the forced point is for: the same
+   scene by the default sampler (PICVR_DISTANCE_MIS, which serves no light here, so it
+   is delta tracking alone) at the same samples.  Per camera sample delta tracking
+   gathers light with probability about 1 - e^-0.1 = 0.1 at depth 0.1, a relative
+   variance of about 9, where the forced point gathers on every ray through the cube
+   (its variance is the light's spread along the ray); asserted: the forced image's SE
+   below half of delta tracking's at depth 0.1 (a 4x lower variance; the expected ratio
+   is larger).  At depth 1 the ratio is printed (each SE rests on 16 blocks, about 18 %
+   uncertain: a comparison near 1 is the benchmark's job, docs/sampling.md). */
 void test_sampling_sun_forced_closed_form(void **state) {
     (void)state;
     int ok = 1;
-    double forced_thin = sun_case("sun, depth 0.1, MIS (forced)", PICVR_DISTANCE_MIS, 0.1, 61, &ok);
-    double delta_thin = sun_case("sun, depth 0.1, delta tracking", PICVR_DISTANCE_EQUIANGULAR, 0.1, 62, &ok);
-    double forced_one = sun_case("sun, depth 1, MIS (forced)", PICVR_DISTANCE_MIS, 1.0, 63, &ok);
-    double delta_one = sun_case("sun, depth 1, delta tracking", PICVR_DISTANCE_EQUIANGULAR, 1.0, 64, &ok);
+    double forced_thin = sun_case("sun, depth 0.1, forced", PICVR_DISTANCE_FORCED, 0.1, 61, &ok);
+    double delta_thin = sun_case("sun, depth 0.1, delta tracking", PICVR_DISTANCE_MIS, 0.1, 62, &ok);
+    double forced_one = sun_case("sun, depth 1, forced", PICVR_DISTANCE_FORCED, 1.0, 63, &ok);
+    double delta_one = sun_case("sun, depth 1, delta tracking", PICVR_DISTANCE_MIS, 1.0, 64, &ok);
+    sun_case("sun, depth 10, forced", PICVR_DISTANCE_FORCED, 10.0, 65, &ok);
     print_message("    relative SE at 64 samples: depth 0.1 forced %.4f, delta tracking %.4f (ratio %.2f); "
                   "depth 1 forced %.4f, delta tracking %.4f (ratio %.2f)\n", forced_thin, delta_thin,
                   delta_thin / forced_thin, forced_one, delta_one, delta_one / forced_one);

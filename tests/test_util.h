@@ -56,6 +56,7 @@
     X(test_sampling_forced_extreme_inputs)                          \
     X(test_sampling_point_light_thin_closed_form)                   \
     X(test_sampling_point_light_inside_closed_form)                 \
+    X(test_sampling_point_light_forced_closed_form)                 \
     X(test_sampling_sun_forced_closed_form)                         \
     X(test_sampling_residual_transmittance_heterogeneous)           \
     /* test_cache_math.c */                                         \
