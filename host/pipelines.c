@@ -77,8 +77,8 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain)
                       ? PICVR_KEY_RESIDUAL : 0u;
     uint32_t mis_mode = ctx->config.distance_sampling != PICVR_DISTANCE_FREE_FLIGHT;
     uint32_t equi = ctx->scene.use_equiangular && mis_mode ? PICVR_KEY_EQUIANGULAR : 0u;
-    /* the forced point: plain rendering only (specialization.glsl, USE_FORCED), which
-       turns strategy B on where no light is served */
+    /* the forced point (PICVR_DISTANCE_FORCED): plain rendering only (specialization.glsl,
+       USE_FORCED), which turns strategy B on where no light is served */
     uint32_t forced = ctx->scene.use_forced && mis_mode ? PICVR_KEY_FORCED | PICVR_KEY_EQUIANGULAR : 0u;
     uint32_t qmc = mis_mode ? PICVR_KEY_QMC : 0u;
     uint32_t env = ctx->scene.use_env ? PICVR_KEY_ENV_MAP : 0u;

@@ -33,10 +33,12 @@
 // 1 - T^(t1).
 // Leave-out: USE_EQUIANGULAR is on only when B has something to draw for (host/lights.c,
 // picvr_update_equiangular: a point, sphere or rect light whose 1/d^2 falls off steeply
-// across the volume, or light it does not serve, whose share f gets the forced point);
+// across the volume, or with PICVR_DISTANCE_FORCED a sun or light it does not serve,
+// whose share f gets the forced point; never the background, which rays that pass see);
 // without light, or with PICVR_DISTANCE_FREE_FLIGHT, the camera ray is the paper's delta
-// tracking alone, and PICVR_DISTANCE_EQUIANGULAR keeps f = 0.  The forced share's walks
-// run only where f > 0.
+// tracking alone.  The forced share's walks run only where f > 0.  A camera ray whose
+// segment holds no medium at all ends in the tracking kernel (render_track.glsl): B
+// would draw nothing there and T = 1 exactly, so both estimators agree.
 #ifndef DISTANCE_GLSL_ONCE
 #define DISTANCE_GLSL_ONCE 1
 #include "specialization.glsl"

@@ -843,6 +843,7 @@ void test_sweep_long_run_precision(void **state) {
    test_sampling.c) at the extremes of the distance sampler: optical depth 1e-6 to 1e5
    across the box, the light inside the medium, on the camera's axis (in front of the box
    and inside it), 1e-6 above a face and 1e6 away.  Default samplers (MIS, residual).
+   The seeds are those the sweep had before it took a sampler (tu_create's 70 + i).
    Tolerance: z = 5 with the empirical block spread, plus sys_rel 3e-3 (the 4x4 jitter
    quadrature of a smooth image) or 2e-2 where the light's sharp image peak falls inside
    the picture (the jitter quadrature of a pixel next to it), stated per row. */
@@ -851,23 +852,16 @@ typedef struct point_sweep_case {
     double tau, p[3], I, sys_rel;
 } point_sweep_case;
 
-void test_sweep_point_light_extremes(void **state) {
-    (void)state;
-    static const point_sweep_case cases[] = {
-        {"tau 1e-6, light inside", 1e-6, {2.0, 3.0, -1.0}, 40.0, 3e-3},
-        {"tau 1e-6, light 0.5 above the top face", 1e-6, {0.0, 8.5, 0.0}, 40.0, 3e-3},
-        {"tau 1, light 1e-6 above the top face", 1.0, {1.0, 8.000001, 0.5}, 40.0, 3e-3},
-        {"tau 1, light 1e6 away", 1.0, {0.0, 1e6, 0.0}, 4e13, 3e-3},
-        {"tau 1, light on the axis before the box", 1.0, {0.0, 0.0, 20.0}, 40.0, 2e-2},
-        {"tau 1, light on the axis at the centre", 1.0, {0.0, 0.0, 0.0}, 40.0, 2e-2},
-        {"tau 1e5, light inside", 1e5, {2.0, 3.0, -1.0}, 40.0, 3e-3},
-        {"tau 1e5, light above the top face", 1e5, {0.0, 12.0, 0.0}, 40.0, 3e-3},
-    };
+/* The cases of a point-light sweep with distance sampler ds; *ok cleared on a failure. */
+static void point_sweep(const point_sweep_case *cases, size_t n, picvr_distance_sampling ds, uint32_t seed, int *ok) {
     const uint32_t W = 32, H = 32, N = 96;
-    int ok = 1;
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    for (size_t i = 0; i < n; i++) {
         const point_sweep_case *c = &cases[i];
-        picvr_context *ctx = tu_create(70 + (uint32_t)i);
+        picvr_config cfg;
+        memset(&cfg, 0, sizeof cfg);
+        cfg.seed = seed + (uint32_t)i;
+        cfg.distance_sampling = ds;
+        picvr_context *ctx = tu_create_config(&cfg);
         tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
         tu_upload(ctx, &vol);
         tu_point_scene s;
@@ -888,15 +882,49 @@ void test_sweep_point_light_extremes(void **state) {
         float *img = sweep_render(ctx, W, H, N, c->name);
         char label[160];
         snprintf(label, sizeof label, "point light, %s", c->name);
-        ok &= tu_check_mean(label, img, expv, W, 1, 0, 0, W, H, N, 0, 5.0, c->sys_rel);
+        *ok &= tu_check_mean(label, img, expv, W, 1, 0, 0, W, H, N, 0, 5.0, c->sys_rel);
         snprintf(label, sizeof label, "point light, %s: alpha", c->name);
-        ok &= tu_check_mean(label, img, expv, W, 3, 0, 0, W, H, N, 1.0, 5.0, 1e-4);
+        *ok &= tu_check_mean(label, img, expv, W, 3, 0, 0, W, H, N, 1.0, 5.0, 1e-4);
         free(img);
         free(expv);
         tu_vol_free(&vol);
         tu_finish(ctx);
     }
+}
+
+void test_sweep_point_light_extremes(void **state) {
+    (void)state;
+    static const point_sweep_case cases[] = {
+        {"tau 1e-6, light inside", 1e-6, {2.0, 3.0, -1.0}, 40.0, 3e-3},
+        {"tau 1e-6, light 0.5 above the top face", 1e-6, {0.0, 8.5, 0.0}, 40.0, 3e-3},
+        {"tau 1, light 1e-6 above the top face", 1.0, {1.0, 8.000001, 0.5}, 40.0, 3e-3},
+        {"tau 1, light 1e6 away", 1.0, {0.0, 1e6, 0.0}, 4e13, 3e-3},
+        {"tau 1, light on the axis before the box", 1.0, {0.0, 0.0, 20.0}, 40.0, 2e-2},
+        {"tau 1, light on the axis at the centre", 1.0, {0.0, 0.0, 0.0}, 40.0, 2e-2},
+        {"tau 1e5, light inside", 1e5, {2.0, 3.0, -1.0}, 40.0, 3e-3},
+        {"tau 1e5, light above the top face", 1e5, {0.0, 12.0, 0.0}, 40.0, 3e-3},
+    };
+    int ok = 1;
+    point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_DEFAULT, 70, &ok);
     if (!ok) fail_msg("a point light at an extreme differs from the closed form");
+}
+
+/* The forced point (PICVR_DISTANCE_FORCED) at the same extremes, with lights that
+   equiangular sampling leaves to it (their 1/d^2 varies gently across the volume, so
+   every strategy-B point is forced): optical depth 1e-6, 1 and 1e5 under a light 1e6
+   away, and at 1 under one 8 bounding-sphere radii away on the camera's axis behind
+   the camera (the rays run toward the light's foot).  Tolerances as above. */
+void test_sweep_forced_extremes(void **state) {
+    (void)state;
+    static const point_sweep_case cases[] = {
+        {"forced, tau 1e-6, light 1e6 away", 1e-6, {0.0, 1e6, 0.0}, 4e13, 3e-3},
+        {"forced, tau 1, light 1e6 away", 1.0, {0.0, 1e6, 0.0}, 4e13, 3e-3},
+        {"forced, tau 1e5, light 1e6 away", 1e5, {0.0, 1e6, 0.0}, 4e13, 3e-3},
+        {"forced, tau 1, light on the axis 8 radii away", 1.0, {0.0, 0.0, 110.0}, 5000.0, 3e-3},
+    };
+    int ok = 1;
+    point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_FORCED, 80, &ok);
+    if (!ok) fail_msg("the forced point at an extreme differs from the closed form");
 }
 
 /* ---- multiple scattering, the phase function, environment maps ---------------------------- */

@@ -445,16 +445,68 @@ void test_sampling_point_light_inside_closed_form(void **state) {
     if (!ok) fail_msg("single scattering with a point light inside the medium differs from the closed form");
 }
 
+/* Two point lights: the sum of their single scattering (linear in the lights), alpha
+   from the first (it does not depend on the light). */
+typedef struct point_pair { tu_point_scene a, b; } point_pair;
+
+static void point_pair_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    point_pair *pp = (point_pair *)user;
+    double ob[4];
+    tu_point_light_ray(o, d, &pp->a, out);
+    tu_point_light_ray(o, d, &pp->b, ob);
+    for (int c = 0; c < 3; c++) out[c] += ob[c];
+}
+
+/* The thin cube under a served light (just outside) and an unserved one (far) with
+   PICVR_DISTANCE_FORCED: strategy B is the mixture, the forced share f the far light's
+   share of the power, strictly between 0 and 1 (host/lights.c).  Tolerances as
+   point_case's. */
+static int point_pair_case(const char *name, const double near[3], const double far[3], uint32_t seed) {
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = seed;
+    cfg.distance_sampling = PICVR_DISTANCE_FORCED;
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
+    tu_upload(ctx, &vol);
+    point_pair pp;
+    memset(&pp, 0, sizeof pp);
+    tu_vol_box(&vol, pp.a.bmin, pp.a.bmax);
+    pp.a.sigma = 0.02;
+    pp.a.albedo = 0.8;
+    pp.b = pp.a;
+    pp.a.I = 40.0;
+    /* the far light as bright at the volume as the near one: a power share near 1/2 */
+    double d2 = far[0] * far[0] + far[1] * far[1] + far[2] * far[2];
+    pp.b.I = 40.0 * d2 / 100.0;
+    tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, 0.02f);
+    picvr_light l[2];
+    memset(l, 0, sizeof l);
+    for (int k = 0; k < 2; k++) {
+        const double *p = k ? far : near;
+        tu_point_scene *ps = k ? &pp.b : &pp.a;
+        l[k].type = PICVR_LIGHT_POINT;
+        for (int i = 0; i < 3; i++) { l[k].position[i] = (float)p[i]; ps->p[i] = l[k].position[i]; l[k].color[i] = 1.0f; }
+        l[k].intensity = (float)ps->I;
+    }
+    TU_OK(picvr_set_lights(ctx, l, 2, NULL));
+    int ok = render_and_check(ctx, name, 0, 0, 30, 36, point_pair_ray, &pp, 384, 0.0, 3e-3);
+    tu_vol_free(&vol);
+    return ok;
+}
+
 /* The thin cube under a point light about 8 bounding-sphere radii away: its 1/d^2 falls
    off 1.7x across the volume, below what equiangular sampling serves (host/lights.c), so
-   PICVR_DISTANCE_FORCED draws every strategy-B point forced; and a light just outside
-   (served) with the forced share 0, so B is equiangular alone in the same variant. */
+   PICVR_DISTANCE_FORCED draws every strategy-B point forced; a light just outside
+   (served) with the forced share 0, so B is equiangular alone in the same variant; and
+   both together, B the mixture of the two. */
 void test_sampling_point_light_forced_closed_form(void **state) {
     (void)state;
     const double far[3] = {20.0, 105.0, 40.0}, near[3] = {3.0, 9.5, 2.0};
     int ok = 1;
     ok &= point_case("far light, forced", PICVR_DISTANCE_FORCED, PICVR_TRANSMITTANCE_RESIDUAL, 0.02, far, 35);
     ok &= point_case("near light, forced variant", PICVR_DISTANCE_FORCED, PICVR_TRANSMITTANCE_RESIDUAL, 0.02, near, 36);
+    ok &= point_pair_case("near and far lights, forced mixture", near, far, 37);
     if (!ok) fail_msg("single scattering under a point light with the forced point differs from the closed form");
 }
 

@@ -158,6 +158,7 @@
     X(test_cpu_reference_environment_single_scatter_closed_form)    \
     X(test_cpu_reference_roulette_unbiased)                         \
     X(test_cpu_reference_albedo_per_bounce)                         \
+    X(test_gpu_matches_cpu_reference_forced)                        \
     X(test_gpu_matches_cpu_reference_bounces_forward_hg)            \
     X(test_gpu_matches_cpu_reference_bounces_chromatic)             \
     X(test_gpu_matches_cpu_reference_environment_map)               \
@@ -195,6 +196,7 @@
     X(test_real_data_fuel_smoke)                                    \
     /* test_robust_sweep.c (issue 6) */                             \
     X(test_sweep_point_light_extremes)                              \
+    X(test_sweep_forced_extremes)                                   \
     X(test_sweep_path_extremes)                                     \
     X(test_sweep_optical_thickness_beer_lambert)                    \
     X(test_sweep_optical_thickness_sun)                             \
