@@ -42,7 +42,7 @@ help:
 	@echo "  make bench-scheduler  error vs time with/without priorities, device-time shares"
 	@echo "  make bench-long-run 10 min plain vs cached: hit rate and error ratio over time"
 	@echo "  make bench-hit-rate hit rate against entry count; time to 0.8 on this device"
-	@echo "  make bench-sampling the sampling family: the forced point against equiangular alone (~35 min)"
+	@echo "  make bench-sampling the sampling family: the forced point against the default (~40 min)"
 	@echo "  make bench-sampling-paper  the paper's sampler against the defaults (~25 min)"
 	@echo "  make bench-frames   orbiting real-time frames, temporal reuse off and on (~6 min)"
 	@echo "  make bench-paths    the path tracer: error vs time, 0, 1, 4, unlimited bounces (~25 min)"

@@ -208,14 +208,15 @@ static int family_lights(const char *name, const float box_min[3], const float b
         out->count = 1;
     } else if (!strcmp(name, "rect")) {
         l->type = PICVR_LIGHT_RECT;
-        /* edges perpendicular to dir: the square faces the centre */
+        /* edges perpendicular to dir, u = dir x up and v = dir x u: cross(v, u) = -dir,
+           so with edge_u = v and edge_v = u the lit side faces the centre */
         float u[3] = {dir[1] * up[2] - dir[2] * up[1], dir[2] * up[0] - dir[0] * up[2], dir[0] * up[1] - dir[1] * up[0]};
         v3_normalize(u);
         float v[3] = {dir[1] * u[2] - dir[2] * u[1], dir[2] * u[0] - dir[0] * u[2], dir[0] * u[1] - dir[1] * u[0]};
         for (int i = 0; i < 3; i++) {
             l->position[i] = dir[i] * 2.0f * R;
-            l->edge_u[i] = u[i] * R;
-            l->edge_v[i] = v[i] * R;
+            l->edge_u[i] = v[i] * R;
+            l->edge_v[i] = u[i] * R;
         }
         l->intensity = 8.0f / 0.25f;
         out->count = 1;

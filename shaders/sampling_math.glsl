@@ -119,37 +119,50 @@ CM_API real CM_FN(eq_weight)(real T, real sigma, real q, real p) {
 // gets a point however thin the medium is (as tau(t1) -> 0, p_F -> m / tau(t1): uniform
 // in optical depth), and in thick medium p_F tends to free flight's own density.  Both
 // Z and the inversion are computed so that they keep their relative precision as
-// tau -> 0, where 1 - exp(-tau) and ln(1 - u Z) round to 0 in float (tau < 6e-8).
+// tau -> 0, where 1 - exp(-tau) and ln(1 - u Z) round to 0 in float (tau < 6e-8), on a
+// GPU as in C.
 
-// Z = 1 - exp(-tau) = -expm1(-tau), by Kahan's product form (e - 1) tau / ln e with
-// e = exp(-tau) (e - 1 is exact for e in [0.5, 1], and the ratio of the two rounded
-// quantities cancels their errors).  Rules: tau NaN or <= 0 gives 0 (no medium: nothing
-// to sample); e = 1 (tau below half an ulp) gives tau; e = 0 or tau = +inf gives 1.
+// Z = 1 - exp(-tau) = -expm1(-tau).  Below tau = 1/2 by its Taylor series in nested
+// form, tau (1 - tau/2 (1 - tau/3 (...))) to the tau^15 term (the rest is below 2e-18
+// of Z): no cancellation, and no log or exp near 1, whose GPU versions are only
+// absolutely accurate there (GLSL allows an error of 2^-21 for log in [0.5, 2], twice
+// ln e itself at tau = 1e-6, by which a Kahan form (e - 1) tau / ln e divides).  From
+// 1/2 on, 1 - exp(-tau) >= 0.39 keeps its relative precision directly.  Rules: tau NaN or <= 0 gives 0 (no
+// medium: nothing to sample); tau = +inf gives 1; the result is clamped to [0, 1].
 CM_API real CM_FN(forced_norm)(real tau) {
     if (!(tau > CM_REAL(0.0))) return CM_REAL(0.0);
     if (!cm_isfinite(tau)) return CM_REAL(1.0);
-    real e = cm_exp(-tau);
-    if (e == CM_REAL(1.0)) return tau;
-    if (!(e > CM_REAL(0.0))) return CM_REAL(1.0);
-    real z = (e - CM_REAL(1.0)) * tau / cm_log(e);
-    return cm_isfinite(z) ? cm_clamp(z, CM_REAL(0.0), CM_REAL(1.0)) : CM_REAL(1.0);
+    if (tau < CM_REAL(0.5)) {
+        real s = CM_REAL(1.0);
+        for (int k = 15; k >= 2; k--) s = CM_REAL(1.0) - tau / CM_REAL(k) * s;
+        return tau * s;
+    }
+    return cm_clamp(CM_REAL(1.0) - cm_exp(-tau), CM_REAL(0.0), CM_REAL(1.0));
 }
 
-// The optical depth of the forced sample for u in [0, 1): -ln(1 - u Z) = -log1p(-u Z),
-// by Kahan's form ln(w) y / (w - 1), w = 1 + y, y = -u Z.  Rules: u non-finite -> 0,
-// clamped to [0, 1]; Z outside (0, 1] or non-finite gives 0 (the caller does not sample
-// there); w = 1 gives u Z; w <= 0 (u Z = 1) or a non-finite result gives tau_total; the
-// result is clamped to [0, tau_total] (tau_total: the segment's depth, of which Z was
-// computed).
+// The optical depth of the forced sample for u in [0, 1): -ln(1 - y), y = u Z.  Below
+// y = 1/16 as 2 atanh(s), s = y / (2 - y) <= 0.033, by its series to the s^11 term (the
+// rest is below 1e-19 of it; no log near 1, as above); from 1/16 on as -ln(1 - y), where
+// 1 - y is exact to an ulp and the depth is >= 0.06.  Rules: u non-finite -> 0, clamped
+// to [0, 1]; Z outside (0, 1] or non-finite gives 0 (the caller does not sample there);
+// 1 - y <= 0 (u Z = 1) or a non-finite result gives tau_total; the result is clamped to
+// [0, tau_total] (tau_total: the segment's depth, of which Z was computed).
 CM_API real CM_FN(forced_depth)(real u, real z, real tau_total) {
     if (!(z > CM_REAL(0.0)) || !(z <= CM_REAL(1.0))) return CM_REAL(0.0);
     real hi = cm_isfinite(tau_total) ? cm_max(tau_total, CM_REAL(0.0)) : CM_REAL(0.0);
     u = cm_isfinite(u) ? cm_clamp(u, CM_REAL(0.0), CM_REAL(1.0)) : CM_REAL(0.0);
-    real y = -u * z;
-    real w = CM_REAL(1.0) + y;
-    if (w == CM_REAL(1.0)) return cm_min(-y, hi);
-    if (!(w > CM_REAL(0.0))) return hi;
-    real d = -(cm_log(w) * y / (w - CM_REAL(1.0)));
+    real y = u * z;
+    real d;
+    if (y < CM_REAL(0.0625)) {
+        real s = y / (CM_REAL(2.0) - y);
+        real s2 = s * s;
+        d = CM_REAL(2.0) * s * (CM_REAL(1.0) + s2 * (CM_REAL(1.0) / CM_REAL(3.0) + s2 * (CM_REAL(1.0) / CM_REAL(5.0) +
+            s2 * (CM_REAL(1.0) / CM_REAL(7.0) + s2 * (CM_REAL(1.0) / CM_REAL(9.0) + s2 / CM_REAL(11.0))))));
+    } else {
+        real w = CM_REAL(1.0) - y;
+        if (!(w > CM_REAL(0.0))) return hi;
+        d = -cm_log(w);
+    }
     return cm_isfinite(d) ? cm_clamp(d, CM_REAL(0.0), hi) : hi;
 }
 

@@ -1352,7 +1352,8 @@ static void cr_lights_sun_sphere(picvr_light l[2]) {
 }
 
 /* The forced point (PICVR_DISTANCE_FORCED) in a heterogeneous medium against the
-   reference's delta tracking: the thin ball (D = 0.2) under the angular sun and the
+   reference's delta tracking: the ball (D = 0.4, optical depth about 3 across its
+   middle, thin at its rim) under the angular sun and the
    sphere light, neither of which equiangular sampling serves (the sphere's 1/d^2 falls
    off 15x across the volume), so every strategy-B point is forced; one bounce, so the
    path's later segment runs after a forced camera ray; a background seen through the
@@ -1370,7 +1371,7 @@ void test_gpu_matches_cpu_reference_forced(void **state) {
     memset(&c, 0, sizeof c);
     c.name = "forced, 1 bounce";
     c.vol = &vol;
-    c.tf = tf; c.tf_count = 3; c.D = 0.2f;
+    c.tf = tf; c.tf_count = 3; c.D = 0.4f;
     c.lights = l; c.light_count = 2; c.bg = &bg;
     c.sc.max_bounces = 1;
     c.cam = cr_camera(4, 3, 30, 32, 32, 40);
