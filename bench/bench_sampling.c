@@ -84,8 +84,8 @@ typedef struct options {
 /* One condition of a run: the sampler, and the bounce count. */
 typedef struct condition {
     char name[32];
-    int before;               /* 1: the paper's sampler (FREE_FLIGHT, RATIO); 2: MIS with equiangular
-                                 sampling alone (EQUIANGULAR); 0: the defaults */
+    int before;               /* 1: the paper's sampler (FREE_FLIGHT, RATIO); 2: MIS (the default
+                                 sampler, named); 3: FORCED; 0: the defaults */
     uint32_t bounces;         /* picvr_scattering.max_bounces */
     int frames, reuse;        /* scheduler.frames and .temporal_reuse on (priorities on) */
 } condition;

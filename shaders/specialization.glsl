@@ -88,8 +88,9 @@ layout(constant_id = 16) const uint CREATE_SAMPLE_STEPS = PATH_STEPS;
 // the tracking kernel then queues every event (render.glsl).
 layout(constant_id = 17) const uint LOOKUP_EVENT = 1u;
 
-// The forced point of camera rays (distance.glsl, b_sample: scene.forced_pmf is its
-// share; false: equiangular sampling alone).  Plain rendering only: in the cache's
+// The forced point of camera rays (PICVR_DISTANCE_FORCED with a light that equiangular
+// sampling does not serve; distance.glsl, b_sample: scene.forced_pmf is its share;
+// false: equiangular sampling alone).  Plain rendering only: in the cache's
 // rounds a hit shades the camera ray's event from the cache, and a plain forced point
 // beside it would bring back the noise the cache removes.
 layout(constant_id = 18) const bool USE_FORCED = false;
