@@ -387,12 +387,28 @@ static int render_and_check(picvr_context *ctx, const char *name, double cx, dou
     return ok;
 }
 
-/* One rendering of the point-light cube with the given samplers against the closed
-   form.  Tolerance: z = 5 with the empirical (8x8 block) standard error (the MIS samples
-   have no simple bound), plus sys_rel 3e-3 for the 4x4 jitter quadrature of the image
-   (the 64-piece angle quadrature is exact to ~1e-8). */
-static int point_case(const char *name, picvr_distance_sampling ds, picvr_transmittance_estimator te, double sigma,
-                      const double light[3], uint32_t seed) {
+/* The point lights of a case: the sum of their single scattering (linear in the
+   lights), alpha from the first (it does not depend on the light). */
+typedef struct point_lights { int n; tu_point_scene s[2]; } point_lights;
+
+static void point_lights_ray(const double o[3], const double d[3], void *user, double out[4]) {
+    const point_lights *pl = (const point_lights *)user;
+    tu_point_light_ray(o, d, (void *)&pl->s[0], out);
+    for (int k = 1; k < pl->n; k++) {
+        double ok[4];
+        tu_point_light_ray(o, d, (void *)&pl->s[k], ok);
+        for (int c = 0; c < 3; c++) out[c] += ok[c];
+    }
+}
+
+/* One rendering of the point-light cube under n (1 or 2) point lights at light[k] with
+   the given samplers against the closed form; each light as bright at the volume as one
+   at distance 10 (a distant light is brighter by its distance squared).  Tolerance:
+   z = 5 with the empirical (8x8 block) standard error (the MIS samples have no simple
+   bound), plus sys_rel 3e-3 for the 4x4 jitter quadrature of the image (the 64-piece
+   angle quadrature is exact to ~1e-8). */
+static int point_case_n(const char *name, picvr_distance_sampling ds, picvr_transmittance_estimator te, double sigma,
+                        const double (*light)[3], int n, uint32_t seed) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
@@ -401,24 +417,32 @@ static int point_case(const char *name, picvr_distance_sampling ds, picvr_transm
     picvr_context *ctx = tu_create_config(&cfg);
     tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
     tu_upload(ctx, &vol);
-    tu_point_scene s;
-    memset(&s, 0, sizeof s);
-    tu_vol_box(&vol, s.bmin, s.bmax);
-    s.sigma = sigma;
-    s.albedo = 0.8;
-    /* a distant light is brighter by its distance squared, for the same signal */
-    double d2 = light[0] * light[0] + light[1] * light[1] + light[2] * light[2];
-    s.I = d2 > 400.0 ? 40.0 * d2 / 100.0 : 40.0;
+    point_lights pl;
+    memset(&pl, 0, sizeof pl);
+    pl.n = n;
+    picvr_light l[2];
+    memset(l, 0, sizeof l);
+    for (int k = 0; k < n; k++) {
+        tu_point_scene *ps = &pl.s[k];
+        tu_vol_box(&vol, ps->bmin, ps->bmax);
+        ps->sigma = sigma;
+        ps->albedo = 0.8;
+        double d2 = light[k][0] * light[k][0] + light[k][1] * light[k][1] + light[k][2] * light[k][2];
+        ps->I = d2 > 400.0 ? 40.0 * d2 / 100.0 : 40.0;
+        l[k].type = PICVR_LIGHT_POINT;
+        for (int i = 0; i < 3; i++) { l[k].position[i] = (float)light[k][i]; ps->p[i] = l[k].position[i]; l[k].color[i] = 1.0f; }
+        l[k].intensity = (float)ps->I;
+    }
     tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, (float)sigma);
-    picvr_light l;
-    memset(&l, 0, sizeof l);
-    l.type = PICVR_LIGHT_POINT;
-    for (int i = 0; i < 3; i++) { l.position[i] = (float)light[i]; s.p[i] = l.position[i]; l.color[i] = 1.0f; }
-    l.intensity = (float)s.I;
-    TU_OK(picvr_set_lights(ctx, &l, 1, NULL));
-    int ok = render_and_check(ctx, name, 0, 0, 30, 36, tu_point_light_ray, &s, 384, 0.0, 3e-3);
+    TU_OK(picvr_set_lights(ctx, l, (uint32_t)n, NULL));
+    int ok = render_and_check(ctx, name, 0, 0, 30, 36, point_lights_ray, &pl, 384, 0.0, 3e-3);
     tu_vol_free(&vol);
     return ok;
+}
+
+static int point_case(const char *name, picvr_distance_sampling ds, picvr_transmittance_estimator te, double sigma,
+                      const double light[3], uint32_t seed) {
+    return point_case_n(name, ds, te, sigma, (const double (*)[3])light, 1, seed);
 }
 
 /* A thin cube (optical depth 0.32 along an axis) under a point light just outside its
@@ -445,56 +469,6 @@ void test_sampling_point_light_inside_closed_form(void **state) {
     if (!ok) fail_msg("single scattering with a point light inside the medium differs from the closed form");
 }
 
-/* Two point lights: the sum of their single scattering (linear in the lights), alpha
-   from the first (it does not depend on the light). */
-typedef struct point_pair { tu_point_scene a, b; } point_pair;
-
-static void point_pair_ray(const double o[3], const double d[3], void *user, double out[4]) {
-    point_pair *pp = (point_pair *)user;
-    double ob[4];
-    tu_point_light_ray(o, d, &pp->a, out);
-    tu_point_light_ray(o, d, &pp->b, ob);
-    for (int c = 0; c < 3; c++) out[c] += ob[c];
-}
-
-/* The thin cube under a served light (just outside) and an unserved one (far) with
-   PICVR_DISTANCE_FORCED: strategy B is the mixture, the forced share f the far light's
-   share of the power, strictly between 0 and 1 (host/lights.c).  Tolerances as
-   point_case's. */
-static int point_pair_case(const char *name, const double near[3], const double far[3], uint32_t seed) {
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = seed;
-    cfg.distance_sampling = PICVR_DISTANCE_FORCED;
-    picvr_context *ctx = tu_create_config(&cfg);
-    tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
-    tu_upload(ctx, &vol);
-    point_pair pp;
-    memset(&pp, 0, sizeof pp);
-    tu_vol_box(&vol, pp.a.bmin, pp.a.bmax);
-    pp.a.sigma = 0.02;
-    pp.a.albedo = 0.8;
-    pp.b = pp.a;
-    pp.a.I = 40.0;
-    /* the far light as bright at the volume as the near one: a power share near 1/2 */
-    double d2 = far[0] * far[0] + far[1] * far[1] + far[2] * far[2];
-    pp.b.I = 40.0 * d2 / 100.0;
-    tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, 0.02f);
-    picvr_light l[2];
-    memset(l, 0, sizeof l);
-    for (int k = 0; k < 2; k++) {
-        const double *p = k ? far : near;
-        tu_point_scene *ps = k ? &pp.b : &pp.a;
-        l[k].type = PICVR_LIGHT_POINT;
-        for (int i = 0; i < 3; i++) { l[k].position[i] = (float)p[i]; ps->p[i] = l[k].position[i]; l[k].color[i] = 1.0f; }
-        l[k].intensity = (float)ps->I;
-    }
-    TU_OK(picvr_set_lights(ctx, l, 2, NULL));
-    int ok = render_and_check(ctx, name, 0, 0, 30, 36, point_pair_ray, &pp, 384, 0.0, 3e-3);
-    tu_vol_free(&vol);
-    return ok;
-}
-
 /* The thin cube under a point light about 8 bounding-sphere radii away: its 1/d^2 falls
    off 1.7x across the volume, below what equiangular sampling serves (host/lights.c), so
    PICVR_DISTANCE_FORCED draws every strategy-B point forced; a light just outside
@@ -506,7 +480,10 @@ void test_sampling_point_light_forced_closed_form(void **state) {
     int ok = 1;
     ok &= point_case("far light, forced", PICVR_DISTANCE_FORCED, PICVR_TRANSMITTANCE_RESIDUAL, 0.02, far, 35);
     ok &= point_case("near light, forced variant", PICVR_DISTANCE_FORCED, PICVR_TRANSMITTANCE_RESIDUAL, 0.02, near, 36);
-    ok &= point_pair_case("near and far lights, forced mixture", near, far, 37);
+    /* the far light as bright at the volume as the near one: a forced share near 1/2 */
+    const double both[2][3] = {{near[0], near[1], near[2]}, {far[0], far[1], far[2]}};
+    ok &= point_case_n("near and far lights, forced mixture", PICVR_DISTANCE_FORCED, PICVR_TRANSMITTANCE_RESIDUAL, 0.02,
+                       both, 2, 37);
     if (!ok) fail_msg("single scattering under a point light with the forced point differs from the closed form");
 }
 
