@@ -97,10 +97,11 @@ float eq_sample(vec3 ro, vec3 rd, float t0, float t1, float u_light, float u) {
 // The coarse-grid walk of a camera ray's segment from t0 to t_end (no random numbers):
 // the minorant's optical depth from t0 (tau_min, for the proxy q) and the majorant's
 // (tau_maj, for p_F) at ta and tb (in [t0, t_end]; a negative one is skipped), the
-// majorant at ta and tb (maj), and the majorant's depth at t_end (tau_maj_end).  Bounded like the tracking loops; a walk cut short leaves the depths
-// where it stopped (the pdfs of points past it read 0 majorant: they are never drawn
-// there either, as forced_sample walks the same cells).  Empty space is jumped over as
-// tracking jumps it (majorant.glsl, empty_skip): it adds nothing to either depth.
+// majorant at ta and tb (maj), and the majorant's depth at t_end (tau_maj_end).
+// Bounded like the tracking loops; a walk cut short leaves the depths where it stopped
+// (the pdfs of points past it read 0 majorant: they are never drawn there either, as
+// forced_sample walks the same cells).  Empty space is jumped over as tracking jumps it
+// (majorant.glsl, empty_skip): it adds nothing to either depth.
 struct SegmentDepths { vec2 tau_min; vec2 tau_maj; vec2 maj; float tau_maj_end; };
 
 // s with point k's (0: ta, 1: tb) depths and majorant set.
@@ -136,8 +137,10 @@ SegmentDepths segment_depths(vec3 ro, vec3 rd, float t0, float t_end, float ta, 
         }
         float t_cell = min(dda_exit(d), t_end);
         float rate = maj > 0.0 ? min(cell_minorant(d), maj) : 0.0;   // empty: 0
-        if (ta >= t && ta <= t_cell) s = segment_capture(s, 0u, acc_min + rate * (ta - t), acc_maj + maj * (ta - t), maj);
-        if (tb >= t && tb <= t_cell) s = segment_capture(s, 1u, acc_min + rate * (tb - t), acc_maj + maj * (tb - t), maj);
+        if (ta >= t && ta <= t_cell)
+            s = segment_capture(s, 0u, acc_min + rate * (ta - t), acc_maj + maj * (ta - t), maj);
+        if (tb >= t && tb <= t_cell)
+            s = segment_capture(s, 1u, acc_min + rate * (tb - t), acc_maj + maj * (tb - t), maj);
         acc_min += rate * (t_cell - t);
         acc_maj += maj * (t_cell - t);
         t = t_cell;

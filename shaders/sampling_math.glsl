@@ -127,8 +127,9 @@ CM_API real CM_FN(eq_weight)(real T, real sigma, real q, real p) {
 // of Z): no cancellation, and no log or exp near 1, whose GPU versions are only
 // absolutely accurate there (GLSL allows an error of 2^-21 for log in [0.5, 2], twice
 // ln e itself at tau = 1e-6, by which a Kahan form (e - 1) tau / ln e divides).  From
-// 1/2 on, 1 - exp(-tau) >= 0.39 keeps its relative precision directly.  Rules: tau NaN or <= 0 gives 0 (no
-// medium: nothing to sample); tau = +inf gives 1; the result is clamped to [0, 1].
+// 1/2 on, 1 - exp(-tau) >= 0.39 keeps its relative precision directly.  Rules: tau NaN
+// or <= 0 gives 0 (no medium: nothing to sample); tau = +inf gives 1; the result is
+// clamped to [0, 1].
 CM_API real CM_FN(forced_norm)(real tau) {
     if (!(tau > CM_REAL(0.0))) return CM_REAL(0.0);
     if (!cm_isfinite(tau)) return CM_REAL(1.0);
