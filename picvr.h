@@ -323,7 +323,7 @@ typedef enum picvr_distance_sampling {
                                       the medium gathers light; low-discrepancy jitter */
     PICVR_DISTANCE_FREE_FLIGHT,    /* delta tracking alone, independent random numbers
                                       (the paper's baseline) */
-    PICVR_DISTANCE_FORCED          /* MIS as above plus a forced free flight (a collision
+    PICVR_DISTANCE_FORCED,         /* MIS as above plus a forced free flight (a collision
                                       inside the medium) for the suns and the lights
                                       equiangular sampling leaves out: every camera ray
                                       through the medium gathers their light.  For thin
@@ -332,6 +332,14 @@ typedef enum picvr_distance_sampling {
                                       a small fraction of the time; in dense clouds it
                                       costs more than it brings (docs/sampling.md).  Plain
                                       rendering only (the cache's rounds use MIS) */
+    PICVR_DISTANCE_AUTO            /* MIS or FORCED, whichever reduces the error faster,
+                                      measured as the image renders: each kind's variance
+                                      per sample times its device time per sample, the
+                                      other kind probed now and then without adding to
+                                      the image (docs/sampling.md).  Where MIS and FORCED
+                                      are the same renderer (every light served, or only
+                                      the background), it is MIS with no measuring; with
+                                      the cache on, MIS */
 } picvr_distance_sampling;
 /* How transmittance (shadow rays, and the camera ray with PICVR_DISTANCE_MIS) is
    estimated; both are unbiased. */
@@ -779,6 +787,13 @@ typedef struct picvr_stats {
     double auto_cached_share;    /* share of the recent device time (docs/cache.md) spent
                                     in rounds that ran the cache: 1 with a forced cache,
                                     0 without, in between with PICVR_CACHE_AUTO */
+    double forced_share;         /* share of the recent device time spent in rounds that
+                                    drew the forced point: 1 with PICVR_DISTANCE_FORCED,
+                                    0 without, with PICVR_DISTANCE_AUTO the probes
+                                    included */
+    double forced_efficiency;    /* PICVR_DISTANCE_AUTO: error reduction per device time
+                                    of the forced point over MIS (> 1: it pays); 0 until
+                                    both are measured */
     /* scheduler: measured shares of device time over the last second, and the §6 targets */
     double fraction_render, fraction_create, fraction_update;
     double target_create, target_update;

@@ -5,7 +5,7 @@
  *   picvr-bench-sampling [--scenes thin,bonsai,engine,cloud] [--data ../shared/data]
  *       [--size 256x256] [--time MS] [--slice MS] [--ref-time MS] [--ref-chunks N]
  *       [--seed 101] [--out bench/results/sampling] [--write-thin FILE]
- *       [--before paper|mis] [--after default|forced]
+ *       [--before paper|mis] [--after default|forced|auto]
  *       [--bounces 0,1,4,unlimited]
  *
  * With --bounces the conditions are those picvr_scattering.max_bounces values (the
@@ -323,9 +323,15 @@ static void free_scene(loaded_scene *ls)
     free(ls->thin);
 }
 
+/* The condition code of an --after sampler: "forced" 3, "auto" 4, else the default 0. */
+static int after_kind(const char *after)
+{
+    return !strcmp(after, "forced") ? 3 : !strcmp(after, "auto") ? 4 : 0;
+}
+
 static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const condition *cd)
 {
-    int before = cd->before;   /* 1: the paper's sampler, 2: the default (MIS), 3: forced */
+    int before = cd->before;   /* 1: the paper's sampler, 2: the default (MIS), 3: forced, 4: auto */
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
@@ -338,6 +344,7 @@ static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const 
         cfg.transmittance = PICVR_TRANSMITTANCE_RATIO;
     }
     if (before == 3) cfg.distance_sampling = PICVR_DISTANCE_FORCED;
+    if (before == 4) cfg.distance_sampling = PICVR_DISTANCE_AUTO;
     picvr_context *ctx = NULL;
     if (!pvc_check(picvr_create(&cfg, &ctx), "picvr_create")) return NULL;
     if (!pvc_check(picvr_upload_volume(ctx, &ls->desc), "picvr_upload_volume") ||
@@ -403,7 +410,7 @@ static int make_reference(const options *o, const loaded_scene *ls, const condit
     uint64_t total = 0;
     for (uint32_t k = 0; k < K && ok; k++) {
         condition after = *cd;
-        after.before = strcmp(o->after, "forced") ? 0 : 3;
+        after.before = after_kind(o->after) == 4 ? 3 : after_kind(o->after);   /* auto: the forced renderer */
         picvr_context *ctx = open_context(ls, 1001 + k, &after);
         ok = ctx != NULL;
         double spent = 0.0;
@@ -511,7 +518,7 @@ static int parse_conditions(const options *o, condition *cd)
         snprintf(cd[0].name, sizeof cd[0].name, "before");
         cd[0].before = strcmp(o->before, "mis") ? 1 : 2;
         snprintf(cd[1].name, sizeof cd[1].name, "after");
-        cd[1].before = strcmp(o->after, "forced") ? 0 : 3;
+        cd[1].before = after_kind(o->after);
         return 2;
     }
     char list[256];
@@ -729,7 +736,7 @@ static void print_help(FILE *f)
         "                   picvr-render --volume) and exit\n"
         "  --before KIND    the \"before\" sampler: paper (free flight, ratio tracking; the\n"
         "                   default) or mis (the default sampler: equiangular sampling alone)\n"
-        "  --after KIND     the \"after\" sampler: default, or forced (PICVR_DISTANCE_FORCED)\n"
+        "  --after KIND     the \"after\" sampler: default, forced (PICVR_DISTANCE_FORCED) or auto\n"
         "  --bounces LIST   compare these max_bounces values (0,1,4,unlimited) instead of the\n"
         "                   two samplers; results in OUT/paths.md, .csv\n"
         "  --frames N       the engine's case instead: N real-time frames, temporal reuse off\n"
@@ -757,7 +764,7 @@ static int apply_option(void *target, const char *name, const char *value)
         o->before = value;
     }
     else if (!strcmp(name, "after")) {
-        if (strcmp(value, "default") && strcmp(value, "forced")) { pvc_bad_value(name, value); return 0; }
+        if (strcmp(value, "default") && strcmp(value, "forced") && strcmp(value, "auto")) { pvc_bad_value(name, value); return 0; }
         o->after = value;
     }
     else if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height) ? 1 : (pvc_bad_value(name, value), 0);

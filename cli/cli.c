@@ -253,12 +253,12 @@ const char *pvc_log_level_name(picvr_log_level level)
     return level >= PICVR_LOG_DEFAULT && level <= PICVR_LOG_ERROR ? names[level] : "?";
 }
 
-static const char *const DISTANCE_NAMES[] = {"default", "mis", "free-flight", "forced"};
+static const char *const DISTANCE_NAMES[] = {"default", "mis", "free-flight", "forced", "auto"};
 static const char *const TRANSMITTANCE_NAMES[] = {"default", "residual", "ratio"};
 
 const char *pvc_distance_sampling_name(picvr_distance_sampling d)
 {
-    return d >= PICVR_DISTANCE_DEFAULT && d <= PICVR_DISTANCE_FORCED ? DISTANCE_NAMES[d] : "?";
+    return d >= PICVR_DISTANCE_DEFAULT && d <= PICVR_DISTANCE_AUTO ? DISTANCE_NAMES[d] : "?";
 }
 
 const char *pvc_transmittance_name(picvr_transmittance_estimator t)
@@ -268,7 +268,7 @@ const char *pvc_transmittance_name(picvr_transmittance_estimator t)
 
 int pvc_parse_distance_sampling(const char *text, picvr_distance_sampling *out)
 {
-    for (int i = 1; i <= PICVR_DISTANCE_FORCED; i++)
+    for (int i = 1; i <= PICVR_DISTANCE_AUTO; i++)
         if (!strcmp(text, DISTANCE_NAMES[i])) { *out = (picvr_distance_sampling)i; return 1; }
     return 0;
 }

@@ -284,6 +284,8 @@ static const pvc_json_field SUMMARY_FIELDS[] = {
     {"cache_gain", PVC_JSON_F64, AT(stats.cache_gain)},
     {"auto_efficiency", PVC_JSON_F64, AT(stats.auto_efficiency)},
     {"auto_cached_share", PVC_JSON_F64, AT(stats.auto_cached_share)},
+    {"forced_share", PVC_JSON_F64, AT(stats.forced_share)},
+    {"forced_efficiency", PVC_JSON_F64, AT(stats.forced_efficiency)},
     {"kernel_ms_plain_track", PVC_JSON_F64, AT(stats.kernel_ms_plain[0])},
     {"kernel_ms_plain_shade", PVC_JSON_F64, AT(stats.kernel_ms_plain[2])},
     {"kernel_ms_cached_track", PVC_JSON_F64, AT(stats.kernel_ms_cached[0])},
@@ -389,6 +391,8 @@ void render_print_summary(const render_options *o, const picvr_stats *s, int int
     if (s->cache_entries)
         printf(", blend routed %.3f, gain of a hit %.3f, cached share of time %.3f (efficiency %.2f)",
                s->cache_routed, s->cache_gain, s->auto_cached_share, s->auto_efficiency);
+    if (s->forced_share > 0.0 || s->forced_efficiency > 0.0)
+        printf(", forced point's share of time %.3f (efficiency %.3g)", s->forced_share, s->forced_efficiency);
     if (s->cache_samples_truncated)
         printf(", %llu of %llu creation samples with a truncated transmittance estimate (biased)",
                (unsigned long long)s->cache_samples_truncated, (unsigned long long)s->cache_samples);

@@ -116,7 +116,7 @@ static picvr_status picvr_create_image_buffers(picvr_context *ctx, uint32_t w, u
                                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
     if (!s) s = picvr_buffer_create(ctx, &part, groups * sizeof(picvr_gpu_partial), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, 1);
     /* the rendering queue: a 32-byte header, then one uvec4 per block */
-    if (!s) s = picvr_buffer_create(ctx, &queue, 32 + (VkDeviceSize)blocks * 16,
+    if (!s) s = picvr_buffer_create(ctx, &queue, 48 + (VkDeviceSize)blocks * 16,
                               VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, 0);
     VkBufferUsageFlags queue_usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |

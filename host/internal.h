@@ -61,7 +61,7 @@
 #define PICVR_CACHE_DEFAULT_SAMPLES 768u
 /* cache.probe_fraction's default (picvr.h; shaders/cache_blend.glsl) */
 #define PICVR_CACHE_DEFAULT_PROBE 0.125f
-#define PICVR_ROUND_READBACK_BYTES (sizeof(picvr_cache_counters) + 16)
+#define PICVR_ROUND_READBACK_BYTES (sizeof(picvr_cache_counters) + 32)
 
 /* The rendering procedure's event queues (shaders/render.glsl), one buffer each: a
    head (one uvec4: indirect dispatch, count), then one event of EVENT_WORDS words per
@@ -93,6 +93,7 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_PLAIN 8192u       /* PICVR_CACHE_AUTO's plain rounds: the plain tracking module */
 #define PICVR_KEY_LOOKUP_SHIFT 14u  /* LOOKUP_EVENT - 1: 3 bits (render_shade_cache.comp) */
 #define PICVR_KEY_FORCED 131072u    /* USE_FORCED (bit 17, past LOOKUP_EVENT's three) */
+#define PICVR_KEY_MEASURE 262144u   /* USE_MEASURE */
 /* The specialization constants' ids: PICVR_SPEC_<name> is the constant_id of <name> in
    shaders/specialization.glsl (`make check-layout` compares the two lists). */
 enum {
@@ -115,6 +116,7 @@ enum {
     PICVR_SPEC_CREATE_SAMPLE_STEPS = 16,
     PICVR_SPEC_LOOKUP_EVENT = 17,
     PICVR_SPEC_USE_FORCED = 18,
+    PICVR_SPEC_USE_MEASURE = 19,
     PICVR_SPEC_CONSTANTS            /* their number */
 };
 /* The multiply scattered cache on a CPU device (llvmpipe's loop cap of 65535 per
@@ -255,6 +257,31 @@ typedef struct picvr_auto {
 #define PICVR_AUTO_WINDOW 200.0       /* rounds (about 10 s) over which the shares of time are kept */
 #define PICVR_AUTO_MIN_VARIANCE 0.05  /* cached sample variance over plain's is taken >= this */
 
+/* PICVR_DISTANCE_AUTO: what a round of each kind (0: MIS, 1: the forced point) costs and
+   how far its samples spread, from which the kind that renders is chosen (host/schedule.c,
+   picvr_dauto_account). */
+typedef struct picvr_dauto {
+    int on;                          /* measuring: AUTO, a forced share, the cache off (picvr_dauto_update) */
+    int forced;                      /* the kind that adds to the image */
+    double cost[2];                  /* device ms per block; 0: unmeasured */
+    double spread[2];                /* relative variance per sample (render.glsl, measure_spread) */
+    uint32_t measured[2];            /* rounds that entered spread[] */
+    double time_ms[2];               /* device time of each kind, exponentially weighted (PICVR_AUTO_WINDOW) */
+    float scale;                     /* the spread's scale: 1 / the image's mean luminance; 0: none */
+    uint32_t scale_age;              /* rounds since scale was measured; 0: never */
+    int restart;                     /* clear the image before the next round (a switch that pays it) */
+    uint32_t rounds;                 /* rounds accounted */
+    int forced_ready;                /* the forced kind's variant is selected (picvr_ready_forced) */
+} picvr_dauto;
+#define PICVR_ROUND_FORCED 1u         /* the forced kind's variant renders (host only) */
+#define PICVR_ROUND_MEASURE 2u        /* shaders/render.glsl's ROUND_* flags */
+#define PICVR_ROUND_PROBE 4u
+#define PICVR_DAUTO_WARM 2u           /* rounds of each kind measured before the choice is by efficiency */
+#define PICVR_DAUTO_EXPLORE 0.01     /* share of device time the kind not chosen keeps, in probes */
+#define PICVR_DAUTO_MEASURE_EVERY 4u  /* the chosen kind's rounds measured, once warm: one in this many */
+#define PICVR_DAUTO_SWITCH 1.25       /* efficiency ratio beyond which the choice changes */
+#define PICVR_DAUTO_SCALE_ROUNDS 64u  /* rounds between measurements of the scale */
+
 /* A round's record for the §6 time shares and the hit-rate window. */
 typedef struct picvr_round_record {
     double end_ms, device_ms[3];
@@ -300,6 +327,7 @@ typedef struct picvr_pipelines {
     uint32_t variant_clock;          /* ticks once per step: the slots' last use */
     uint32_t current_slot[3];        /* PROC_*: the slot this step's rounds dispatch */
     uint32_t plain_slot;             /* PICVR_CACHE_AUTO: the rendering slot of its plain rounds */
+    uint32_t forced_slot;            /* PICVR_DISTANCE_AUTO: the rendering slot of the forced kind */
     VkSampler linear_sampler;
 } picvr_pipelines;
 
@@ -416,6 +444,7 @@ typedef struct picvr_sched {
     double hit_rate;                 /* over the last hit_rate_window_ms */
     double target[2];                /* the §6 shares of creation and update now */
     picvr_auto auto_mode;            /* PICVR_CACHE_AUTO's economics (host/schedule.c) */
+    picvr_dauto dauto;               /* PICVR_DISTANCE_AUTO's (host/schedule.c) */
 } picvr_sched;
 
 /* Submissions of rounds and their device timestamps (host/rounds.c). */
@@ -440,6 +469,8 @@ typedef struct picvr_round_plan {
     uint32_t refine_groups;   /* entries refined (multiply scattered cache), creation's packages */
     int rebuild;              /* rebuild the octree */
     int plain;                /* PICVR_CACHE_AUTO: a plain round (no cache procedure, no lookup) */
+    uint32_t render_flags;    /* the rendering kernels' ROUND_* flags (shaders/render.glsl):
+                                 the forced point, PICVR_DISTANCE_AUTO's measure and probe */
 } picvr_round_plan;
 
 /* A step begun by picvr_step_begin and not yet ended (host/step.c): its round is

@@ -178,7 +178,8 @@ static void picvr_update_equiangular(picvr_context *ctx) {
     double unserved = 0.0;
     for (uint32_t i = 0; i < n; i++)
         if (!served[i]) unserved += g[i].pmf;
-    int forced = ctx->config.distance_sampling == PICVR_DISTANCE_FORCED && unserved > 0.0;
+    int forced = (ctx->config.distance_sampling == PICVR_DISTANCE_FORCED ||
+                  ctx->config.distance_sampling == PICVR_DISTANCE_AUTO) && unserved > 0.0;
     /* exactly 1 when no light is served (the shaders test forced_pmf < 1 for "some light
        is served"; a rounded sum of shares could fall an ulp short) */
     ctx->scene.gpu.forced_pmf = !forced ? 0.0f : last < 0 ? 1.0f : (float)fmin(unserved, 1.0);
@@ -250,5 +251,6 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
     ctx->scene.use_phase_mis = mis;
     picvr_update_equiangular(ctx);
     s = picvr_cache_clear(ctx);
+    picvr_dauto_forget(&ctx->sched.dauto);   /* the kinds' efficiency is the scene's */
     return s ? s : picvr_clear_accumulation(ctx);
 }

@@ -70,16 +70,19 @@ static int picvr_cache_serves(const picvr_context *ctx) {
    and each new combination would cost a new variant, and a pause, whenever an
    application turns a light of a new type on.  plain: the rendering variant of
    PICVR_CACHE_AUTO's plain rounds (the plain tracking module, no lookup). */
-static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain) {
+static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain, int forced_kind) {
     uint32_t mis = ctx->scene.use_phase_mis ? PICVR_KEY_PHASE_MIS : 0u, fine = ctx->scene.use_fine ? PICVR_KEY_FINE : 0u;
     uint32_t mono = (uint32_t)ctx->scene.gpu.mono_channel << PICVR_KEY_MONO_SHIFT;
     uint32_t residual = ctx->config.transmittance == PICVR_TRANSMITTANCE_RESIDUAL && ctx->scene.use_control
                       ? PICVR_KEY_RESIDUAL : 0u;
     uint32_t mis_mode = ctx->config.distance_sampling != PICVR_DISTANCE_FREE_FLIGHT;
     uint32_t equi = ctx->scene.use_equiangular && mis_mode ? PICVR_KEY_EQUIANGULAR : 0u;
-    /* the forced point (PICVR_DISTANCE_FORCED): plain rendering only (specialization.glsl,
-       USE_FORCED), which turns strategy B on where no light is served */
-    uint32_t forced = ctx->scene.use_forced && mis_mode ? PICVR_KEY_FORCED | PICVR_KEY_EQUIANGULAR : 0u;
+    /* the forced point (PICVR_DISTANCE_FORCED, and PICVR_DISTANCE_AUTO's forced kind):
+       plain rendering only (specialization.glsl, USE_FORCED), which turns strategy B on
+       where no light is served; PICVR_DISTANCE_AUTO measures in both of its kinds */
+    int forced_on = ctx->config.distance_sampling == PICVR_DISTANCE_FORCED || forced_kind;
+    uint32_t forced = ctx->scene.use_forced && mis_mode && forced_on ? PICVR_KEY_FORCED | PICVR_KEY_EQUIANGULAR : 0u;
+    if (ctx->sched.dauto.on) forced |= PICVR_KEY_MEASURE;
     uint32_t qmc = mis_mode ? PICVR_KEY_QMC : 0u;
     uint32_t env = ctx->scene.use_env ? PICVR_KEY_ENV_MAP : 0u;
     uint32_t paths = (ctx->scene.scattering.max_bounces > 0 ? PICVR_KEY_BOUNCES : 0u) |
@@ -137,6 +140,7 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
     value[PICVR_SPEC_CREATE_SAMPLE_STEPS] = picvr_create_sample_steps(ctx);
     value[PICVR_SPEC_LOOKUP_EVENT] = ((key >> PICVR_KEY_LOOKUP_SHIFT) & 7u) + 1u;
     value[PICVR_SPEC_USE_FORCED] = (key & PICVR_KEY_FORCED) != 0;
+    value[PICVR_SPEC_USE_MEASURE] = (key & PICVR_KEY_MEASURE) != 0;
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         entry[i].constantID = i;
@@ -159,8 +163,8 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
    holds its key, in a free slot or in place of the least recently used one.  Rounds
    wait for their fence, so between steps no pipeline is in use.  On a failure the
    slots are as before. */
-static picvr_status picvr_select_variant(picvr_context *ctx, int proc, int plain) {
-    uint32_t key = picvr_variant_key(ctx, proc, plain), pick = 0;
+static picvr_status picvr_select_variant(picvr_context *ctx, int proc, int plain, int forced_kind) {
+    uint32_t key = picvr_variant_key(ctx, proc, plain, forced_kind), pick = 0;
     picvr_variant_slot *t = ctx->pipes.variants[proc];
     for (uint32_t i = 0; i < PICVR_VARIANT_SLOTS; i++)
         if (t[i].pipe[PICVR_KERNEL_MAIN] && t[i].key == key) {
@@ -185,16 +189,18 @@ static picvr_status picvr_select_variant(picvr_context *ctx, int proc, int plain
 }
 
 /* Kernel k of the variant this step dispatches for procedure proc (the rendering
-   procedure of a plain round: PICVR_CACHE_AUTO's plain variant). */
-static uint32_t picvr_current_slot(const picvr_context *ctx, int proc, int plain) {
+   procedure of a plain round: PICVR_CACHE_AUTO's plain variant; of a round of the forced
+   kind under PICVR_DISTANCE_AUTO: its forced variant). */
+static uint32_t picvr_current_slot(const picvr_context *ctx, int proc, int plain, int forced_kind) {
+    if (proc == PICVR_PROC_RENDER && forced_kind && ctx->sched.dauto.on) return ctx->pipes.forced_slot;
     return proc == PICVR_PROC_RENDER && plain ? ctx->pipes.plain_slot : ctx->pipes.current_slot[proc];
 }
 
-static VkPipeline picvr_current_kernel(const picvr_context *ctx, int proc, int k, int plain) {
-    return ctx->pipes.variants[proc][picvr_current_slot(ctx, proc, plain)].pipe[k];
+static VkPipeline picvr_current_kernel(const picvr_context *ctx, int proc, int k, int plain, int forced_kind) {
+    return ctx->pipes.variants[proc][picvr_current_slot(ctx, proc, plain, forced_kind)].pipe[k];
 }
 
-static VkPipeline picvr_current_pipeline(const picvr_context *ctx, int proc) { return picvr_current_kernel(ctx, proc, PICVR_KERNEL_MAIN, 0); }
+static VkPipeline picvr_current_pipeline(const picvr_context *ctx, int proc) { return picvr_current_kernel(ctx, proc, PICVR_KERNEL_MAIN, 0, 0); }
 
 /* PICVR_CACHE_AUTO may render a round plain: not with a debug view (it shows the cache)
    nor where the cache idles anyway (picvr_cache_serves). */
@@ -208,15 +214,32 @@ static picvr_status picvr_select_variants(picvr_context *ctx) {
     picvr_status s = PICVR_OK;
     if (picvr_auto_plain_allowed(ctx)) {
         double t0 = picvr_clock_ms();   /* a new variant: its pipelines compile (the auto mode's pause) */
-        s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 1);
+        s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 1, 0);
         picvr_auto_note_compile(&ctx->sched.auto_mode, picvr_clock_ms() - t0);
         ctx->pipes.plain_slot = ctx->pipes.current_slot[PICVR_PROC_RENDER];
         /* the cached kind's pipelines wait for its first round (picvr_auto_choose) */
         if (s || !ctx->sched.auto_mode.cached_ready) return s;
     }
-    if (!s) s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 0);
-    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_CREATE, 0);
-    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_UPDATE, 0);
+    /* PICVR_DISTANCE_AUTO: the forced kind's variant, once its first round asked for it
+       (picvr_ready_forced), then the other, which stays the current one */
+    if (!s && ctx->sched.dauto.on && ctx->sched.dauto.forced_ready) {
+        s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 0, 1);
+        ctx->pipes.forced_slot = ctx->pipes.current_slot[PICVR_PROC_RENDER];
+    }
+    if (!s) s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 0, 0);
+    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_CREATE, 0, 0);
+    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_UPDATE, 0, 0);
+    return s;
+}
+
+/* Before a round of PICVR_DISTANCE_AUTO's forced kind: its variant is made at its first
+   round, so that a scene where the probes never come (or the kinds are one renderer)
+   neither makes nor compiles it. */
+static picvr_status picvr_ready_forced(picvr_context *ctx) {
+    if (ctx->sched.dauto.forced_ready || !ctx->sched.dauto.on) return PICVR_OK;
+    ctx->sched.dauto.forced_ready = 1;
+    picvr_status s = picvr_select_variants(ctx);
+    if (s) ctx->sched.dauto.forced_ready = 0;
     return s;
 }
 
@@ -246,7 +269,7 @@ static picvr_status picvr_create_pipelines(picvr_context *ctx) {
     li.pBindings = b;
     PICVR_VK_TRY(ctx, vkCreateDescriptorSetLayout(ctx->vk.device, &li, NULL, &ctx->pipes.set_layout));
 
-    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};   /* four words, every kernel */
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 20};   /* four words, every kernel; a fifth, rendering */
     VkPipelineLayoutCreateInfo pl;
     PICVR_VK_INIT(pl, VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
     pl.setLayoutCount = 1;

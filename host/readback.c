@@ -151,6 +151,8 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
         st.cache_max_samples = picvr_create_rounds(ctx) * PICVR_CACHE_CREATE_GROUP;
         picvr_sched_shares(&ctx->sched, &st);
         if (!ctx->cache.on) st.auto_cached_share = 0.0;
+        if (ctx->config.distance_sampling == PICVR_DISTANCE_FORCED && ctx->scene.use_forced && !ctx->cache.on)
+            st.forced_share = 1.0;
         memcpy(st.kernel_ms_plain, ctx->rounds.kernel_ms[0], sizeof st.kernel_ms_plain);
         memcpy(st.kernel_ms_cached, ctx->rounds.kernel_ms[1], sizeof st.kernel_ms_cached);
         st.iterations = ctx->image.block_total ? (uint32_t)(ctx->image.block_samples / ctx->image.block_total) : 0;

@@ -91,20 +91,22 @@ static void picvr_record_empty_queues(picvr_context *ctx, int cached) {
    queues its misses for shading; with one it shades them itself and the shading
    dispatch has no workgroups. */
 static void picvr_record_render_kernels(picvr_context *ctx, const picvr_round_plan *p, int first) {
-    int plain = p->plain;
-    picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->request_cap, 0);
+    int plain = p->plain, forced = (p->render_flags & PICVR_ROUND_FORCED) != 0;
+    picvr_push_constants(ctx, ctx->rounds.count, ctx->config.seed, p->request_cap, p->render_flags);
+    float spread_scale = ctx->sched.dauto.scale;   /* render.glsl's fifth word */
+    vkCmdPushConstants(ctx->vk.cmd, ctx->pipes.layout, VK_SHADER_STAGE_COMPUTE_BIT, 16, sizeof spread_scale, &spread_scale);
     if (first) picvr_write_timestamp(ctx, 5);
-    vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_MAIN, plain));
+    vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_MAIN, plain, forced));
     vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.render_queue.buf, 0);
     picvr_barrier_all(ctx);
     if (first) picvr_write_timestamp(ctx, 6);
     if (picvr_round_cached(ctx, p)) {
-        vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_LOOKUP, 0));
+        vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_LOOKUP, 0, 0));
         vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.lookup_queue.buf, 0);
         picvr_barrier_all(ctx);
     }
     if (first) picvr_write_timestamp(ctx, 7);
-    vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_SHADE, plain));
+    vkCmdBindPipeline(ctx->vk.cmd, VK_PIPELINE_BIND_POINT_COMPUTE, picvr_current_kernel(ctx, PICVR_PROC_RENDER, PICVR_KERNEL_SHADE, plain, forced));
     vkCmdDispatchIndirect(ctx->vk.cmd, ctx->image.shade_queue.buf, 0);
     picvr_barrier_all(ctx);
     if (first) picvr_write_timestamp(ctx, 8);
@@ -163,7 +165,8 @@ static void picvr_note_dispatches(picvr_context *ctx, const picvr_round_plan *p)
             ctx->sched.first_dispatch[i] = 0;
             continue;
         }
-        picvr_variant_slot *v = &ctx->pipes.variants[i][picvr_current_slot(ctx, i, p->plain)];
+        picvr_variant_slot *v =
+            &ctx->pipes.variants[i][picvr_current_slot(ctx, i, p->plain, (p->render_flags & PICVR_ROUND_FORCED) != 0)];
         ctx->sched.first_dispatch[i] = !v->dispatched;
         v->dispatched = 1;
     }
@@ -221,15 +224,16 @@ static void picvr_record_round(picvr_context *ctx, const picvr_round_plan *p, ui
         VkBufferCopy c = {0, 0, sizeof(picvr_cache_counters)};
         vkCmdCopyBuffer(ctx->vk.cmd, ctx->cache.counters.buf, ctx->rounds.readback.buf, 1, &c);
     }
-    /* render_queue.totals: x blocks rendered, y and z the scatter events (64 bits) */
-    VkBufferCopy q = {16, sizeof(picvr_cache_counters), 12};
+    /* render_queue.totals: x blocks rendered, y and z the scatter events (64 bits), w the
+       samples measured; then render_queue.spread (PICVR_DISTANCE_AUTO) */
+    VkBufferCopy q = {16, sizeof(picvr_cache_counters), 32};
     vkCmdCopyBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, ctx->rounds.readback.buf, 1, &q);
     picvr_barrier_all(ctx);
     if (ctx->cache.on) {   /* hits, misses, requests; routed, probes, gain */
         vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.counters.buf, offsetof(picvr_cache_counters, hits), 3 * 4, 0);
         vkCmdFillBuffer(ctx->vk.cmd, ctx->cache.counters.buf, offsetof(picvr_cache_counters, routed), 4 * 4, 0);
     }
-    vkCmdFillBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, 16, 12, 0);
+    vkCmdFillBuffer(ctx->vk.cmd, ctx->image.render_queue.buf, 16, 32, 0);
     picvr_barrier_all(ctx);
 }
 
@@ -286,9 +290,11 @@ static picvr_status picvr_round_device_ms(picvr_context *ctx, const picvr_round_
 static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_plan *p, double wall_ms, uint32_t created) {
     picvr_buffer_invalidate(ctx, &ctx->rounds.readback);
     const uint8_t *rb = (const uint8_t *)ctx->rounds.readback.mapped;   /* counters, then blocks */
-    uint32_t blocks, events[2], hits = 0, misses = 0;
+    uint32_t blocks, events[2], hits = 0, misses = 0, measured, spread[4];
     memcpy(&blocks, rb + sizeof(picvr_cache_counters), sizeof blocks);
     memcpy(events, rb + sizeof(picvr_cache_counters) + 4, sizeof events);
+    memcpy(&measured, rb + sizeof(picvr_cache_counters) + 12, sizeof measured);
+    memcpy(spread, rb + sizeof(picvr_cache_counters) + 16, sizeof spread);
     double dev[3], rebuild_ms;
     uint32_t packages = created + p->refine_groups;   /* creation's: entries made and refined */
     if (wall_ms < 0.0) {
@@ -306,6 +312,10 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
     if (s) return s;
     picvr_sched_account(&ctx->sched, dev, rebuild_ms, packages, p->update_groups, blocks, wall_ms,
                         picvr_round_cached(ctx, p));
+    picvr_dauto_account(&ctx->sched.dauto, p->render_flags, dev[PICVR_PROC_RENDER], blocks,
+                        ctx->sched.first_dispatch[PICVR_PROC_RENDER], measured,
+                        (uint64_t)spread[1] << 32 | spread[0], (uint64_t)spread[3] << 32 | spread[2]);
+    if (p->render_flags & PICVR_ROUND_PROBE) blocks = 0;   /* a probe adds nothing to the image */
     ctx->image.block_samples += blocks;
     if (blocks > 0) ctx->image.has_samples = 1;
     ctx->image.scatter_events += (uint64_t)events[1] << 32 | events[0];

@@ -28,5 +28,6 @@ picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *sc
     ctx->scene.gpu.back_g = sc->back_g;
     ctx->scene.gpu.back_weight = sc->back_weight;
     s = picvr_cache_clear(ctx);
+    picvr_dauto_forget(&ctx->sched.dauto);   /* the kinds' efficiency is the scene's */
     return s ? s : picvr_clear_accumulation(ctx);
 }

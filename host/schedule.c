@@ -174,6 +174,8 @@ static void picvr_sched_record(picvr_sched *sc, double end_ms, const double dev[
 
 /* stats.fraction_*: each procedure's share of the device time of the rounds that ended
    in the last SHARE_WINDOW_MS; target_*: the §6 shares now. */
+static double picvr_dauto_efficiency(const picvr_dauto *a);
+
 static void picvr_sched_shares(const picvr_sched *sc, picvr_stats *st) {
     double sum[3] = {0, 0, 0};
     uint32_t n = sc->history_count < PICVR_SCHED_HISTORY ? sc->history_count : PICVR_SCHED_HISTORY;
@@ -187,6 +189,10 @@ static void picvr_sched_shares(const picvr_sched *sc, picvr_stats *st) {
     const picvr_auto *a = &sc->auto_mode;
     double both = a->time_ms[0] + a->time_ms[1];
     st->auto_cached_share = !a->on ? 1.0 : both > 0.0 ? a->time_ms[1] / both : 0.0;
+    const picvr_dauto *d = &sc->dauto;
+    double kinds = d->time_ms[0] + d->time_ms[1];
+    st->forced_share = d->on && kinds > 0.0 ? d->time_ms[1] / kinds : 0.0;   /* FORCED: host/readback.c */
+    st->forced_efficiency = picvr_dauto_efficiency(d);
     st->fraction_create = total > 0.0 ? sum[PICVR_PROC_CREATE] / total : 0.0;
     st->fraction_update = total > 0.0 ? sum[PICVR_PROC_UPDATE] / total : 0.0;
     st->fraction_render = total > 0.0 ? sum[PICVR_PROC_RENDER] / total : 0.0;
@@ -276,4 +282,93 @@ static void picvr_auto_account(picvr_sched *sc, int plain, const double dev[3], 
         double gain = (double)((uint64_t)got->gain_hi << 32 | got->gain_lo) / 65536.0 / got->probes;
         a->gain = a->gain > 0.0 ? 0.7 * a->gain + 0.3 * gain : gain;
     }
+}
+
+/* ---- PICVR_DISTANCE_AUTO: MIS or the forced point, by measured efficiency ------------
+   Both kinds are unbiased estimators of every pixel; per unit of device time a kind
+   reduces the squared error in proportion to 1 / (c v): c its device time per block, v
+   its variance per sample, measured on the device as the spread of its samples about
+   the pixels' running means (shaders/render.glsl, measure_spread).  The forced point
+   pays when E = c_mis v_mis / (c_forced v_forced) > 1.  Only the chosen kind adds to the
+   image: averaged with equal weights, samples of kinds whose variances differ 10^4-fold
+   (thin media under the sun) would leave the noisier kind's error in the image for
+   good.  The other kind runs as probes, rounds that measure and add nothing, at first
+   PICVR_DAUTO_WARM rounds of each and then PICVR_DAUTO_EXPLORE of the device time (the
+   bound of what measuring costs).  A switch clears the image when the samples it has
+   are the noisier: keeping n_o samples of variance v_o and adding n of v_n leaves the
+   mean the variance (n_o v_o + n v_n) / (n_o + n)^2, below the restart's v_n / n for
+   every n exactly when v_o <= 2 v_n. */
+
+/* The kinds' spreads as the choice takes them.  Rule: a spread <= 0 (the correction for
+   the mean's variance exceeded the sum: the kind's own variance is lost below the
+   mean's) is taken as 1e-3 of the other kind's; both <= 0 (or unmeasured): 0, no choice. */
+static int picvr_dauto_spreads(const picvr_dauto *a, double v[2]) {
+    if (a->measured[0] < PICVR_DAUTO_WARM || a->measured[1] < PICVR_DAUTO_WARM) return 0;
+    v[0] = a->spread[0];
+    v[1] = a->spread[1];
+    if (!(v[0] > 0.0) && !(v[1] > 0.0)) return 0;
+    if (!(v[0] > 0.0)) v[0] = 1e-3 * v[1];
+    if (!(v[1] > 0.0)) v[1] = 1e-3 * v[0];
+    return 1;
+}
+
+/* E above; 0 while a kind is unmeasured (or its cost is). */
+static double picvr_dauto_efficiency(const picvr_dauto *a) {
+    double v[2];
+    if (!picvr_dauto_spreads(a, v) || !(a->cost[0] > 0.0) || !(a->cost[1] > 0.0)) return 0.0;
+    double e = a->cost[0] * v[0] / (a->cost[1] * v[1]);
+    return isfinite(e) ? e : 0.0;
+}
+
+/* The ROUND_* flags of a timed round: a probe of the kind not chosen while it has fewer
+   than PICVR_DAUTO_WARM measured rounds or less than its share of the recent device
+   time, else the chosen kind, measured in its first PICVR_DAUTO_WARM rounds and then
+   one round in PICVR_DAUTO_MEASURE_EVERY (the measure's atomics cost device time, and
+   the choice needs no more).  A probe needs the image's means to
+   measure against: it waits for a measured round of the chosen kind. */
+static uint32_t picvr_dauto_flags(const picvr_dauto *a) {
+    int other = !a->forced;
+    double total = a->time_ms[0] + a->time_ms[1];
+    if (a->measured[a->forced] >= 1 &&
+        (a->measured[other] < PICVR_DAUTO_WARM || a->time_ms[other] < PICVR_DAUTO_EXPLORE * total))
+        return PICVR_ROUND_MEASURE | PICVR_ROUND_PROBE | (other ? PICVR_ROUND_FORCED : 0u);
+    int measure = a->measured[a->forced] < PICVR_DAUTO_WARM || a->rounds % PICVR_DAUTO_MEASURE_EVERY == 0;
+    return (measure ? PICVR_ROUND_MEASURE : 0u) | (a->forced ? PICVR_ROUND_FORCED : 0u);
+}
+
+/* After a round of a measuring context (flags): its device time dev_ms over
+   `blocks` (the kind's cost, unless `first`: a variant's first dispatch compiles inside
+   the timestamps); in a measured round `count` samples whose squared deviations and
+   means' variances summed to sum_d and sum_m (2^-16 units); then the choice, which
+   moves only past PICVR_DAUTO_SWITCH either way (a ratio that close to 1 is within the
+   measurement's noise, and either kind is then about as good). */
+static void picvr_dauto_account(picvr_dauto *a, uint32_t flags, double dev_ms, uint32_t blocks, int first,
+                                uint32_t count, uint64_t sum_d, uint64_t sum_m) {
+    if (!a->on) return;
+    int k = (flags & PICVR_ROUND_FORCED) != 0;
+    a->rounds++;
+    if (a->scale_age) a->scale_age++;
+    /* Rule: a variant's first round (its compile, seconds on lavapipe) counts toward
+       neither kind's time nor cost */
+    if (!first) {
+        for (int i = 0; i < 2; i++) a->time_ms[i] *= 1.0 - 1.0 / PICVR_AUTO_WINDOW;
+        a->time_ms[k] += dev_ms;
+        if (blocks > 0) a->cost[k] = picvr_moving_average(a->cost[k], dev_ms / blocks);
+    }
+    if ((flags & PICVR_ROUND_MEASURE) && count > 0) {
+        double v = ((double)sum_d - (double)sum_m) / 65536.0 / count;
+        a->spread[k] = a->measured[k] ? 0.7 * a->spread[k] + 0.3 * v : v;
+        a->measured[k]++;
+    }
+    double e = picvr_dauto_efficiency(a), v[2];
+    int want = !(e > 0.0) ? a->forced : e > PICVR_DAUTO_SWITCH ? 1 : e < 1.0 / PICVR_DAUTO_SWITCH ? 0 : a->forced;
+    if (want != a->forced && picvr_dauto_spreads(a, v)) {
+        a->restart = v[a->forced] > 2.0 * v[want];
+        a->forced = want;
+    }
+}
+
+/* Forgets the measurements (the scene changed: lights, medium, scattering). */
+static void picvr_dauto_forget(picvr_dauto *a) {
+    memset(a, 0, sizeof *a);
 }

@@ -13,9 +13,73 @@ static picvr_status picvr_upload_scene(picvr_context *ctx) {
     return PICVR_OK;
 }
 
+static picvr_status picvr_stats_pass(picvr_context *ctx, float rel_floor, double sums[4], uint64_t counts[4]);
+
 static picvr_status picvr_prepare_render(picvr_context *ctx) {
     picvr_status s = picvr_upload_scene(ctx);   /* first: it checks that the scene is ready */
-    return s ? s : picvr_select_variants(ctx);
+    if (s) return s;
+    /* PICVR_DISTANCE_AUTO measures where the two kinds differ: a light the forced point
+       serves (scene.use_forced) and plain rendering (the cache's rounds use MIS) */
+    picvr_dauto *a = &ctx->sched.dauto;
+    int on = ctx->config.distance_sampling == PICVR_DISTANCE_AUTO && ctx->scene.use_forced && !ctx->cache.on;
+    if (on != a->on) picvr_dauto_forget(a);
+    a->on = on;
+    return picvr_select_variants(ctx);
+}
+
+/* The ROUND_* flags of a round's rendering: the forced kind always with
+   PICVR_DISTANCE_FORCED; with PICVR_DISTANCE_AUTO the chosen kind, measured in timed
+   rounds (picvr_dauto_flags) once the spread's scale is known.  The kernels read the
+   measure and probe flags (variants with USE_MEASURE); the host binds the forced
+   kind's variant (picvr_current_slot). */
+static uint32_t picvr_round_flags(const picvr_context *ctx, int timed) {
+    const picvr_dauto *a = &ctx->sched.dauto;
+    if (ctx->config.distance_sampling == PICVR_DISTANCE_FORCED) return PICVR_ROUND_FORCED;
+    if (!a->on) return 0u;
+    if (!timed || a->scale_age == 0) return a->forced ? PICVR_ROUND_FORCED : 0u;
+    return picvr_dauto_flags(a);
+}
+
+/* PICVR_DISTANCE_AUTO before a timed round: the image cleared when a switch asked for
+   it (picvr_dauto_account; the measurements, the scale and the elapsed time are kept),
+   and the spread's scale, 1 / the image's mean luminance, measured once the image has
+   samples and again every PICVR_DAUTO_SCALE_ROUNDS rounds. */
+static picvr_status picvr_dauto_prepare_round(picvr_context *ctx) {
+    picvr_dauto *a = &ctx->sched.dauto;
+    if (!a->on) return PICVR_OK;
+    picvr_status s = PICVR_OK;
+    if (ctx->image.has_samples && (a->scale_age == 0 || a->scale_age > PICVR_DAUTO_SCALE_ROUNDS)) {
+        double sums[4];
+        uint64_t counts[4];
+        if ((s = picvr_stats_pass(ctx, 0.0f, sums, counts))) return s;
+        double pixels = (double)ctx->scene.camera.width * ctx->scene.camera.height;
+        double scale = pixels > 0.0 && sums[0] > 0.0 ? pixels / sums[0] : 0.0;
+        /* Rule: a black image so far (mean 0) or a scale beyond float gives 0: nothing is
+           measured, and the scale is measured again within 8 rounds */
+        a->scale = isfinite(scale) && scale < 1e30 ? (float)scale : 0.0f;
+        a->scale_age = a->scale > 0.0f ? 1u : PICVR_DAUTO_SCALE_ROUNDS - 6u;
+        /* Rule: MIS's image still black after its first rounds has gathered no light yet
+           (a medium so thin that delta tracking has not collided), and nothing can be
+           measured against it; the forced point gathers on every ray through the medium,
+           so it renders from a cleared image (the black one is all noise: the rule of a
+           switch), and the scale is measured again at the next round.  The forced kind's
+           image black too: the scene is dark, and it stays as it is. */
+        if (a->scale == 0.0f && !a->forced && a->rounds >= PICVR_DAUTO_WARM) {
+            a->forced = 1;
+            a->restart = 1;
+            a->scale_age = 0;
+        }
+    }
+    if (a->restart) {
+        picvr_dauto keep = *a;
+        double elapsed = ctx->image.elapsed_ms;
+        s = picvr_clear_accumulation(ctx);
+        *a = keep;
+        a->restart = 0;
+        ctx->image.elapsed_ms = elapsed;
+        if (s) return s;
+    }
+    return PICVR_OK;
 }
 
 picvr_status picvr_prepare(picvr_context *ctx) {
@@ -67,8 +131,12 @@ static picvr_round_plan picvr_plan_timed_round(picvr_context *ctx, double round_
     if (plain) in.cache_on = 0;
     picvr_round_plan p = picvr_sched_plan(&ctx->sched, round_ms, &in);
     p.plain = plain;
+    p.render_flags = picvr_round_flags(ctx, 1);
     uint32_t rest = picvr_first_pass_left(ctx);
     if (rest > 0) {
+        /* the first pass is the image's: a probe would leave its blocks unsampled */
+        if (p.render_flags & PICVR_ROUND_PROBE)
+            p.render_flags = PICVR_ROUND_MEASURE | (ctx->sched.dauto.forced ? PICVR_ROUND_FORCED : 0u);
         p.whole_passes = 1;
         if (whole_first_pass ? p.render_blocks < rest : p.render_blocks > rest) p.render_blocks = rest;
         if (p.render_blocks == 0) p.render_blocks = 1;
@@ -84,9 +152,11 @@ static picvr_status picvr_step_time(picvr_context *ctx, double budget_ms) {
     ctx->cache.requests_issued = 0;
     double start = picvr_clock_ms(), round_ms = 1000.0 / ctx->sched.cfg.rounds_per_second;
     do {
+        if ((s = picvr_dauto_prepare_round(ctx))) return s;
         double left = budget_ms - (picvr_clock_ms() - start);
         picvr_round_plan p = picvr_plan_timed_round(ctx, left < round_ms ? left : round_ms, 0);
         if (!p.plain && (s = picvr_ready_cached(ctx))) return s;
+        if ((p.render_flags & PICVR_ROUND_FORCED) && (s = picvr_ready_forced(ctx))) return s;
         if ((s = picvr_run_round(ctx, &p))) return s;
         /* Rule: a remainder under a tenth of a round is not worth a round's fixed costs. */
     } while (budget_ms - (picvr_clock_ms() - start) > 0.1 * round_ms || picvr_first_pass_left(ctx) > 0);
@@ -116,6 +186,8 @@ static picvr_status picvr_step_passes(picvr_context *ctx, uint32_t passes) {
         picvr_round_plan p;
         memset(&p, 0, sizeof p);
         p.whole_passes = 1;
+        p.render_flags = picvr_round_flags(ctx, 0);
+        if ((p.render_flags & PICVR_ROUND_FORCED) && (s = picvr_ready_forced(ctx))) return s;
         uint32_t k = 1;
         if (picvr_cache_serves(ctx)) {
             p.create_budget = UINT32_MAX;
@@ -157,8 +229,10 @@ picvr_status picvr_step_begin(picvr_context *ctx, double milliseconds) {
     picvr_status s = picvr_check_budget(ctx, milliseconds);
     if (s || (s = picvr_prepare_render(ctx))) return s;
     ctx->cache.requests_issued = 0;
+    if ((s = picvr_dauto_prepare_round(ctx))) return s;
     picvr_round_plan p = picvr_plan_timed_round(ctx, milliseconds, 1);
     if (!p.plain && (s = picvr_ready_cached(ctx))) return s;
+    if ((p.render_flags & PICVR_ROUND_FORCED) && (s = picvr_ready_forced(ctx))) return s;
     if ((s = picvr_submit_round(ctx, &p))) return s;
     ctx->pending.active = 1;
     return PICVR_OK;

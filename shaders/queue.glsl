@@ -5,7 +5,10 @@
 // individual work items.
 layout(set = 0, binding = 15, std430) buffer RenderQueue {
     uvec4 dispatch;    // xyz: indirect dispatch of the rendering procedure; w: blocks queued
-    uvec4 totals;      // x: blocks queued since the host last read (and zeroed) it
+    uvec4 totals;      // x: blocks queued since the host last read (and zeroed) it; y, z:
+                       // scatter events (64 bits, count_events); w: samples measured
+    uvec4 spread;      // PICVR_DISTANCE_AUTO (render.glsl, measure_spread): x, y the sum of
+                       // squared deviations, z, w the sum of the means' variances (64 bits)
     uvec4 blocks[];    // [i].x: the i-th queued block; for block b: [b].y its credit and
                        // [b].z its priority (float bits; PRIORITY_FORCE: has unsampled pixels)
 } render_queue;

@@ -60,12 +60,56 @@ layout(set = 0, binding = 17, std430) buffer LookupQueue { uvec4 head; uint ev[]
 
 // round: the scheduler's round (keys the screen-space locking counters); request_cap:
 // creation requests this round may issue (the creation budget of the next round).
-layout(push_constant) uniform Push { uint round; uint seed; uint request_cap; uint pad; } pc;
+// flags: ROUND_* below; spread_scale: 1 / the image's mean luminance (ROUND_MEASURE).
+layout(push_constant) uniform Push { uint round; uint seed; uint request_cap; uint flags; float spread_scale; } pc;
+
+// PICVR_DISTANCE_AUTO (variants with USE_MEASURE; host/schedule.c, picvr_dauto_flags):
+// the round adds the spread of its samples to render_queue.spread (measure_spread), of
+// every pixel in a probe and of one pixel in MEASURE_STRIDE otherwise (the atomics of
+// every sample cost the round several per cent on lavapipe).
+#define ROUND_MEASURE 2u
+// A probe: the round measures its samples and adds none to the image (the kind that is
+// not rendering, measured against the image's means).
+#define ROUND_PROBE 4u
+#define MEASURE_STRIDE 8u
 
 // Kahan-compensated running mean (precise: no reassociation by the compiler), so
 // that after millions of samples an update of relative size 1e-7 is not lost.
+// Adds w units to the 64-bit sum in (lo, hi) of render_queue.spread (the high word takes
+// the carry).
+#define ADD64(LO, HI, w) { uint w_ = (w); uint old_ = atomicAdd(render_queue.spread.LO, w_); \
+                           if (old_ + w_ < old_) atomicAdd(render_queue.spread.HI, 1u); }
+
+// PICVR_DISTANCE_AUTO's measure of a sample's variance (host/schedule.c, picvr_dauto_account):
+// with m the pixel's running mean of n >= 2 samples and S^2 = M2 / (n - 1), the sample's
+// squared deviation d^2 = (lum - m)^2 has expectation v + Var(m) (the sample is
+// independent of the earlier ones, and m is unbiased whichever kind made it), and S^2 / n
+// is an unbiased estimate of Var(m).  Both are scaled by the image's mean luminance (a
+// pixel's own running mean, near 0 while a thin medium's rare events are unseen, made
+// the ratios explode).  Their sums, in units of 2^-16 (rounded to the nearest), and the
+// count of samples go to render_queue.spread and totals.w; the host takes
+// v = (sum d^2 - sum S^2/n) / count.  Rules: n < 2 (no mean to measure against, or no
+// S^2) or a scale that is not > 0 -> not counted; each term is clamped to 2^16 (a firefly
+// 256 times the image's mean counts as a large sample and never overflows a sum: fewer
+// than 2^32 units per term).
+void measure_spread(vec4 s, float lum) {
+    uint n = floatBitsToUint(s.z);
+    float scale = pc.spread_scale;
+    if (n < 2u || !(scale > 0.0)) return;
+    float d = (lum - s.x) * scale;
+    float var_mean = max(s.y, 0.0) / (float(n - 1u) * float(n)) * (scale * scale);
+    ADD64(x, y, uint(min(d * d, 65535.0) * 65536.0 + 0.5))
+    ADD64(z, w, uint(min(var_mean, 65535.0) * 65536.0 + 0.5))
+    atomicAdd(render_queue.totals.w, 1u);
+}
+
 void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
     vec4 s = accum_stat[idx];
+    if (USE_MEASURE && (pc.flags & ROUND_MEASURE) != 0u) {
+        bool probe = (pc.flags & ROUND_PROBE) != 0u;
+        if (probe || idx % MEASURE_STRIDE == pc.round % MEASURE_STRIDE) measure_spread(s, luminance(radiance));
+        if (probe) return;
+    }
     uint n = floatBitsToUint(s.z) + 1u;
     precise vec4 m = accum_mean[idx];
     precise vec4 c = accum_comp[idx];
@@ -90,7 +134,7 @@ void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
 // pixel's samples that scattered (the depth that host/reproject.c moves it by).
 // Rule: t < 0 (the ray passed) and non-finite t leave the mean alone.
 void accumulate_depth(uint idx, float t) {
-    if (!USE_REUSE || !(t >= 0.0) || isinf(t)) return;
+    if (!USE_REUSE || !(t >= 0.0) || isinf(t) || (USE_MEASURE && (pc.flags & ROUND_PROBE) != 0u)) return;
     vec2 d = accum_depth[idx];
     uint n = floatBitsToUint(d.y) + 1u;
     accum_depth[idx] = vec2(d.x + (t - d.x) / float(n), uintBitsToFloat(n));
@@ -181,7 +225,7 @@ vec3 event_radiance(inout ScatterEvent e, out vec3 direct, out uint events) {
 // Adds a path's scatter events to the counters of picvr_stats.mean_path_length: a 64-bit
 // sum in two words (the high word takes the carry).
 void count_events(uint n) {
-    if (n == 0u) return;
+    if (n == 0u || (USE_MEASURE && (pc.flags & ROUND_PROBE) != 0u)) return;
     uint old = atomicAdd(render_queue.totals.y, n);
     if (old + n < old) atomicAdd(render_queue.totals.z, 1u);
 }

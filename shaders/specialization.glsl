@@ -95,4 +95,8 @@ layout(constant_id = 17) const uint LOOKUP_EVENT = 1u;
 // beside it would bring back the noise the cache removes.
 layout(constant_id = 18) const bool USE_FORCED = false;
 
+// PICVR_DISTANCE_AUTO's measure of each kind's variance (render.glsl, measure_spread): in
+// both of its rendering variants (the forced point's and the one without), nowhere else.
+layout(constant_id = 19) const bool USE_MEASURE = false;
+
 #endif

@@ -37,21 +37,39 @@ static double now_s(void) {
 }
 
 /* Renders n iterations, reads, checks finiteness/ranges/stats/time; returns the image. */
-static float *sweep_render(picvr_context *ctx, uint32_t w, uint32_t h, uint32_t n,
-                           const char *what) {
+/* Renders n passes, by picvr_step_iterations or, timed, by picvr_step until every pixel
+   has n samples and a second has passed (PICVR_DISTANCE_AUTO measures in timed rounds
+   only, and chooses after its first few). */
+static float *sweep_render_ex(picvr_context *ctx, uint32_t w, uint32_t h, uint32_t n, const char *what, int timed) {
     double t0 = now_s();
-    TU_OK(picvr_step_iterations(ctx, n));
+    picvr_stats st;
+    if (timed) {
+        do {
+            TU_OK(picvr_step(ctx, 100.0));
+            st = tu_stats_finite(ctx);
+        } while ((st.iterations_min < n || st.elapsed_ms < 1000.0) && now_s() - t0 < CASE_MAX_S);
+    } else {
+        TU_OK(picvr_step_iterations(ctx, n));
+    }
     float *img = tu_read(ctx, w, h);
-    picvr_stats st = tu_stats_finite(ctx);
+    st = tu_stats_finite(ctx);
     double dt = now_s() - t0;
     tu_assert_image_valid(img, w, h, what);
-    if (st.iterations != n) fail_msg("%s: %u iterations, expected %u", what, st.iterations, n);
+    if (timed ? st.iterations_min < n : st.iterations != n)
+        fail_msg("%s: %u iterations, expected %u", what, timed ? st.iterations_min : st.iterations, n);
     if (st.width != w || st.height != h) fail_msg("%s: stats size %ux%u", what, st.width, st.height);
     if (dt > CASE_MAX_S) fail_msg("%s: took %.1f s (bound %.0f s)", what, dt, CASE_MAX_S);
     print_message("    %-52s %6.2f s  mean L %-10.4g trunc %llu%s\n", what, dt, st.mean_luminance,
                   (unsigned long long)st.truncated_paths,
                   st.cache_entries ? " (cache)" : "");
+    if (!isfinite(st.forced_share) || !isfinite(st.forced_efficiency) || st.forced_share < 0.0 ||
+        st.forced_share > 1.0 || st.forced_efficiency < 0.0)
+        fail_msg("%s: forced share %g, efficiency %g", what, st.forced_share, st.forced_efficiency);
     return img;
+}
+
+static float *sweep_render(picvr_context *ctx, uint32_t w, uint32_t h, uint32_t n, const char *what) {
+    return sweep_render_ex(ctx, w, h, n, what, 0);
 }
 
 /* Checks RGB (bound M[c]) and alpha (bound 1) image means against expv. */
@@ -879,7 +897,7 @@ static void point_sweep(const point_sweep_case *cases, size_t n, picvr_distance_
         TU_OK(picvr_set_lights(ctx, &l, 1, NULL));
         tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 36, W, H);
         double *expv = tu_expected_image(&cam, 4, tu_point_light_ray, &s);
-        float *img = sweep_render(ctx, W, H, N, c->name);
+        float *img = sweep_render_ex(ctx, W, H, N, c->name, ds == PICVR_DISTANCE_AUTO);
         char label[160];
         snprintf(label, sizeof label, "point light, %s", c->name);
         *ok &= tu_check_mean(label, img, expv, W, 1, 0, 0, W, H, N, 0, 5.0, c->sys_rel);
@@ -925,6 +943,23 @@ void test_sweep_forced_extremes(void **state) {
     int ok = 1;
     point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_FORCED, 80, &ok);
     if (!ok) fail_msg("the forced point at an extreme differs from the closed form");
+}
+
+/* PICVR_DISTANCE_AUTO at the extremes of its measure (render.glsl, measure_spread: the
+   spread scaled by the image's mean, clamped per sample): a thin cube (optical depth
+   1e-6, the image nearly black, scale about 10^6) and a dense one (1e5) under a light
+   1e6 away of intensity 4e13, rendered through picvr_step (the rounds that measure and
+   probe), against the closed form with the tolerances above; the stats' forced share
+   and efficiency finite (sweep_render_ex). */
+void test_sweep_auto_extremes(void **state) {
+    (void)state;
+    static const point_sweep_case cases[] = {
+        {"auto, tau 1e-6, light 1e6 away", 1e-6, {0.0, 1e6, 0.0}, 4e13, 3e-3},
+        {"auto, tau 1e5, light 1e6 away", 1e5, {0.0, 1e6, 0.0}, 4e13, 3e-3},
+    };
+    int ok = 1;
+    point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_AUTO, 90, &ok);
+    if (!ok) fail_msg("PICVR_DISTANCE_AUTO at an extreme differs from the closed form");
 }
 
 /* ---- multiple scattering, the phase function, environment maps ---------------------------- */

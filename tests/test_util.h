@@ -58,6 +58,7 @@
     X(test_sampling_point_light_inside_closed_form)                 \
     X(test_sampling_point_light_forced_closed_form)                 \
     X(test_sampling_sun_forced_closed_form)                         \
+    X(test_sampling_auto_closed_form_and_choice)                    \
     X(test_sampling_residual_transmittance_heterogeneous)           \
     /* test_cache_math.c */                                         \
     X(test_cache_math_exponential_field)                            \
@@ -197,6 +198,7 @@
     /* test_robust_sweep.c (issue 6) */                             \
     X(test_sweep_point_light_extremes)                              \
     X(test_sweep_forced_extremes)                                   \
+    X(test_sweep_auto_extremes)                                     \
     X(test_sweep_path_extremes)                                     \
     X(test_sweep_optical_thickness_beer_lambert)                    \
     X(test_sweep_optical_thickness_sun)                             \
