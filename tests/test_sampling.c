@@ -487,6 +487,22 @@ void test_sampling_point_light_forced_closed_form(void **state) {
     if (!ok) fail_msg("single scattering under a point light with the forced point differs from the closed form");
 }
 
+#define SUN_W 32u
+#define SUN_H 32u
+
+/* The sun cases' scene in a context of cfg: a homogeneous 16^3 cube of optical depth
+   tau_across, albedo 0.8, under a delta sun, a 32x32 camera; *expv its expected image
+   (tu_sun_ray, 4x4 jitter sub-samples). */
+static picvr_context *sun_cube_context(const picvr_config *cfg, double tau_across, double **expv) {
+    picvr_context *ctx = tu_create_config(cfg);
+    tu_sun_scene s;
+    const double l[3] = {0.3, 1.0, 0.5};
+    tu_sun_cube(ctx, 16, (float)(tau_across / 16.0), 0.8f, l, 3.0f, 0.0f, &s);
+    tu_cam cam = tu_set_camera(ctx, 4, -3, 30, 0, 0, 0, 36, SUN_W, SUN_H);
+    *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+    return ctx;
+}
+
 /* A thin cube under a delta sun, rendered with distance sampler ds: its image (G) and
    alpha against single scattering's closed form (tu_sun_ray) at z = 5 with the 8x8-block
    SE and sys_rel 3e-3 (the 4x4 jitter quadrature, as for the point light); *ok cleared on
@@ -496,13 +512,9 @@ static double sun_case(const char *name, picvr_distance_sampling ds, double tau_
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
     cfg.distance_sampling = ds;
-    picvr_context *ctx = tu_create_config(&cfg);
-    tu_sun_scene s;
-    const double l[3] = {0.3, 1.0, 0.5};
-    tu_sun_cube(ctx, 16, (float)(tau_across / 16.0), 0.8f, l, 3.0f, 0.0f, &s);
-    const uint32_t W = 32, H = 32, N = 64;
-    tu_cam cam = tu_set_camera(ctx, 4, -3, 30, 0, 0, 0, 36, W, H);
-    double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+    double *expv;
+    picvr_context *ctx = sun_cube_context(&cfg, tau_across, &expv);
+    const uint32_t W = SUN_W, H = SUN_H, N = 64;
     TU_OK(picvr_step_iterations(ctx, N));
     float *img = tu_read(ctx, W, H);
     tu_assert_image_valid(img, W, H, name);
@@ -556,13 +568,9 @@ static picvr_stats auto_sun_case(const char *name, double tau_across, double min
     cfg.seed = seed;
     cfg.distance_sampling = PICVR_DISTANCE_AUTO;
     cfg.scheduler.priorities = PICVR_SWITCH_OFF;   /* round-robin: pixels within a sample of each other */
-    picvr_context *ctx = tu_create_config(&cfg);
-    tu_sun_scene s;
-    const double l[3] = {0.3, 1.0, 0.5};
-    tu_sun_cube(ctx, 16, (float)(tau_across / 16.0), 0.8f, l, 3.0f, 0.0f, &s);
-    const uint32_t W = 32, H = 32, N = 64;
-    tu_cam cam = tu_set_camera(ctx, 4, -3, 30, 0, 0, 0, 36, W, H);
-    double *expv = tu_expected_image(&cam, 4, tu_sun_ray, &s);
+    double *expv;
+    picvr_context *ctx = sun_cube_context(&cfg, tau_across, &expv);
+    const uint32_t W = SUN_W, H = SUN_H, N = 64;
     picvr_stats st;
     do {
         TU_OK(picvr_step(ctx, 100.0));
