@@ -14,9 +14,9 @@
  *   - in exactly one C or C++ file:  #define PICVR_IMPLEMENTATION
  *                                    #include "picvr.h"
  *   - or compile picvr_vk.c on its own (cc -c picvr_vk.c) and link it.
- * Link with -lvulkan -lm.  It compiles as C99, C11 or C++17 with gcc or clang, with no
- * warning under -Wall -Wextra -Wpedantic -Wshadow and no feature macro of the
- * application's.  No global state: everything lives in a picvr_context.  Every
+ * Link with -lvulkan -lm (and -pthread where the C library keeps threads apart).  It
+ * compiles as C99, C11 or C++17 with gcc or clang, with no warning under -Wall -Wextra
+ * -Wpedantic -Wshadow and no feature macro of the application's.  No global state: everything lives in a picvr_context.  Every
  * function returns a picvr_status; picvr_status_string() names it.  A config struct
  * means "the documented default" when zeroed: `= {0}` in C (and C++; there `= {}` also
  * keeps -Wextra quiet).
@@ -366,6 +366,11 @@ typedef struct picvr_config {
     picvr_scheduler_config scheduler; /* zero: defaults (see above) */
     picvr_distance_sampling distance_sampling; /* DEFAULT: MIS */
     picvr_transmittance_estimator transmittance; /* DEFAULT: RESIDUAL */
+    uint32_t compile_threads; /* threads that may make pipelines at once (a drawing's
+                                 first step, a scene change that needs a new variant):
+                                 the calling thread and short-lived helpers, joined
+                                 before the call returns.  0: the processors online;
+                                 1: the calling thread only; at most 16 are used */
 } picvr_config;
 
 typedef struct picvr_context picvr_context;

@@ -88,6 +88,7 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     if (!cfg.log_level) ctx->config.log_level = PICVR_LOG_WARNING;
     if (!cfg.distance_sampling) ctx->config.distance_sampling = PICVR_DISTANCE_MIS;
     if (!cfg.transmittance) ctx->config.transmittance = PICVR_TRANSMITTANCE_RESIDUAL;
+    ctx->config.compile_threads = picvr_resolve_compile_threads(cfg.compile_threads);
     picvr_status s = picvr_resolve_cache_config(&cfg.cache, &ctx->cache.cfg);
     if (!s) s = picvr_resolve_scheduler_config(&cfg.scheduler, &ctx->sched.cfg);
     ctx->cache.on = ctx->cache.cfg.mode != PICVR_CACHE_NONE;

@@ -24,6 +24,15 @@
 #include <sys/time.h>
 #include <unistd.h>
 #endif
+/* Pipelines are made on several threads where POSIX threads exist (host/pipelines.c);
+   elsewhere on the calling thread alone. */
+#if defined(_POSIX_THREADS) && _POSIX_THREADS > 0
+#include <pthread.h>
+#define PICVR_THREADS 1
+#else
+#define PICVR_THREADS 0
+#endif
+#define PICVR_MAX_COMPILE_THREADS 16u
 
 #define PICVR_FINE_THRESHOLD 64.0          /* expected steps per brick above which the shader
                                       tracks at voxel level (shaders: FINE_THRESHOLD) */

@@ -13,18 +13,109 @@ static picvr_status picvr_create_shader(picvr_context *ctx, const uint32_t *code
     return PICVR_OK;
 }
 
-static picvr_status picvr_create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPipelineLayout layout,
-                                    const VkSpecializationInfo *spec, VkPipeline *out) {
+/* ---- pipelines made in parallel ------------------------------------------------
+   A variant's kernels, and the variants one step needs, are independent
+   vkCreateComputePipelines calls.  A driver compiles each on the thread that calls it
+   (lavapipe for seconds per large kernel, even with its shader cache warm), and Vulkan
+   lets any thread call it (only a VkPipelineCache would need the calls kept apart, and
+   picvr passes none).  So a batch runs on the calling thread and up to
+   config.compile_threads - 1 short-lived helpers, each taking the next job; all are
+   joined before picvr_make_pipelines returns, and a helper that cannot start leaves its
+   jobs to the others.  Helpers touch nothing but their jobs: the log and the context
+   see the results on the calling thread. */
+typedef struct picvr_pipeline_job {
     VkComputePipelineCreateInfo ci;
-    PICVR_VK_INIT(ci, VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-    ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = mod;
-    ci.stage.pName = "main";
-    ci.stage.pSpecializationInfo = spec;
-    ci.layout = layout;
-    PICVR_VK_TRY(ctx, vkCreateComputePipelines(ctx->vk.device, VK_NULL_HANDLE, 1, &ci, NULL, out));
-    return PICVR_OK;
+    VkPipeline pipe;
+    VkResult result;
+} picvr_pipeline_job;
+
+typedef struct picvr_pipeline_batch {
+    VkDevice device;
+    picvr_pipeline_job *job;
+    uint32_t n, next;
+#if PICVR_THREADS
+    pthread_mutex_t lock;
+#endif
+} picvr_pipeline_batch;
+
+static void *picvr_pipeline_worker(void *arg) {
+    picvr_pipeline_batch *b = (picvr_pipeline_batch *)arg;
+    for (;;) {
+#if PICVR_THREADS
+        pthread_mutex_lock(&b->lock);
+#endif
+        uint32_t i = b->next < b->n ? b->next++ : b->n;
+#if PICVR_THREADS
+        pthread_mutex_unlock(&b->lock);
+#endif
+        if (i >= b->n) return NULL;
+        picvr_pipeline_job *j = &b->job[i];
+        j->result = vkCreateComputePipelines(b->device, VK_NULL_HANDLE, 1, &j->ci, NULL, &j->pipe);
+        if (j->result != VK_SUCCESS) j->pipe = VK_NULL_HANDLE;
+    }
+}
+
+/* config.compile_threads as the context runs with it: 0 means the processors online
+   (1 where the system does not say); at most PICVR_MAX_COMPILE_THREADS. */
+static uint32_t picvr_resolve_compile_threads(uint32_t given) {
+    long n = (long)(given < PICVR_MAX_COMPILE_THREADS ? given : PICVR_MAX_COMPILE_THREADS);
+#if defined(_SC_NPROCESSORS_ONLN)
+    if (n <= 0) n = sysconf(_SC_NPROCESSORS_ONLN);
+#endif
+    return n < 1 ? 1u : n > (long)PICVR_MAX_COMPILE_THREADS ? PICVR_MAX_COMPILE_THREADS : (uint32_t)n;
+}
+
+/* Makes job[0..n) (each job's ci filled in).  On a failure the first failing job's
+   status is returned (logged here) and no pipeline of the batch is left. */
+static picvr_status picvr_make_pipelines(picvr_context *ctx, picvr_pipeline_job *job, uint32_t n) {
+    picvr_pipeline_batch b;
+    memset(&b, 0, sizeof b);
+    b.device = ctx->vk.device;
+    b.job = job;
+    b.n = n;
+    for (uint32_t i = 0; i < n; i++) job[i].pipe = VK_NULL_HANDLE;
+#if PICVR_THREADS
+    uint32_t helpers = ctx->config.compile_threads;
+    helpers = n < helpers ? n : helpers;
+    helpers = helpers ? helpers - 1u : 0u;
+    if (helpers && pthread_mutex_init(&b.lock, NULL) != 0) helpers = 0;
+    pthread_t thread[PICVR_MAX_COMPILE_THREADS];
+    uint32_t started = 0;
+    while (started < helpers && pthread_create(&thread[started], NULL, picvr_pipeline_worker, &b) == 0) started++;
+    picvr_pipeline_worker(&b);
+    for (uint32_t i = 0; i < started; i++) pthread_join(thread[i], NULL);
+    if (helpers) pthread_mutex_destroy(&b.lock);
+#else
+    picvr_pipeline_worker(&b);
+#endif
+    picvr_status s = PICVR_OK;
+    for (uint32_t i = 0; i < n && !s; i++) s = picvr_vk_status(ctx, job[i].result, "vkCreateComputePipelines");
+    if (s)
+        for (uint32_t i = 0; i < n; i++)
+            if (job[i].pipe) { vkDestroyPipeline(ctx->vk.device, job[i].pipe, NULL); job[i].pipe = VK_NULL_HANDLE; }
+    return s;
+}
+
+static void picvr_pipeline_job_init(picvr_pipeline_job *j, VkShaderModule mod, VkPipelineLayout layout,
+                                    const VkSpecializationInfo *spec) {
+    memset(j, 0, sizeof *j);
+    PICVR_VK_INIT(j->ci, VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+    j->ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    j->ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    j->ci.stage.module = mod;
+    j->ci.stage.pName = "main";
+    j->ci.stage.pSpecializationInfo = spec;
+    j->ci.layout = layout;
+}
+
+/* One pipeline, on the calling thread. */
+static picvr_status picvr_create_pipeline(picvr_context *ctx, VkShaderModule mod, VkPipelineLayout layout,
+                                          const VkSpecializationInfo *spec, VkPipeline *out) {
+    picvr_pipeline_job job;
+    picvr_pipeline_job_init(&job, mod, layout, spec);
+    picvr_status s = picvr_make_pipelines(ctx, &job, 1);
+    *out = job.pipe;
+    return s;
 }
 
 /* The bindings only cached contexts write: 9-14, 17, 21 and 22. */
@@ -102,14 +193,24 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain,
            (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
 }
 
-/* The kernels of procedure proc's variant for key (out[KERNELS], VK_NULL_HANDLE where
-   the procedure has no such kernel; on a failure none is left).  One set of constants
-   for all kernels (a kernel ignores those it lacks), each at its PICVR_SPEC_ id
-   (shaders/specialization.glsl): from the key, or fixed per context (the creation
-   procedure's rounds and sample steps, SCREEN_LOCKING, CACHE_MAX_LOOKUP_REFS,
-   CACHE_BLEND); with LOOKUP_EVENT > 1 the shading kernel is render_shade_cache.comp. */
-static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t key, VkPipeline *out) {
-    VkShaderModule mod[PICVR_KERNELS] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
+/* One variant to make: its kernels' modules and its specialization constants, which
+   the batch's create infos point at (so it stays put until the batch is made). */
+typedef struct picvr_variant_build {
+    uint32_t value[PICVR_SPEC_CONSTANTS];
+    VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
+    VkSpecializationInfo spec;
+    VkShaderModule mod[PICVR_KERNELS];
+} picvr_variant_build;
+
+/* The kernels of procedure proc's variant for key (VK_NULL_HANDLE modules where the
+   procedure has no such kernel).  One set of constants for all kernels (a kernel
+   ignores those it lacks), each at its PICVR_SPEC_ id (shaders/specialization.glsl):
+   from the key, or fixed per context (the creation procedure's rounds and sample
+   steps, SCREEN_LOCKING, CACHE_MAX_LOOKUP_REFS, CACHE_BLEND); with LOOKUP_EVENT > 1 the
+   shading kernel is render_shade_cache.comp. */
+static void picvr_build_variant(const picvr_context *ctx, int proc, uint32_t key, picvr_variant_build *v) {
+    VkShaderModule *mod = v->mod;
+    for (int k = 0; k < PICVR_KERNELS; k++) mod[k] = VK_NULL_HANDLE;
     if (proc == PICVR_PROC_CREATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.create_module;
     else if (proc == PICVR_PROC_UPDATE) mod[PICVR_KERNEL_MAIN] = ctx->pipes.update_module;
     else {
@@ -119,7 +220,7 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
         mod[PICVR_KERNEL_SHADE] = later ? ctx->pipes.shade_cache_module : ctx->pipes.shade_module;
         if (ctx->cache.on && !plain) mod[PICVR_KERNEL_LOOKUP] = ctx->pipes.lookup_module;
     }
-    uint32_t value[PICVR_SPEC_CONSTANTS];
+    uint32_t *value = v->value;
     value[PICVR_SPEC_USE_PHASE_MIS] = (key & PICVR_KEY_PHASE_MIS) != 0;
     value[PICVR_SPEC_USE_FINE] = (key & PICVR_KEY_FINE) != 0;
     value[PICVR_SPEC_CREATE_MAX_ROUNDS] = picvr_create_rounds(ctx);
@@ -141,50 +242,92 @@ static picvr_status picvr_create_variant(picvr_context *ctx, int proc, uint32_t 
     value[PICVR_SPEC_LOOKUP_EVENT] = ((key >> PICVR_KEY_LOOKUP_SHIFT) & 7u) + 1u;
     value[PICVR_SPEC_USE_FORCED] = (key & PICVR_KEY_FORCED) != 0;
     value[PICVR_SPEC_USE_MEASURE] = (key & PICVR_KEY_MEASURE) != 0;
-    VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
-        entry[i].constantID = i;
-        entry[i].offset = 4 * i;
-        entry[i].size = 4;
+        v->entry[i].constantID = i;
+        v->entry[i].offset = 4 * i;
+        v->entry[i].size = 4;
     }
-    VkSpecializationInfo spec = {PICVR_SPEC_CONSTANTS, entry, sizeof value, value};
-    picvr_status s = PICVR_OK;
-    for (int k = 0; k < PICVR_KERNELS; k++) {
-        out[k] = VK_NULL_HANDLE;
-        if (!s && mod[k]) s = picvr_create_pipeline(ctx, mod[k], ctx->pipes.layout, &spec, &out[k]);
-    }
-    if (s)
-        for (int k = 0; k < PICVR_KERNELS; k++)
-            if (out[k]) { vkDestroyPipeline(ctx->vk.device, out[k], NULL); out[k] = VK_NULL_HANDLE; }
-    return s;
+    v->spec.mapEntryCount = PICVR_SPEC_CONSTANTS;
+    v->spec.pMapEntries = v->entry;
+    v->spec.dataSize = sizeof v->value;
+    v->spec.pData = v->value;
 }
 
-/* Chooses this step's variant of procedure proc (ctx->now_slot), making it if no slot
-   holds its key, in a free slot or in place of the least recently used one.  Rounds
-   wait for their fence, so between steps no pipeline is in use.  On a failure the
-   slots are as before. */
-static picvr_status picvr_select_variant(picvr_context *ctx, int proc, int plain, int forced_kind) {
-    uint32_t key = picvr_variant_key(ctx, proc, plain, forced_kind), pick = 0;
-    picvr_variant_slot *t = ctx->pipes.variants[proc];
+/* A variant one step renders with: procedure proc, PICVR_CACHE_AUTO's plain kind,
+   PICVR_DISTANCE_AUTO's forced kind. */
+typedef struct picvr_variant_want {
+    int proc, plain, forced_kind;
+} picvr_variant_want;
+
+#define PICVR_MAX_WANTS 4u
+
+static picvr_variant_want picvr_want(int proc, int plain, int forced_kind) {
+    picvr_variant_want w;
+    w.proc = proc;
+    w.plain = plain;
+    w.forced_kind = forced_kind;
+    return w;
+}
+
+static int picvr_find_variant(const picvr_context *ctx, int proc, uint32_t key) {
+    const picvr_variant_slot *t = ctx->pipes.variants[proc];
     for (uint32_t i = 0; i < PICVR_VARIANT_SLOTS; i++)
-        if (t[i].pipe[PICVR_KERNEL_MAIN] && t[i].key == key) {
-            t[i].used = ctx->pipes.variant_clock;
-            ctx->pipes.current_slot[proc] = i;
-            return PICVR_OK;
+        if (t[i].pipe[PICVR_KERNEL_MAIN] && t[i].key == key) return (int)i;
+    return -1;
+}
+
+/* Chooses the variants want[0..n) (slot[i]: want i's slot; ctx->now_slot of each
+   procedure: its last want), making those no slot holds, in one parallel batch, each in
+   a free slot or in place of the least recently used one.  Rounds wait for their fence,
+   so between steps no pipeline is in use.  On a failure the slots are as before. */
+static picvr_status picvr_select_batch(picvr_context *ctx, const picvr_variant_want *want, uint32_t n,
+                                       uint32_t *slot) {
+    uint32_t key[PICVR_MAX_WANTS];
+    int found[PICVR_MAX_WANTS], first[PICVR_MAX_WANTS];   /* first: the earlier want of the same variant */
+    picvr_variant_build build[PICVR_MAX_WANTS];
+    picvr_pipeline_job job[PICVR_MAX_WANTS * PICVR_KERNELS];
+    int job_of[PICVR_MAX_WANTS][PICVR_KERNELS];
+    uint32_t jobs = 0;
+    for (uint32_t w = 0; w < n; w++) {
+        key[w] = picvr_variant_key(ctx, want[w].proc, want[w].plain, want[w].forced_kind);
+        found[w] = picvr_find_variant(ctx, want[w].proc, key[w]);
+        first[w] = -1;
+        for (uint32_t e = 0; e < w; e++)
+            if (want[e].proc == want[w].proc && key[e] == key[w]) { first[w] = (int)e; break; }
+        if (found[w] >= 0 || first[w] >= 0) continue;
+        picvr_build_variant(ctx, want[w].proc, key[w], &build[w]);
+        for (int k = 0; k < PICVR_KERNELS; k++) {
+            job_of[w][k] = -1;
+            if (!build[w].mod[k]) continue;
+            picvr_pipeline_job_init(&job[jobs], build[w].mod[k], ctx->pipes.layout, &build[w].spec);
+            job_of[w][k] = (int)jobs++;
         }
-    for (uint32_t i = 1; i < PICVR_VARIANT_SLOTS && t[pick].pipe[PICVR_KERNEL_MAIN]; i++)
-        if (!t[i].pipe[PICVR_KERNEL_MAIN] || t[i].used < t[pick].used) pick = i;
-    VkPipeline pipe[PICVR_KERNELS];
-    picvr_status s = picvr_create_variant(ctx, proc, key, pipe);
-    if (s) return s;
-    for (int k = 0; k < PICVR_KERNELS; k++) {
-        if (t[pick].pipe[k]) vkDestroyPipeline(ctx->vk.device, t[pick].pipe[k], NULL);
-        t[pick].pipe[k] = pipe[k];
     }
-    t[pick].key = key;
-    t[pick].used = ctx->pipes.variant_clock;
-    t[pick].dispatched = 0;
-    ctx->pipes.current_slot[proc] = pick;
+    picvr_status s = picvr_make_pipelines(ctx, job, jobs);
+    if (s) return s;
+    /* the variants already held are this step's first, so that a new one never takes
+       the slot of one the step also renders with */
+    for (uint32_t w = 0; w < n; w++)
+        if (found[w] >= 0) ctx->pipes.variants[want[w].proc][found[w]].used = ctx->pipes.variant_clock;
+    for (uint32_t w = 0; w < n; w++) {
+        picvr_variant_slot *t = ctx->pipes.variants[want[w].proc];
+        uint32_t pick = 0;
+        if (found[w] >= 0) pick = (uint32_t)found[w];
+        else if (first[w] >= 0) pick = slot[first[w]];
+        else {
+            for (uint32_t i = 1; i < PICVR_VARIANT_SLOTS && t[pick].pipe[PICVR_KERNEL_MAIN]; i++)
+                if (!t[i].pipe[PICVR_KERNEL_MAIN] || t[i].used < t[pick].used) pick = i;
+            for (int k = 0; k < PICVR_KERNELS; k++) {
+                if (t[pick].pipe[k]) vkDestroyPipeline(ctx->vk.device, t[pick].pipe[k], NULL);
+                t[pick].pipe[k] = job_of[w][k] >= 0 ? job[job_of[w][k]].pipe : VK_NULL_HANDLE;
+            }
+            t[pick].key = key[w];
+            t[pick].dispatched = 0;
+        }
+        t[pick].used = ctx->pipes.variant_clock;
+        slot[w] = pick;
+        ctx->pipes.current_slot[want[w].proc] = pick;
+    }
     return PICVR_OK;
 }
 
@@ -211,24 +354,31 @@ static int picvr_auto_plain_allowed(const picvr_context *ctx) {
 /* The pipeline variants of every procedure the context runs, for the current scene. */
 static picvr_status picvr_select_variants(picvr_context *ctx) {
     ctx->pipes.variant_clock++;
+    picvr_variant_want want[PICVR_MAX_WANTS];
+    uint32_t slot[PICVR_MAX_WANTS], n = 0;
     picvr_status s = PICVR_OK;
     if (picvr_auto_plain_allowed(ctx)) {
-        double t0 = picvr_clock_ms();   /* a new variant: its pipelines compile (the auto mode's pause) */
-        s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 1, 0);
+        /* a batch of its own: a new variant's making compiles its pipelines, the auto
+           mode's pause */
+        double t0 = picvr_clock_ms();
+        want[0] = picvr_want(PICVR_PROC_RENDER, 1, 0);
+        s = picvr_select_batch(ctx, want, 1, slot);
         picvr_auto_note_compile(&ctx->sched.auto_mode, picvr_clock_ms() - t0);
-        ctx->pipes.plain_slot = ctx->pipes.current_slot[PICVR_PROC_RENDER];
+        if (!s) ctx->pipes.plain_slot = slot[0];
         /* the cached kind's pipelines wait for its first round (picvr_auto_choose) */
         if (s || !ctx->sched.auto_mode.cached_ready) return s;
     }
     /* PICVR_DISTANCE_AUTO: the forced kind's variant, once its first round asked for it
        (picvr_ready_forced), then the other, which stays the current one */
-    if (!s && ctx->sched.dauto.on && ctx->sched.dauto.forced_ready) {
-        s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 0, 1);
-        ctx->pipes.forced_slot = ctx->pipes.current_slot[PICVR_PROC_RENDER];
+    int forced = ctx->sched.dauto.on && ctx->sched.dauto.forced_ready;
+    if (forced) want[n++] = picvr_want(PICVR_PROC_RENDER, 0, 1);
+    want[n++] = picvr_want(PICVR_PROC_RENDER, 0, 0);
+    if (ctx->cache.on) {
+        want[n++] = picvr_want(PICVR_PROC_CREATE, 0, 0);
+        want[n++] = picvr_want(PICVR_PROC_UPDATE, 0, 0);
     }
-    if (!s) s = picvr_select_variant(ctx, PICVR_PROC_RENDER, 0, 0);
-    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_CREATE, 0, 0);
-    if (!s && ctx->cache.on) s = picvr_select_variant(ctx, PICVR_PROC_UPDATE, 0, 0);
+    s = picvr_select_batch(ctx, want, n, slot);
+    if (!s && forced) ctx->pipes.forced_slot = slot[0];
     return s;
 }
 

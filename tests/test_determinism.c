@@ -1,5 +1,6 @@
 /* test_determinism.c - reproducibility and the error estimate. */
 #include "test_util.h"
+#include <unistd.h>
 
 /* A scene that uses every random dimension: structured volume, sun with an angular
    size, sphere light (MIS), background. */
@@ -129,4 +130,63 @@ void test_error_estimate_halves_with_4x_iterations(void **state) {
     free(expv);
     tu_vol_free(&vol);
     tu_finish(ctx);
+}
+
+/* picvr_config.compile_threads: the threads that make pipelines change nothing the
+   device computes.  Contexts with 1 thread (the calling one), 2, and UINT32_MAX (16
+   are used) render the same seed's image bit for bit; a cached context, whose first
+   step makes five pipelines in one batch, renders a finite image with 16; and
+   picvr_get_config gives what each runs with (0: the processors online, at most 16). */
+void test_compile_threads_change_nothing(void **state) {
+    (void)state;
+    const uint32_t N = 6, given[3] = {1u, 2u, UINT32_MAX}, want[3] = {1u, 2u, 16u};
+    const size_t nf = 32 * 32 * 4;
+    float *img[3];
+    for (int i = 0; i < 3; i++) {
+        picvr_config cfg;
+        memset(&cfg, 0, sizeof cfg);
+        cfg.seed = 42;
+        cfg.compile_threads = given[i];
+        picvr_context *ctx = tu_create_config(&cfg);
+        picvr_config got;
+        TU_OK(picvr_get_config(ctx, &got));
+        assert_int_equal(got.compile_threads, want[i]);
+        tu_vol vol;
+        varied_scene(ctx, &vol);
+        TU_OK(picvr_step_iterations(ctx, N));
+        img[i] = tu_read(ctx, 32, 32);
+        tu_assert_finite(img[i], nf, "compile_threads");
+        tu_vol_free(&vol);
+        tu_finish(ctx);
+    }
+    for (int i = 1; i < 3; i++)
+        if (memcmp(img[0], img[i], nf * sizeof(float)) != 0)
+            fail_msg("compile_threads %u renders another image than 1", given[i]);
+    for (int i = 0; i < 3; i++) free(img[i]);
+
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = 42;
+    cfg.compile_threads = UINT32_MAX;
+    cfg.cache.mode = PICVR_CACHE_OBJECT_SPACE;
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_vol vol;
+    varied_scene(ctx, &vol);
+    TU_OK(picvr_step_iterations(ctx, N));
+    float *c = tu_read(ctx, 32, 32);
+    tu_assert_image_valid(c, 32, 32, "cached, 16 compile threads");
+    free(c);
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+
+    picvr_context *d = tu_create(1);
+    picvr_config got;
+    TU_OK(picvr_get_config(d, &got));
+#if defined(_SC_NPROCESSORS_ONLN)
+    long online = sysconf(_SC_NPROCESSORS_ONLN);
+    uint32_t expect = online < 1 ? 1u : online > 16 ? 16u : (uint32_t)online;
+    if (got.compile_threads != expect)
+        fail_msg("compile_threads 0 resolved to %u, not the %u processors online", got.compile_threads, expect);
+#endif
+    tu_finish(d);
 }
