@@ -460,6 +460,7 @@ typedef struct run {
     uint32_t passes[MAX_SLICES];
     double spent;
     double path_length;       /* stats.mean_path_length at the end */
+    double forced_share, forced_efficiency;   /* PICVR_DISTANCE_AUTO's, at the end */
 } run;
 
 static int measure(run *r, const reference *ref, size_t pixels, float *rgba, double *lum)
@@ -473,6 +474,8 @@ static int measure(run *r, const reference *ref, size_t pixels, float *rgba, dou
     r->mean_ratio[r->n] = ref->mean > 0.0 ? mean_of(lum, pixels) / ref->mean : 0.0;
     r->passes[r->n] = st.iterations;
     r->path_length = st.mean_path_length;
+    r->forced_share = st.forced_share;
+    r->forced_efficiency = st.forced_efficiency;
     r->n++;
     return 1;
 }
@@ -589,15 +592,16 @@ static int run_scene(const options *o, const scene_def *sd, FILE *md, FILE *csv)
                 if (t < 0.0) fprintf(md, " - |");
                 else fprintf(md, " %s%.3g |", ex ? "~" : "", t / 1000.0);
             }
-            fprintf(md, " %.3g | %.3g | %.4f | %.4f | %.3f | %.3f |\n", variance_per_sample(r), sps / 1e6, r->err[r->n - 1],
-                    r->mean_ratio[r->n - 1], ref[0].mean > 0.0 ? rf->mean / ref[0].mean : 0.0, r->path_length);
+            fprintf(md, " %.3g | %.3g | %.4f | %.4f | %.3f | %.3f | %.3f / %.3g |\n", variance_per_sample(r), sps / 1e6,
+                    r->err[r->n - 1], r->mean_ratio[r->n - 1], ref[0].mean > 0.0 ? rf->mean / ref[0].mean : 0.0,
+                    r->path_length, r->forced_share, r->forced_efficiency);
             for (int i = 0; i < r->n; i++)
                 fprintf(csv, "%s,%s,%.1f,%u,%.6f,%.6f\n", sd->name, cd[c].name, r->t_ms[i], r->passes[i], r->err[i],
                         r->mean_ratio[i]);
         }
         for (int c = 0; c < nc; c++)
             if (ref_of[c] == c)
-                fprintf(md, "|  | reference (%s): %llu passes, relative RMSE %.4f (removed in quadrature) | | | | | | | | | |\n",
+                fprintf(md, "|  | reference (%s): %llu passes, relative RMSE %.4f (removed in quadrature) | | | | | | | | | | |\n",
                         cd[c].name, (unsigned long long)ref[c].passes, ref[c].rel_err);
         fflush(md);
         fflush(csv);
@@ -827,8 +831,8 @@ int main(int argc, char **argv)
         fprintf(md, "%ux%u, %.0f s per condition side by side (slices of %.0f ms), seed %u; time in s to a true "
                     "relative RMSE; '~': extrapolated by err ~ t^-1/2\n\n", o.width, o.height, o.time_ms / 1000.0, o.slice_ms, o.seed);
         fprintf(md, "| scene | condition | t(0.05) | t(0.02) | t(0.01) | variance per sample | Msamples/s | final rel. RMSE | "
-                    "mean / reference | reference mean / first's | scatter events per sample |\n");
-        fprintf(md, "|---|---|---|---|---|---|---|---|---|---|---|\n");
+                    "mean / reference | reference mean / first's | scatter events per sample | forced share / E |\n");
+        fprintf(md, "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         fprintf(csv, "scene,condition,ms,passes,rel_rmse,mean_ratio\n");
     }
     int ok = 1;

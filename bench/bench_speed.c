@@ -3,6 +3,7 @@
  *
  *   picvr-bench-speed --volume bonsai_256x256x256_uint8.raw.gz [--size 512]
  *                     [--iterations-gpu N] [--iterations-cpu N] [--json FILE] [--quick]
+ *   picvr-bench-speed --volume FILE --first-step K
  *
  * Scene (fixed, so runs compare): the volume, a transfer function with opacity 0
  * below 0.15 ramping to 1 at 0.4, albedo 0.8, density 1; one sphere area light plus
@@ -13,6 +14,14 @@
  * picvr_step_iterations(ctx, N) (it returns when the device is done).
  * CPU: cref_render() on omp_get_max_threads() threads, timed with CLOCK_MONOTONIC;
  * one untimed iteration picks N for about 2 s (unless --iterations-cpu).
+ *
+ * --first-step K: the time to the first image instead (the scene's pipelines are made
+ * by the first step): K pairs of contexts, one made with config.compile_threads = 1
+ * (the calling thread alone), the other with 0 (the processors online), alternating,
+ * each timed from picvr_create to the end of its first picvr_step_iterations(ctx, 1)
+ * (volume upload included), plain and with the cache (object-space); prints each
+ * condition's median and their ratio.  Run it with the shader cache warm (a first run
+ * of the pair warms it) or cold (MESA_SHADER_CACHE_DISABLE=true).
  *
  * Sanity check: both images' mean luminance must agree within 3 % plus 4 standard
  * errors (the standard error from the CPU's per-pixel sample variance).  Exit status:
@@ -45,6 +54,7 @@ typedef struct options {
     uint32_t iterations_gpu;     /* 0: calibrate */
     uint32_t iterations_cpu;     /* 0: calibrate (at least 2) */
     uint32_t seed;
+    uint32_t first_step;         /* --first-step K: K pairs; 0: the speed run */
     int quick;
     int have_size;               /* --size was given (--quick keeps it) */
 } options;
@@ -69,7 +79,8 @@ static void usage(FILE *f)
             "  --seed N               random seed (default 1)\n"
             "  --device NAME          Vulkan device name substring\n"
             "  --json FILE            write the figures as JSON\n"
-            "  --quick                smoke run: 128x128, ~%.1f s GPU, ~%.1f s CPU\n",
+            "  --quick                smoke run: 128x128, ~%.1f s GPU, ~%.1f s CPU\n"
+            "  --first-step K         time to the first image, compile_threads 1 against 0, K pairs\n",
             GPU_TARGET_S, CPU_TARGET_S, GPU_TARGET_QUICK_S, CPU_TARGET_QUICK_S);
 }
 
@@ -86,7 +97,7 @@ static int parse_size(const char *text, uint32_t *w, uint32_t *h)
 
 static const pvc_option OPTIONS[] = {
     {"help", 0}, {"quick", 0}, {"volume", 1}, {"json", 1}, {"device", 1}, {"size", 1},
-    {"iterations-gpu", 1}, {"iterations-cpu", 1}, {"seed", 1}, {NULL, 0}};
+    {"iterations-gpu", 1}, {"iterations-cpu", 1}, {"seed", 1}, {"first-step", 1}, {NULL, 0}};
 
 /* Applies one option of OPTIONS; returns 0 after reporting a bad value. */
 static int apply_option(void *target, const char *name, const char *value)
@@ -101,6 +112,7 @@ static int apply_option(void *target, const char *name, const char *value)
     else if (!strcmp(name, "iterations-gpu")) ok = pvc_parse_u32(value, 1, 1000000, &o->iterations_gpu);
     else if (!strcmp(name, "iterations-cpu")) ok = pvc_parse_u32(value, 1, 1000000, &o->iterations_cpu);
     else if (!strcmp(name, "seed")) ok = pvc_parse_u32(value, 0, UINT32_MAX, &o->seed);
+    else if (!strcmp(name, "first-step")) ok = pvc_parse_u32(value, 1, 1000, &o->first_step);
     if (!ok) pvc_bad_value(name, value);
     return ok;
 }
@@ -255,6 +267,61 @@ static int run_gpu(const options *o, const picvr_volume_desc *vol, const picvr_l
     return ok;
 }
 
+/* --first-step: seconds from picvr_create to the end of the first one-iteration step. */
+static int first_step_time(const options *o, const picvr_volume_desc *vol, const picvr_light *light,
+                           const picvr_background *sky, const picvr_camera *cam, uint32_t threads,
+                           int cached, double *seconds)
+{
+    picvr_config cfg = {0};
+    cfg.seed = o->seed;
+    cfg.device_name = o->device;
+    cfg.compile_threads = threads;
+    cfg.cache.mode = cached ? PICVR_CACHE_OBJECT_SPACE : PICVR_CACHE_NONE;
+    picvr_context *ctx = NULL;
+    double t0 = now_s();
+    if (!pvc_check(picvr_create(&cfg, &ctx), "picvr_create")) return 0;
+    int ok = pvc_check(picvr_upload_volume(ctx, vol), "picvr_upload_volume") &&
+             pvc_check(picvr_set_transfer_function(ctx, bench_tf, BENCH_TF_COUNT, BENCH_DENSITY),
+                   "picvr_set_transfer_function") &&
+             pvc_check(picvr_set_lights(ctx, light, 1, sky), "picvr_set_lights") &&
+             pvc_check(picvr_set_camera(ctx, cam), "picvr_set_camera") &&
+             pvc_check(picvr_step_iterations(ctx, 1), "picvr_step_iterations");
+    *seconds = now_s() - t0;
+    picvr_destroy(ctx);
+    return ok;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* --first-step K: plain, then cached; the two thread settings alternate so that both
+   see the machine's load alike. */
+static int run_first_step(const options *o, const picvr_volume_desc *vol, const picvr_light *light,
+                          const picvr_background *sky, const picvr_camera *cam)
+{
+    uint32_t k = o->first_step;
+    double *t = malloc(2 * (size_t)k * sizeof *t);
+    if (!t) { pvc_fail("out of memory"); return 0; }
+    int ok = 1;
+    for (int cached = 0; cached < 2 && ok; cached++) {
+        for (uint32_t i = 0; i < k && ok; i++)
+            ok = first_step_time(o, vol, light, sky, cam, 1u, cached, &t[i]) &&
+                 first_step_time(o, vol, light, sky, cam, 0u, cached, &t[k + i]);
+        if (!ok) break;
+        qsort(t, k, sizeof *t, cmp_double);
+        qsort(t + k, k, sizeof *t, cmp_double);
+        double one = t[k / 2], all = t[k + k / 2];
+        printf("first image, %s: compile_threads 1 %.3f s, 0 (processors online) %.3f s "
+               "(medians of %u): %.2fx\n", cached ? "cached" : "plain", one, all, k,
+               all > 0.0 ? one / all : 0.0);
+    }
+    free(t);
+    return ok;
+}
+
 static int run_cpu(const options *o, const picvr_volume_desc *vol, const picvr_light *light,
                    const picvr_background *sky, const picvr_camera *cam, result *r,
                    double **m2_out)
@@ -373,6 +440,12 @@ int main(int argc, char **argv)
            vol.dims[1], vol.dims[2], picvr_io_type_name(vol.type), o.width, o.height,
            o.quick ? ", quick" : "");
     fflush(stdout);
+
+    if (o.first_step) {
+        int done = run_first_step(&o, &desc, &light, &sky, &cam);
+        picvr_io_free(&vol);
+        return done ? 0 : 1;
+    }
 
     result g, c;
     memset(&g, 0, sizeof g);
