@@ -143,6 +143,7 @@
     X(test_sphere_light_matches_point_light)                        \
     X(test_light_combinations_in_one_context)                       \
     X(test_rect_light_facing_closed_form_and_back_side_dark)        \
+    X(test_area_lights_forced_closed_form)                          \
     X(test_sphere_light_seen_directly_near_and_far)                 \
     /* test_extreme.c */                                            \
     X(test_extreme_density_range_finite)                            \
