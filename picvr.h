@@ -369,8 +369,11 @@ typedef struct picvr_config {
     uint32_t compile_threads; /* threads that may make pipelines at once (a drawing's
                                  first step, a scene change that needs a new variant):
                                  the calling thread and short-lived helpers, joined
-                                 before the call returns.  0: the processors online;
-                                 1: the calling thread only; at most 16 are used */
+                                 before the call returns; and PICVR_DISTANCE_AUTO makes
+                                 its forced kind's pipelines on one thread of its own
+                                 while the steps go on (picvr_destroy waits for it).
+                                 0: the processors online; 1: the calling thread only,
+                                 always; at most 16 are used */
 } picvr_config;
 
 typedef struct picvr_context picvr_context;

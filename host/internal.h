@@ -319,6 +319,53 @@ typedef struct picvr_device {
 } picvr_device;
 
 /* Shader modules, pipelines and the one descriptor set (host/pipelines.c). */
+/* Pipelines made in parallel (host/pipelines.c, picvr_make_pipelines): one
+   vkCreateComputePipelines call per job, taken by the next free thread. */
+typedef struct picvr_pipeline_job {
+    VkComputePipelineCreateInfo ci;
+    VkPipeline pipe;
+    VkResult result;
+} picvr_pipeline_job;
+
+typedef struct picvr_pipeline_batch {
+    VkDevice device;
+    picvr_pipeline_job *job;
+    uint32_t n, next;
+    int threaded;                    /* lock initialized: helpers take jobs too */
+#if PICVR_THREADS
+    pthread_mutex_t lock;
+#endif
+} picvr_pipeline_batch;
+
+/* One variant to make: its kernels' modules and its specialization constants, which
+   the batch's create infos point at (so it stays put until the batch is made). */
+typedef struct picvr_variant_build {
+    uint32_t value[PICVR_SPEC_CONSTANTS];
+    VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
+    VkSpecializationInfo spec;
+    VkShaderModule mod[PICVR_KERNELS];
+} picvr_variant_build;
+
+/* A variant made on a thread of its own while the steps go on (PICVR_DISTANCE_AUTO's
+   forced kind before its first probe: host/pipelines.c, picvr_probe_forced).  running:
+   the thread was started and not yet joined; done (under lock): it has finished; valid:
+   pipe holds the variant of (proc, key), not yet in a slot. */
+typedef struct picvr_async_variant {
+    int running, valid;
+    int proc;
+    uint32_t key;
+    picvr_variant_build build;
+    picvr_pipeline_job job[PICVR_KERNELS];
+    int kernel[PICVR_KERNELS];       /* job i makes kernel[i] */
+    picvr_pipeline_batch batch;
+    VkPipeline pipe[PICVR_KERNELS];
+#if PICVR_THREADS
+    int done;
+    pthread_t thread;
+    pthread_mutex_t lock;
+#endif
+} picvr_async_variant;
+
 typedef struct picvr_pipelines {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout layout, stats_layout;
@@ -337,6 +384,7 @@ typedef struct picvr_pipelines {
     uint32_t current_slot[3];        /* PROC_*: the slot this step's rounds dispatch */
     uint32_t plain_slot;             /* PICVR_CACHE_AUTO: the rendering slot of its plain rounds */
     uint32_t forced_slot;            /* PICVR_DISTANCE_AUTO: the rendering slot of the forced kind */
+    picvr_async_variant async;       /* a variant being made beside the steps */
     VkSampler linear_sampler;
 } picvr_pipelines;
 

@@ -23,30 +23,15 @@ static picvr_status picvr_create_shader(picvr_context *ctx, const uint32_t *code
    joined before picvr_make_pipelines returns, and a helper that cannot start leaves its
    jobs to the others.  Helpers touch nothing but their jobs: the log and the context
    see the results on the calling thread. */
-typedef struct picvr_pipeline_job {
-    VkComputePipelineCreateInfo ci;
-    VkPipeline pipe;
-    VkResult result;
-} picvr_pipeline_job;
-
-typedef struct picvr_pipeline_batch {
-    VkDevice device;
-    picvr_pipeline_job *job;
-    uint32_t n, next;
-#if PICVR_THREADS
-    pthread_mutex_t lock;
-#endif
-} picvr_pipeline_batch;
-
 static void *picvr_pipeline_worker(void *arg) {
     picvr_pipeline_batch *b = (picvr_pipeline_batch *)arg;
     for (;;) {
 #if PICVR_THREADS
-        pthread_mutex_lock(&b->lock);
+        if (b->threaded) pthread_mutex_lock(&b->lock);
 #endif
         uint32_t i = b->next < b->n ? b->next++ : b->n;
 #if PICVR_THREADS
-        pthread_mutex_unlock(&b->lock);
+        if (b->threaded) pthread_mutex_unlock(&b->lock);
 #endif
         if (i >= b->n) return NULL;
         picvr_pipeline_job *j = &b->job[i];
@@ -79,6 +64,7 @@ static picvr_status picvr_make_pipelines(picvr_context *ctx, picvr_pipeline_job 
     helpers = n < helpers ? n : helpers;
     helpers = helpers ? helpers - 1u : 0u;
     if (helpers && pthread_mutex_init(&b.lock, NULL) != 0) helpers = 0;
+    b.threaded = helpers > 0;
     pthread_t thread[PICVR_MAX_COMPILE_THREADS];
     uint32_t started = 0;
     while (started < helpers && pthread_create(&thread[started], NULL, picvr_pipeline_worker, &b) == 0) started++;
@@ -193,15 +179,6 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain,
            (picvr_debug_view_on(ctx) ? PICVR_KEY_DEBUG_VIEW : 0u);
 }
 
-/* One variant to make: its kernels' modules and its specialization constants, which
-   the batch's create infos point at (so it stays put until the batch is made). */
-typedef struct picvr_variant_build {
-    uint32_t value[PICVR_SPEC_CONSTANTS];
-    VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
-    VkSpecializationInfo spec;
-    VkShaderModule mod[PICVR_KERNELS];
-} picvr_variant_build;
-
 /* The kernels of procedure proc's variant for key (VK_NULL_HANDLE modules where the
    procedure has no such kernel).  One set of constants for all kernels (a kernel
    ignores those it lacks), each at its PICVR_SPEC_ id (shaders/specialization.glsl):
@@ -284,6 +261,8 @@ static picvr_status picvr_select_batch(picvr_context *ctx, const picvr_variant_w
                                        uint32_t *slot) {
     uint32_t key[PICVR_MAX_WANTS];
     int found[PICVR_MAX_WANTS], first[PICVR_MAX_WANTS];   /* first: the earlier want of the same variant */
+    int from_async[PICVR_MAX_WANTS];
+    picvr_async_variant *async = &ctx->pipes.async;
     picvr_variant_build build[PICVR_MAX_WANTS];
     picvr_pipeline_job job[PICVR_MAX_WANTS * PICVR_KERNELS];
     int job_of[PICVR_MAX_WANTS][PICVR_KERNELS];
@@ -294,7 +273,12 @@ static picvr_status picvr_select_batch(picvr_context *ctx, const picvr_variant_w
         first[w] = -1;
         for (uint32_t e = 0; e < w; e++)
             if (want[e].proc == want[w].proc && key[e] == key[w]) { first[w] = (int)e; break; }
+        from_async[w] = 0;
         if (found[w] >= 0 || first[w] >= 0) continue;
+        if (async->valid && async->proc == want[w].proc && async->key == key[w]) {   /* made beside the steps */
+            from_async[w] = 1;
+            continue;
+        }
         picvr_build_variant(ctx, want[w].proc, key[w], &build[w]);
         for (int k = 0; k < PICVR_KERNELS; k++) {
             job_of[w][k] = -1;
@@ -319,8 +303,9 @@ static picvr_status picvr_select_batch(picvr_context *ctx, const picvr_variant_w
                 if (!t[i].pipe[PICVR_KERNEL_MAIN] || t[i].used < t[pick].used) pick = i;
             for (int k = 0; k < PICVR_KERNELS; k++) {
                 if (t[pick].pipe[k]) vkDestroyPipeline(ctx->vk.device, t[pick].pipe[k], NULL);
-                t[pick].pipe[k] = job_of[w][k] >= 0 ? job[job_of[w][k]].pipe : VK_NULL_HANDLE;
+                t[pick].pipe[k] = from_async[w] ? async->pipe[k] : job_of[w][k] >= 0 ? job[job_of[w][k]].pipe : VK_NULL_HANDLE;
             }
+            if (from_async[w]) async->valid = 0;
             t[pick].key = key[w];
             t[pick].dispatched = 0;
         }
@@ -329,6 +314,97 @@ static picvr_status picvr_select_batch(picvr_context *ctx, const picvr_variant_w
         ctx->pipes.current_slot[want[w].proc] = pick;
     }
     return PICVR_OK;
+}
+
+/* ---- a variant made beside the steps -------------------------------------------- */
+
+#if PICVR_THREADS
+static void *picvr_async_main(void *arg) {
+    picvr_async_variant *a = (picvr_async_variant *)arg;
+    picvr_pipeline_worker(&a->batch);
+    pthread_mutex_lock(&a->lock);
+    a->done = 1;
+    pthread_mutex_unlock(&a->lock);
+    return NULL;
+}
+#endif
+
+/* Joins the variant's thread once it has finished (with wait: when it finishes).  Its
+   pipelines become valid if every one was made; otherwise none is kept, and the step
+   that needs the variant makes it and reports the failure. */
+static void picvr_async_finish(picvr_context *ctx, int wait) {
+#if PICVR_THREADS
+    picvr_async_variant *a = &ctx->pipes.async;
+    if (!a->running) return;
+    if (!wait) {
+        pthread_mutex_lock(&a->lock);
+        int done = a->done;
+        pthread_mutex_unlock(&a->lock);
+        if (!done) return;
+    }
+    pthread_join(a->thread, NULL);
+    pthread_mutex_destroy(&a->lock);
+    a->running = 0;
+    int ok = 1;
+    for (uint32_t i = 0; i < a->batch.n; i++) ok &= a->job[i].result == VK_SUCCESS;
+    for (int k = 0; k < PICVR_KERNELS; k++) a->pipe[k] = VK_NULL_HANDLE;
+    for (uint32_t i = 0; i < a->batch.n; i++) {
+        if (ok) a->pipe[a->kernel[i]] = a->job[i].pipe;
+        else if (a->job[i].pipe) vkDestroyPipeline(ctx->vk.device, a->job[i].pipe, NULL);
+    }
+    a->valid = ok;
+#else
+    (void)ctx;
+    (void)wait;
+#endif
+}
+
+/* Waits for the thread, and destroys a variant no slot took. */
+static void picvr_async_discard(picvr_context *ctx) {
+    picvr_async_variant *a = &ctx->pipes.async;
+    picvr_async_finish(ctx, 1);
+    if (a->valid)
+        for (int k = 0; k < PICVR_KERNELS; k++)
+            if (a->pipe[k]) vkDestroyPipeline(ctx->vk.device, a->pipe[k], NULL);
+    a->valid = 0;
+}
+
+/* Starts making procedure proc's variant for key on a thread of its own (one thread:
+   on a CPU device the rounds keep the other processors).  0 where threads are not
+   available, config.compile_threads is 1 (the calling thread only) or the thread does
+   not start: the caller makes it then. */
+static int picvr_async_start(picvr_context *ctx, int proc, uint32_t key) {
+#if PICVR_THREADS
+    picvr_async_variant *a = &ctx->pipes.async;
+    if (ctx->config.compile_threads <= 1) return 0;
+    picvr_async_discard(ctx);
+    a->proc = proc;
+    a->key = key;
+    picvr_build_variant(ctx, proc, key, &a->build);
+    uint32_t n = 0;
+    for (int k = 0; k < PICVR_KERNELS; k++)
+        if (a->build.mod[k]) {
+            picvr_pipeline_job_init(&a->job[n], a->build.mod[k], ctx->pipes.layout, &a->build.spec);
+            a->kernel[n++] = k;
+        }
+    memset(&a->batch, 0, sizeof a->batch);
+    a->batch.device = ctx->vk.device;
+    a->batch.job = a->job;
+    a->batch.n = n;
+    a->done = 0;
+    if (pthread_mutex_init(&a->lock, NULL) != 0) return 0;
+    if (pthread_create(&a->thread, NULL, picvr_async_main, a) != 0) {
+        pthread_mutex_destroy(&a->lock);
+        return 0;
+    }
+    a->running = 1;
+    return 1;
+#else
+    (void)ctx;
+    (void)proc;
+    (void)key;
+    return 0;
+#endif
 }
 
 /* Kernel k of the variant this step dispatches for procedure proc (the rendering
@@ -387,10 +463,31 @@ static picvr_status picvr_select_variants(picvr_context *ctx) {
    neither makes nor compiles it. */
 static picvr_status picvr_ready_forced(picvr_context *ctx) {
     if (ctx->sched.dauto.forced_ready || !ctx->sched.dauto.on) return PICVR_OK;
+    picvr_async_finish(ctx, 1);   /* a variant being made beside the steps: wait for it */
     ctx->sched.dauto.forced_ready = 1;
     picvr_status s = picvr_select_variants(ctx);
     if (s) ctx->sched.dauto.forced_ready = 0;
     return s;
+}
+
+/* Before a timed round of PICVR_DISTANCE_AUTO whose rendering has the ROUND_* flags
+   *flags.  A probe of the forced kind before its variant exists starts making it on a
+   thread of its own, and the round renders the chosen kind instead (*flags: its flags)
+   until the variant is ready: the steps do not stop for its compile (on a GPU it costs
+   them nothing; on lavapipe they share the processors with it).  A round that renders
+   the forced kind as the chosen one, or a context without threads, makes it here. */
+static picvr_status picvr_probe_forced(picvr_context *ctx, uint32_t *flags) {
+    picvr_dauto *d = &ctx->sched.dauto;
+    if (!(*flags & PICVR_ROUND_FORCED)) return PICVR_OK;
+    if (d->forced_ready || !d->on || !(*flags & PICVR_ROUND_PROBE)) return picvr_ready_forced(ctx);
+    picvr_async_variant *a = &ctx->pipes.async;
+    uint32_t key = picvr_variant_key(ctx, PICVR_PROC_RENDER, 0, 1);
+    picvr_async_finish(ctx, 0);
+    int made = (a->valid && a->proc == PICVR_PROC_RENDER && a->key == key) ||
+               picvr_find_variant(ctx, PICVR_PROC_RENDER, key) >= 0;
+    if (made || (!a->running && !picvr_async_start(ctx, PICVR_PROC_RENDER, key))) return picvr_ready_forced(ctx);
+    *flags = picvr_dauto_chosen_flags(d);
+    return PICVR_OK;
 }
 
 /* Before a round that runs the cache: under PICVR_CACHE_AUTO its pipelines are made at
@@ -522,6 +619,7 @@ static void picvr_update_descriptors(picvr_context *ctx) {
 static void picvr_pipelines_destroy(picvr_context *ctx) {
     VkDevice d = ctx->vk.device;
     picvr_pipelines *p = &ctx->pipes;
+    if (d) picvr_async_discard(ctx);   /* first: its thread uses the modules and the layout */
     for (int proc = 0; proc < 3; proc++)
         for (uint32_t i = 0; i < PICVR_VARIANT_SLOTS; i++)
             for (int k = 0; k < PICVR_KERNELS; k++)

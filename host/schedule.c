@@ -320,6 +320,12 @@ static double picvr_dauto_efficiency(const picvr_dauto *a) {
     return isfinite(e) ? e : 0.0;
 }
 
+/* The ROUND_* flags of a timed round of the chosen kind. */
+static uint32_t picvr_dauto_chosen_flags(const picvr_dauto *a) {
+    int measure = a->measured[a->forced] < PICVR_DAUTO_WARM || a->rounds % PICVR_DAUTO_MEASURE_EVERY == 0;
+    return (measure ? PICVR_ROUND_MEASURE : 0u) | (a->forced ? PICVR_ROUND_FORCED : 0u);
+}
+
 /* The ROUND_* flags of a timed round: a probe of the kind not chosen while it has fewer
    than PICVR_DAUTO_WARM measured rounds or less than its share of the recent device
    time, else the chosen kind, measured in its first PICVR_DAUTO_WARM rounds and then
@@ -332,8 +338,7 @@ static uint32_t picvr_dauto_flags(const picvr_dauto *a) {
     if (a->measured[a->forced] >= 1 &&
         (a->measured[other] < PICVR_DAUTO_WARM || a->time_ms[other] < PICVR_DAUTO_EXPLORE * total))
         return PICVR_ROUND_MEASURE | PICVR_ROUND_PROBE | (other ? PICVR_ROUND_FORCED : 0u);
-    int measure = a->measured[a->forced] < PICVR_DAUTO_WARM || a->rounds % PICVR_DAUTO_MEASURE_EVERY == 0;
-    return (measure ? PICVR_ROUND_MEASURE : 0u) | (a->forced ? PICVR_ROUND_FORCED : 0u);
+    return picvr_dauto_chosen_flags(a);
 }
 
 /* After a round of a measuring context (flags): its device time dev_ms over

@@ -156,7 +156,7 @@ static picvr_status picvr_step_time(picvr_context *ctx, double budget_ms) {
         double left = budget_ms - (picvr_clock_ms() - start);
         picvr_round_plan p = picvr_plan_timed_round(ctx, left < round_ms ? left : round_ms, 0);
         if (!p.plain && (s = picvr_ready_cached(ctx))) return s;
-        if ((p.render_flags & PICVR_ROUND_FORCED) && (s = picvr_ready_forced(ctx))) return s;
+        if ((s = picvr_probe_forced(ctx, &p.render_flags))) return s;
         if ((s = picvr_run_round(ctx, &p))) return s;
         /* Rule: a remainder under a tenth of a round is not worth a round's fixed costs. */
     } while (budget_ms - (picvr_clock_ms() - start) > 0.1 * round_ms || picvr_first_pass_left(ctx) > 0);
@@ -232,7 +232,7 @@ picvr_status picvr_step_begin(picvr_context *ctx, double milliseconds) {
     if ((s = picvr_dauto_prepare_round(ctx))) return s;
     picvr_round_plan p = picvr_plan_timed_round(ctx, milliseconds, 1);
     if (!p.plain && (s = picvr_ready_cached(ctx))) return s;
-    if ((p.render_flags & PICVR_ROUND_FORCED) && (s = picvr_ready_forced(ctx))) return s;
+    if ((s = picvr_probe_forced(ctx, &p.render_flags))) return s;
     if ((s = picvr_submit_round(ctx, &p))) return s;
     ctx->pending.active = 1;
     return PICVR_OK;
