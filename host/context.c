@@ -83,6 +83,9 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     picvr_context *ctx = (picvr_context *)picvr_host_alloc(&cfg.allocator, sizeof *ctx);
     if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(ctx, 0, sizeof *ctx);
+#if PICVR_THREADS
+    ctx->vk.message_lock_ready = pthread_mutex_init(&ctx->vk.message_lock, NULL) == 0;
+#endif
     ctx->config = cfg;
     ctx->config.device_name = NULL;      /* the application's string: not kept */
     if (!cfg.log_level) ctx->config.log_level = PICVR_LOG_WARNING;
@@ -165,6 +168,9 @@ void picvr_destroy(picvr_context *ctx) {
     picvr_host_free(&ctx->config.allocator, ctx->scene.brick_max);
     picvr_host_free(&ctx->config.allocator, ctx->scene.tf_rm);
     picvr_host_free(&ctx->config.allocator, ctx->scene.tf_rmin);
+#if PICVR_THREADS
+    if (ctx->vk.message_lock_ready) pthread_mutex_destroy(&ctx->vk.message_lock);
+#endif
     picvr_allocator a = ctx->config.allocator;
     picvr_host_free(&a, ctx);
 }

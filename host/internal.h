@@ -310,6 +310,12 @@ typedef struct picvr_device {
     VkPhysicalDeviceMemoryProperties mem_props;
     uint32_t validation_messages;
     int validation_enabled;
+#if PICVR_THREADS
+    /* the validation callback may run on the threads that make pipelines
+       (host/pipelines.c): its count and the log are taken under this lock */
+    pthread_mutex_t message_lock;
+    int message_lock_ready;
+#endif
     int lost;                        /* VK_ERROR_DEVICE_LOST seen: every call refuses */
     VkCommandPool cmd_pool;
     VkCommandBuffer cmd;             /* the one command buffer: record, submit, wait */

@@ -241,8 +241,14 @@ static VKAPI_ATTR VkBool32 VKAPI_CALL picvr_validation_callback(VkDebugUtilsMess
                                                      void *user) {
     picvr_context *ctx = (picvr_context *)user;
     if (severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) {
+#if PICVR_THREADS
+        if (ctx->vk.message_lock_ready) pthread_mutex_lock(&ctx->vk.message_lock);
+#endif
         ctx->vk.validation_messages++;
         picvr_log_message(ctx, PICVR_LOG_ERROR, "validation: %s", data && data->pMessage ? data->pMessage : "?");
+#if PICVR_THREADS
+        if (ctx->vk.message_lock_ready) pthread_mutex_unlock(&ctx->vk.message_lock);
+#endif
     }
     (void)type;
     return VK_FALSE;

@@ -1,4 +1,4 @@
-/* soak.c - `make soak`: SOAK_SECONDS (default 120) of picvr_step with random camera
+/* soak.c - `make soak`: SOAK_SECONDS (the Makefile's default 45) of picvr_step with random camera
  * moves, image-size changes, transfer-function (with phase g), light (with environment
  * maps), scattering (bounces, lobes), scheduler and volume changes, image reads
  * and stats, then checks that memory is flat.  Half the steps are picvr_step_begin /
