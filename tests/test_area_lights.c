@@ -250,6 +250,43 @@ void test_sphere_light_matches_point_light(void **state) {
     tu_finish(ctx);
 }
 
+/* The 4x4 rect light of radiance Le centred at (x, 0, 0), edges along z and y, facing
+   -x (toward the medium): its closed form in *s (kind 2) and the light itself. */
+static picvr_light rect_scene(lit_scene *s, double x, double Le) {
+    s->kind = 2;
+    s->Le = Le;
+    s->rect_c[0] = x;
+    s->eu[2] = 4;
+    s->ev[1] = 4;
+    picvr_light rl;
+    memset(&rl, 0, sizeof rl);
+    rl.type = PICVR_LIGHT_RECT;
+    for (int i = 0; i < 3; i++) {
+        rl.position[i] = (float)s->rect_c[i];
+        rl.edge_u[i] = (float)s->eu[i];
+        rl.edge_v[i] = (float)s->ev[i];
+        rl.color[i] = 1;
+    }
+    rl.intensity = (float)s->Le;
+    return rl;
+}
+
+/* The same rect with its edges swapped: cross(edge_u, edge_v) = +x, facing away. */
+static void rect_turn_away(picvr_light *rl, const lit_scene *s) {
+    for (int i = 0; i < 3; i++) {
+        rl->edge_u[i] = (float)s->ev[i];
+        rl->edge_v[i] = (float)s->eu[i];
+    }
+}
+
+/* The largest |radiance| over the RGB channels of a W x H RGBA image. */
+static double max_radiance(const float *img, uint32_t W, uint32_t H) {
+    double m = 0;
+    for (size_t p = 0; p < (size_t)W * H; p++)
+        for (int c = 0; c < 3; c++) m = fmax(m, fabs((double)img[4 * p + c]));
+    return m;
+}
+
 /* A 4x4 rectangle at x = 20 (centre (20, 0, 0), edges along z and y), radiance 5.
    Facing the medium (cross(edge_u, edge_v) = -x): the image matches the closed form
    (empirical error, MIS).  Facing away (edges swapped, cross = +x): the whole medium
@@ -260,21 +297,7 @@ void test_rect_light_facing_closed_form_and_back_side_dark(void **state) {
     lit_scene s;
     tu_vol vol;
     picvr_context *ctx = thin_medium(7, &s, &vol);
-    s.kind = 2;
-    s.Le = 5.0;
-    s.rect_c[0] = 20;
-    s.eu[2] = 4;
-    s.ev[1] = 4;
-    picvr_light rl;
-    memset(&rl, 0, sizeof rl);
-    rl.type = PICVR_LIGHT_RECT;
-    for (int i = 0; i < 3; i++) {
-        rl.position[i] = (float)s.rect_c[i];
-        rl.edge_u[i] = (float)s.eu[i];
-        rl.edge_v[i] = (float)s.ev[i];
-        rl.color[i] = 1;
-    }
-    rl.intensity = (float)s.Le;
+    picvr_light rl = rect_scene(&s, 20.0, 5.0);
     const uint32_t W = 32, H = 32, N = 1024;
     TU_OK(picvr_set_lights(ctx, &rl, 1, NULL));
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 20, W, H);
@@ -290,17 +313,12 @@ void test_rect_light_facing_closed_form_and_back_side_dark(void **state) {
     double facing_mean = tu_region_mean(img, W, 1, 0, 0, W, H);
     free(img);
 
-    for (int i = 0; i < 3; i++) {
-        rl.edge_u[i] = (float)s.ev[i];
-        rl.edge_v[i] = (float)s.eu[i];
-    }
+    rect_turn_away(&rl, &s);
     TU_OK(picvr_set_lights(ctx, &rl, 1, NULL));
     TU_OK(picvr_step_iterations(ctx, N));
     img = tu_read(ctx, W, H);
     tu_assert_finite(img, (size_t)W * H * 4, "rect light away");
-    double max_rgb = 0;
-    for (size_t p = 0; p < (size_t)W * H; p++)
-        for (int c = 0; c < 3; c++) max_rgb = fmax(max_rgb, fabs((double)img[4 * p + c]));
+    double max_rgb = max_radiance(img, W, H);
     print_message("    rect light away: max radiance %g (facing mean %g)\n", max_rgb, facing_mean);
     if (max_rgb != 0) ok = 0;
     ok &= tu_check_mean("rect light away: alpha", img, expv, W, 3, 0, 0, W, H, N, 1.0, 5.0, 1e-4);
@@ -417,21 +435,7 @@ void test_area_lights_forced_closed_form(void **state) {
     free(expv);
 
     memset(&s.c, 0, sizeof s.c);
-    s.kind = 2;
-    s.Le = 11.25;   /* about the irradiance of the test above's 5 at x = 20 */
-    s.rect_c[0] = 30;
-    s.eu[2] = 4;
-    s.ev[1] = 4;
-    picvr_light rl;
-    memset(&rl, 0, sizeof rl);
-    rl.type = PICVR_LIGHT_RECT;
-    for (int i = 0; i < 3; i++) {
-        rl.position[i] = (float)s.rect_c[i];
-        rl.edge_u[i] = (float)s.eu[i];
-        rl.edge_v[i] = (float)s.ev[i];
-        rl.color[i] = 1;
-    }
-    rl.intensity = (float)s.Le;
+    picvr_light rl = rect_scene(&s, 30.0, 11.25);   /* about the irradiance of 5 at x = 20 */
     TU_OK(picvr_set_lights(ctx, &rl, 1, NULL));
     TU_OK(picvr_step_iterations(ctx, N));
     st = tu_stats_finite(ctx);
@@ -444,17 +448,12 @@ void test_area_lights_forced_closed_form(void **state) {
     expv = tu_expected_image(&cam, 2, lit_ray, &s);
     ok &= tu_check_mean("rect light, forced: image", img, expv, W, 1, 0, 0, W, H, N, 0, 5.0, 1e-3);
     free(img);
-    for (int i = 0; i < 3; i++) {
-        rl.edge_u[i] = (float)s.ev[i];
-        rl.edge_v[i] = (float)s.eu[i];
-    }
+    rect_turn_away(&rl, &s);
     TU_OK(picvr_set_lights(ctx, &rl, 1, NULL));
     TU_OK(picvr_step_iterations(ctx, 64));
     img = tu_read(ctx, W, H);
     tu_assert_image_valid(img, W, H, "rect light away, forced");
-    double max_rgb = 0;
-    for (size_t p = 0; p < (size_t)W * H; p++)
-        for (int c = 0; c < 3; c++) max_rgb = fmax(max_rgb, fabs((double)img[4 * p + c]));
+    double max_rgb = max_radiance(img, W, H);
     if (max_rgb != 0) {
         print_message("    rect light away, forced: max radiance %g, not 0\n", max_rgb);
         ok = 0;
