@@ -208,6 +208,17 @@ static void set_result(result *r, uint32_t n, double secs, uint64_t truncated, c
 }
 
 /* Seconds for n iterations (picvr_step_iterations returns after the device is done). */
+/* The fixed scene into ctx: volume, transfer function, the light and sky, the camera. */
+static int set_scene(picvr_context *ctx, const picvr_volume_desc *vol, const picvr_light *light,
+                     const picvr_background *sky, const picvr_camera *cam)
+{
+    return pvc_check(picvr_upload_volume(ctx, vol), "picvr_upload_volume") &&
+           pvc_check(picvr_set_transfer_function(ctx, bench_tf, BENCH_TF_COUNT, BENCH_DENSITY),
+                     "picvr_set_transfer_function") &&
+           pvc_check(picvr_set_lights(ctx, light, 1, sky), "picvr_set_lights") &&
+           pvc_check(picvr_set_camera(ctx, cam), "picvr_set_camera");
+}
+
 static int gpu_time(picvr_context *ctx, uint32_t n, double *seconds)
 {
     double t0 = now_s();
@@ -225,11 +236,7 @@ static int run_gpu(const options *o, const picvr_volume_desc *vol, const picvr_l
     cfg.device_name = o->device;
     picvr_context *ctx = NULL;
     if (!pvc_check(picvr_create(&cfg, &ctx), "picvr_create")) return 0;
-    int ok = pvc_check(picvr_upload_volume(ctx, vol), "picvr_upload_volume") &&
-             pvc_check(picvr_set_transfer_function(ctx, bench_tf, BENCH_TF_COUNT, BENCH_DENSITY),
-                   "picvr_set_transfer_function") &&
-             pvc_check(picvr_set_lights(ctx, light, 1, sky), "picvr_set_lights") &&
-             pvc_check(picvr_set_camera(ctx, cam), "picvr_set_camera");
+    int ok = set_scene(ctx, vol, light, sky, cam);
     double secs = 0.0;
     /* warm-up: pipeline compilation and first-touch costs stay out of the timing */
     ok = ok && gpu_time(ctx, 3, &secs);
@@ -280,11 +287,7 @@ static int first_step_time(const options *o, const picvr_volume_desc *vol, const
     picvr_context *ctx = NULL;
     double t0 = now_s();
     if (!pvc_check(picvr_create(&cfg, &ctx), "picvr_create")) return 0;
-    int ok = pvc_check(picvr_upload_volume(ctx, vol), "picvr_upload_volume") &&
-             pvc_check(picvr_set_transfer_function(ctx, bench_tf, BENCH_TF_COUNT, BENCH_DENSITY),
-                   "picvr_set_transfer_function") &&
-             pvc_check(picvr_set_lights(ctx, light, 1, sky), "picvr_set_lights") &&
-             pvc_check(picvr_set_camera(ctx, cam), "picvr_set_camera") &&
+    int ok = set_scene(ctx, vol, light, sky, cam) &&
              pvc_check(picvr_step_iterations(ctx, 1), "picvr_step_iterations");
     *seconds = now_s() - t0;
     picvr_destroy(ctx);
