@@ -163,9 +163,7 @@ static uint32_t picvr_creation_batch(const picvr_context *ctx) {
     long n = 0;
     const char *env = getenv("LP_NUM_THREADS");
     if (env && *env) n = strtol(env, NULL, 10);
-#if defined(_SC_NPROCESSORS_ONLN)
-    if (n <= 0) n = sysconf(_SC_NPROCESSORS_ONLN);
-#endif
+    if (n <= 0) n = picvr_processors_online();
     return n < 1 ? 1u : n > 64 ? 64u : (uint32_t)n;
 }
 

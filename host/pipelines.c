@@ -44,9 +44,7 @@ static void *picvr_pipeline_worker(void *arg) {
    (1 where the system does not say); at most PICVR_MAX_COMPILE_THREADS. */
 static uint32_t picvr_resolve_compile_threads(uint32_t given) {
     long n = (long)(given < PICVR_MAX_COMPILE_THREADS ? given : PICVR_MAX_COMPILE_THREADS);
-#if defined(_SC_NPROCESSORS_ONLN)
-    if (n <= 0) n = sysconf(_SC_NPROCESSORS_ONLN);
-#endif
+    if (n <= 0) n = picvr_processors_online();
     return n < 1 ? 1u : n > (long)PICVR_MAX_COMPILE_THREADS ? PICVR_MAX_COMPILE_THREADS : (uint32_t)n;
 }
 

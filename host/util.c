@@ -19,6 +19,15 @@ const char *picvr_status_string(picvr_status s) {
    CLOCK_MONOTONIC: picvr_vk.c asks for it when compiled on its own), else of the wall
    clock (inside an application's file compiled as strict ISO C): budgets are wall time
    either way, and only differences are taken. */
+/* The processors online; 0 where the system does not say. */
+static long picvr_processors_online(void) {
+#if defined(_SC_NPROCESSORS_ONLN)
+    return sysconf(_SC_NPROCESSORS_ONLN);
+#else
+    return 0;
+#endif
+}
+
 static double picvr_clock_ms(void) {
 #if defined(CLOCK_MONOTONIC)
     struct timespec ts;
