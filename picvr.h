@@ -335,8 +335,9 @@ typedef enum picvr_distance_sampling {
     PICVR_DISTANCE_AUTO            /* MIS or FORCED, whichever reduces the error faster,
                                       measured as the image renders: each kind's variance
                                       per sample times its device time per sample, the
-                                      other kind probed now and then without adding to
-                                      the image (docs/sampling.md).  Where MIS and FORCED
+                                      other kind probed now and then (its samples added
+                                      to the image only where they lower its variance;
+                                      docs/sampling.md).  Where MIS and FORCED
                                       are the same renderer (every light served, or only
                                       the background), it is MIS with no measuring; with
                                       the cache on, MIS */

@@ -59,7 +59,5 @@ picvr_status picvr_set_clip(picvr_context *ctx, const picvr_clip *clip) {
     ctx->scene.clip = c;
     memcpy(ctx->scene.gpu.clip, probe.clip, sizeof probe.clip);
     ctx->scene.gpu.clip_count = probe.clip_count;
-    picvr_status s = picvr_cache_clear(ctx);
-    picvr_dauto_forget(&ctx->sched.dauto);   /* the kinds' efficiency is the scene's */
-    return s ? s : picvr_clear_accumulation(ctx);
+    return picvr_light_state_changed(ctx, PICVR_OK);
 }

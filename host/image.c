@@ -32,6 +32,19 @@ static picvr_status picvr_clear_accumulation(picvr_context *ctx) {
     return picvr_cmd_submit_wait(ctx);
 }
 
+/* After a change of what the light depends on (volume, transfer function, lights,
+   scattering, clipping), whose setter's own update ended with status s: the cache and the
+   image are cleared, and PICVR_DISTANCE_AUTO forgets its measurements (the kinds'
+   efficiency is the scene's).  Rule: after a failed update (s != 0) the measurements are
+   forgotten all the same (the scene may be part changed), nothing else is cleared, and s
+   is returned. */
+static picvr_status picvr_light_state_changed(picvr_context *ctx, picvr_status s) {
+    picvr_dauto_forget(&ctx->sched.dauto);
+    if (!s) s = picvr_cache_clear(ctx);
+    if (!s) s = picvr_clear_accumulation(ctx);
+    return s;
+}
+
 picvr_status picvr_reset(picvr_context *ctx) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     PICVR_REFUSE_IF_BUSY(ctx);

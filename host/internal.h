@@ -273,8 +273,10 @@ typedef struct picvr_dauto {
     int on;                          /* measuring: AUTO, a forced share, the cache off (picvr_dauto_update) */
     int forced;                      /* the kind that adds to the image */
     double cost[2];                  /* device ms per block; 0: unmeasured */
-    double spread[2];                /* relative variance per sample (render.glsl, measure_spread) */
-    uint32_t measured[2];            /* rounds that entered spread[] */
+    double spread_sum[2];            /* variance per sample times samples, in the image's units
+                                        (render.glsl, measure_spread, unscaled): over every measured round */
+    double spread_count[2];          /* the samples measured into spread_sum */
+    uint32_t measured[2];            /* rounds that entered spread_sum */
     double time_ms[2];               /* device time of each kind, exponentially weighted (PICVR_AUTO_WINDOW) */
     float scale;                     /* the spread's scale: 1 / the image's mean luminance; 0: none */
     uint32_t scale_age;              /* rounds since scale was measured; 0: never */
@@ -285,6 +287,7 @@ typedef struct picvr_dauto {
 #define PICVR_ROUND_FORCED 1u         /* the forced kind's variant renders (host only) */
 #define PICVR_ROUND_MEASURE 2u        /* shaders/render.glsl's ROUND_* flags */
 #define PICVR_ROUND_PROBE 4u
+#define PICVR_ROUND_KEEP 8u
 #define PICVR_DAUTO_WARM 2u           /* rounds of each kind measured before the choice is by efficiency */
 #define PICVR_DAUTO_EXPLORE 0.01     /* share of device time the kind not chosen keeps, in probes */
 #define PICVR_DAUTO_MEASURE_EVERY 4u  /* the chosen kind's rounds measured, once warm: one in this many */

@@ -250,7 +250,5 @@ picvr_status picvr_set_lights(picvr_context *ctx, const picvr_light *lights, uin
     ctx->scene.light_count = count;
     ctx->scene.use_phase_mis = mis;
     picvr_update_equiangular(ctx);
-    s = picvr_cache_clear(ctx);
-    picvr_dauto_forget(&ctx->sched.dauto);   /* the kinds' efficiency is the scene's */
-    return s ? s : picvr_clear_accumulation(ctx);
+    return picvr_light_state_changed(ctx, PICVR_OK);
 }

@@ -315,7 +315,8 @@ static picvr_status picvr_finish_round(picvr_context *ctx, const picvr_round_pla
     picvr_dauto_account(&ctx->sched.dauto, p->render_flags, dev[PICVR_PROC_RENDER], blocks,
                         ctx->sched.first_dispatch[PICVR_PROC_RENDER], measured,
                         (uint64_t)spread[1] << 32 | spread[0], (uint64_t)spread[3] << 32 | spread[2]);
-    if (p->render_flags & PICVR_ROUND_PROBE) blocks = 0;   /* a probe adds nothing to the image */
+    if ((p->render_flags & (PICVR_ROUND_PROBE | PICVR_ROUND_KEEP)) == PICVR_ROUND_PROBE)
+        blocks = 0;   /* a probe adds nothing to the image (unless it keeps its samples) */
     ctx->image.block_samples += blocks;
     if (blocks > 0) ctx->image.has_samples = 1;
     ctx->image.scatter_events += (uint64_t)events[1] << 32 | events[0];

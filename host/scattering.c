@@ -27,7 +27,5 @@ picvr_status picvr_set_scattering(picvr_context *ctx, const picvr_scattering *sc
     ctx->scene.gpu.max_bounces = sc->max_bounces;
     ctx->scene.gpu.back_g = sc->back_g;
     ctx->scene.gpu.back_weight = sc->back_weight;
-    s = picvr_cache_clear(ctx);
-    picvr_dauto_forget(&ctx->sched.dauto);   /* the kinds' efficiency is the scene's */
-    return s ? s : picvr_clear_accumulation(ctx);
+    return picvr_light_state_changed(ctx, PICVR_OK);
 }

@@ -289,12 +289,13 @@ static void picvr_auto_account(picvr_sched *sc, int plain, const double dev[3], 
    reduces the squared error in proportion to 1 / (c v): c its device time per block, v
    its variance per sample, measured on the device as the spread of its samples about
    the pixels' running means (shaders/render.glsl, measure_spread).  The forced point
-   pays when E = c_mis v_mis / (c_forced v_forced) > 1.  Only the chosen kind adds to the
-   image: averaged with equal weights, samples of kinds whose variances differ 10^4-fold
+   pays when E = c_mis v_mis / (c_forced v_forced) > 1.  The chosen kind adds to the
+   image; averaged with equal weights, samples of kinds whose variances differ 10^4-fold
    (thin media under the sun) would leave the noisier kind's error in the image for
-   good.  The other kind runs as probes, rounds that measure and add nothing, at first
-   PICVR_DAUTO_WARM rounds of each and then PICVR_DAUTO_EXPLORE of the device time (the
-   bound of what measuring costs).  A switch clears the image when the samples it has
+   good.  The other kind runs as probes, rounds that measure and add to the image only
+   where that lowers its variance (picvr_dauto_flags), at first PICVR_DAUTO_WARM rounds
+   of each and then PICVR_DAUTO_EXPLORE of the device time (the bound of what measuring
+   costs).  A switch clears the image when the samples it has
    are the noisier: keeping n_o samples of variance v_o and adding n of v_n leaves the
    mean the variance (n_o v_o + n v_n) / (n_o + n)^2, below the restart's v_n / n for
    every n exactly when v_o <= 2 v_n. */
@@ -304,8 +305,7 @@ static void picvr_auto_account(picvr_sched *sc, int plain, const double dev[3], 
    mean's) is taken as 1e-3 of the other kind's; both <= 0 (or unmeasured): 0, no choice. */
 static int picvr_dauto_spreads(const picvr_dauto *a, double v[2]) {
     if (a->measured[0] < PICVR_DAUTO_WARM || a->measured[1] < PICVR_DAUTO_WARM) return 0;
-    v[0] = a->spread[0];
-    v[1] = a->spread[1];
+    for (int k = 0; k < 2; k++) v[k] = a->spread_count[k] > 0.0 ? a->spread_sum[k] / a->spread_count[k] : 0.0;
     if (!(v[0] > 0.0) && !(v[1] > 0.0)) return 0;
     if (!(v[0] > 0.0)) v[0] = 1e-3 * v[1];
     if (!(v[1] > 0.0)) v[1] = 1e-3 * v[0];
@@ -331,13 +331,22 @@ static uint32_t picvr_dauto_chosen_flags(const picvr_dauto *a) {
    time, else the chosen kind, measured in its first PICVR_DAUTO_WARM rounds and then
    one round in PICVR_DAUTO_MEASURE_EVERY (the measure's atomics cost device time, and
    the choice needs no more).  A probe needs the image's means to
-   measure against: it waits for a measured round of the chosen kind. */
+   measure against: it waits for a measured round of the chosen kind.  A probe keeps its
+   samples in the image (PICVR_ROUND_KEEP) when its kind's measured variance is below
+   twice the chosen kind's: adding n_p samples of variance v_p to n_c of v_c leaves the
+   mean the variance (n_c v_c + n_p v_p) / (n_c + n_p)^2, below v_c / n_c exactly when
+   v_p < v_c (2 + n_p / n_c), so for every n_p and n_c when v_p < 2 v_c; where the kinds'
+   variances are alike (dense media) the probes then cost the image only their kind's
+   extra time per sample.  Rule: unmeasured spreads keep nothing. */
 static uint32_t picvr_dauto_flags(const picvr_dauto *a) {
     int other = !a->forced;
-    double total = a->time_ms[0] + a->time_ms[1];
+    double total = a->time_ms[0] + a->time_ms[1], v[2];
     if (a->measured[a->forced] >= 1 &&
-        (a->measured[other] < PICVR_DAUTO_WARM || a->time_ms[other] < PICVR_DAUTO_EXPLORE * total))
-        return PICVR_ROUND_MEASURE | PICVR_ROUND_PROBE | (other ? PICVR_ROUND_FORCED : 0u);
+        (a->measured[other] < PICVR_DAUTO_WARM || a->time_ms[other] < PICVR_DAUTO_EXPLORE * total)) {
+        int keep = picvr_dauto_spreads(a, v) && v[other] < 2.0 * v[a->forced];
+        return PICVR_ROUND_MEASURE | PICVR_ROUND_PROBE | (keep ? PICVR_ROUND_KEEP : 0u) |
+               (other ? PICVR_ROUND_FORCED : 0u);
+    }
     return picvr_dauto_chosen_flags(a);
 }
 
@@ -360,9 +369,14 @@ static void picvr_dauto_account(picvr_dauto *a, uint32_t flags, double dev_ms, u
         a->time_ms[k] += dev_ms;
         if (blocks > 0) a->cost[k] = picvr_moving_average(a->cost[k], dev_ms / blocks);
     }
-    if ((flags & PICVR_ROUND_MEASURE) && count > 0) {
-        double v = ((double)sum_d - (double)sum_m) / 65536.0 / count;
-        a->spread[k] = a->measured[k] ? 0.7 * a->spread[k] + 0.3 * v : v;
+    /* Every measured round's samples count alike, whatever the scale they were measured
+       at (it is divided out): the kinds' variances are the scene's, so the sums converge,
+       and a rare bright sample moves them by its share of all samples, not of one round.
+       Rule: a round measured without a scale (0) counts nothing. */
+    if ((flags & PICVR_ROUND_MEASURE) && count > 0 && a->scale > 0.0f) {
+        double s2 = (double)a->scale * a->scale;
+        a->spread_sum[k] += ((double)sum_d - (double)sum_m) / 65536.0 / s2;
+        a->spread_count[k] += count;
         a->measured[k]++;
     }
     double e = picvr_dauto_efficiency(a), v[2];

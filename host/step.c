@@ -71,12 +71,10 @@ static picvr_status picvr_dauto_prepare_round(picvr_context *ctx) {
         }
     }
     if (a->restart) {
-        picvr_dauto keep = *a;
-        double elapsed = ctx->image.elapsed_ms;
+        double elapsed = ctx->image.elapsed_ms;   /* the image restarts; the run's time goes on */
         s = picvr_clear_accumulation(ctx);
-        *a = keep;
-        a->restart = 0;
         ctx->image.elapsed_ms = elapsed;
+        a->restart = 0;
         if (s) return s;
     }
     return PICVR_OK;

@@ -93,10 +93,7 @@ static picvr_status picvr_apply_tf(picvr_context *ctx, const picvr_tf_point *p, 
     picvr_status s = picvr_upload_tf_table(ctx);
     if (!s) s = picvr_upload_buffer(ctx, &ctx->scene.tf_range_max, ctx->scene.tf_rm, sizeof *ctx->scene.tf_rm);
     if (!s) s = picvr_update_majorant(ctx);
-    if (!s) s = picvr_cache_clear(ctx);
-    picvr_dauto_forget(&ctx->sched.dauto);   /* the kinds' efficiency is the scene's */
-    if (!s) s = picvr_clear_accumulation(ctx);
-    return s;
+    return picvr_light_state_changed(ctx, s);
 }
 
 static picvr_status picvr_default_transfer_function(picvr_context *ctx) {

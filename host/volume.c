@@ -363,10 +363,7 @@ picvr_status picvr_upload_volume(picvr_context *ctx, const picvr_volume_desc *de
     ctx->scene.has_volume = 1;
     ctx->pipes.descriptors_dirty = 1;
     s = picvr_update_majorant(ctx);
-    if (!s) s = picvr_cache_clear(ctx);
-    picvr_dauto_forget(&ctx->sched.dauto);   /* the kinds' efficiency is the scene's */
-    if (!s) s = picvr_clear_accumulation(ctx);
-    return s;
+    return picvr_light_state_changed(ctx, s);
 }
 
 picvr_status picvr_volume_box(const picvr_context *ctx, float box_min[3], float box_max[3]) {

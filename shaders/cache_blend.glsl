@@ -85,8 +85,7 @@ void count_gain(uint idx, float diff, float bias) {
     float g = (diff * diff - bias * bias) / (st.y / (n - 1.0));
     if (isnan(g) || isinf(g)) return;
     uint units = uint(clamp(g, 0.0, 1.0) * 65536.0);
-    uint old = atomicAdd(cache_counters.gain_lo, units);
-    if (old + units < old) atomicAdd(cache_counters.gain_hi, 1u);
+    ATOMIC_ADD64(cache_counters.gain_lo, cache_counters.gain_hi, units)
     atomicAdd(cache_counters.probes, 1u);
 }
 

@@ -21,6 +21,7 @@
 #include "medium.glsl"
 #include "phase.glsl"
 #include "majorant.glsl"
+#include "atomic64.glsl"
 #include "tracking.glsl"
 #include "transmittance.glsl"
 #include "background.glsl"
@@ -71,14 +72,15 @@ layout(push_constant) uniform Push { uint round; uint seed; uint request_cap; ui
 // A probe: the round measures its samples and adds none to the image (the kind that is
 // not rendering, measured against the image's means).
 #define ROUND_PROBE 4u
+// A probe whose samples also go to the image: its kind's variance is below twice the
+// chosen kind's, so they lower the mean's variance (host/schedule.c, picvr_dauto_flags).
+#define ROUND_KEEP 8u
 #define MEASURE_STRIDE 8u
 
-// Kahan-compensated running mean (precise: no reassociation by the compiler), so
-// that after millions of samples an update of relative size 1e-7 is not lost.
-// Adds w units to the 64-bit sum in (lo, hi) of render_queue.spread (the high word takes
-// the carry).
-#define ADD64(LO, HI, w) { uint w_ = (w); uint old_ = atomicAdd(render_queue.spread.LO, w_); \
-                           if (old_ + w_ < old_) atomicAdd(render_queue.spread.HI, 1u); }
+// A probe that adds nothing: its samples go to the measure alone.
+bool round_discards() {
+    return USE_MEASURE && (pc.flags & (ROUND_PROBE | ROUND_KEEP)) == ROUND_PROBE;
+}
 
 // PICVR_DISTANCE_AUTO's measure of a sample's variance (host/schedule.c, picvr_dauto_account):
 // with m the pixel's running mean of n >= 2 samples and S^2 = M2 / (n - 1), the sample's
@@ -98,17 +100,19 @@ void measure_spread(vec4 s, float lum) {
     if (n < 2u || !(scale > 0.0)) return;
     float d = (lum - s.x) * scale;
     float var_mean = max(s.y, 0.0) / (float(n - 1u) * float(n)) * (scale * scale);
-    ADD64(x, y, uint(min(d * d, 65535.0) * 65536.0 + 0.5))
-    ADD64(z, w, uint(min(var_mean, 65535.0) * 65536.0 + 0.5))
+    ATOMIC_ADD64(render_queue.spread.x, render_queue.spread.y, uint(min(d * d, 65535.0) * 65536.0 + 0.5))
+    ATOMIC_ADD64(render_queue.spread.z, render_queue.spread.w, uint(min(var_mean, 65535.0) * 65536.0 + 0.5))
     atomicAdd(render_queue.totals.w, 1u);
 }
 
+// Kahan-compensated running mean (precise: no reassociation by the compiler), so
+// that after millions of samples an update of relative size 1e-7 is not lost.
 void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
     vec4 s = accum_stat[idx];
     if (USE_MEASURE && (pc.flags & ROUND_MEASURE) != 0u) {
         bool probe = (pc.flags & ROUND_PROBE) != 0u;
         if (probe || idx % MEASURE_STRIDE == pc.round % MEASURE_STRIDE) measure_spread(s, luminance(radiance));
-        if (probe) return;
+        if (round_discards()) return;
     }
     uint n = floatBitsToUint(s.z) + 1u;
     precise vec4 m = accum_mean[idx];
@@ -134,7 +138,7 @@ void accumulate(uint idx, vec3 radiance, float coverage, bool bad) {
 // pixel's samples that scattered (the depth that host/reproject.c moves it by).
 // Rule: t < 0 (the ray passed) and non-finite t leave the mean alone.
 void accumulate_depth(uint idx, float t) {
-    if (!USE_REUSE || !(t >= 0.0) || isinf(t) || (USE_MEASURE && (pc.flags & ROUND_PROBE) != 0u)) return;
+    if (!USE_REUSE || !(t >= 0.0) || isinf(t) || round_discards()) return;
     vec2 d = accum_depth[idx];
     uint n = floatBitsToUint(d.y) + 1u;
     accum_depth[idx] = vec2(d.x + (t - d.x) / float(n), uintBitsToFloat(n));
@@ -222,12 +226,10 @@ vec3 event_radiance(inout ScatterEvent e, out vec3 direct, out uint events) {
     return direct + indirect;
 }
 
-// Adds a path's scatter events to the counters of picvr_stats.mean_path_length: a 64-bit
-// sum in two words (the high word takes the carry).
+// Adds a path's scatter events to the 64-bit counter of picvr_stats.mean_path_length.
 void count_events(uint n) {
-    if (n == 0u || (USE_MEASURE && (pc.flags & ROUND_PROBE) != 0u)) return;
-    uint old = atomicAdd(render_queue.totals.y, n);
-    if (old + n < old) atomicAdd(render_queue.totals.z, 1u);
+    if (n == 0u || round_discards()) return;
+    ATOMIC_ADD64(render_queue.totals.y, render_queue.totals.z, n)
 }
 
 // A scatter event, as the event kernels take it up again: t < 0 (only with
