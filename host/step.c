@@ -52,8 +52,10 @@ static picvr_status picvr_dauto_prepare_round(picvr_context *ctx) {
         double sums[4];
         uint64_t counts[4];
         if ((s = picvr_stats_pass(ctx, 0.0f, sums, counts))) return s;
-        double pixels = (double)ctx->scene.camera.width * ctx->scene.camera.height;
-        double scale = pixels > 0.0 && sums[0] > 0.0 ? pixels / sums[0] : 0.0;
+        /* the mean over the pixels that have samples: while the first pass is incomplete
+           the others are 0, and a mean over all of them would overstate the scale */
+        double sampled = (double)counts[3];
+        double scale = sampled > 0.0 && sums[0] > 0.0 ? sampled / sums[0] : 0.0;
         /* Rule: a black image so far (mean 0) or a scale beyond float gives 0: nothing is
            measured, and the scale is measured again within 8 rounds */
         a->scale = isfinite(scale) && scale < 1e30 ? (float)scale : 0.0f;
