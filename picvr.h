@@ -325,7 +325,9 @@ typedef enum picvr_distance_sampling {
                                       (the paper's baseline) */
     PICVR_DISTANCE_FORCED,         /* MIS as above plus a forced free flight (a collision
                                       inside the medium) for the suns and the lights
-                                      equiangular sampling leaves out: every camera ray
+                                      equiangular sampling leaves out (with
+                                      PICVR_TRANSMITTANCE_RAY_MARCHING also the
+                                      background and environment map): every camera ray
                                       through the medium gathers their light.  For thin
                                       media (haze, smoke, thin clouds), where most rays
                                       pass without an event: there it reaches an error in
@@ -339,16 +341,22 @@ typedef enum picvr_distance_sampling {
                                       to the image only where they lower its variance;
                                       docs/sampling.md).  Where MIS and FORCED
                                       are the same renderer (every light served, or only
-                                      the background), it is MIS with no measuring; with
+                                      the background with ratio tracking), it is MIS with
+                                      no measuring; with
                                       the cache on, MIS */
 } picvr_distance_sampling;
 /* How transmittance (shadow rays, and the camera ray with PICVR_DISTANCE_MIS) is
-   estimated; both are unbiased. */
+   estimated; all are unbiased. */
 typedef enum picvr_transmittance_estimator {
     PICVR_TRANSMITTANCE_DEFAULT = 0, /* PICVR_TRANSMITTANCE_RESIDUAL */
     PICVR_TRANSMITTANCE_RESIDUAL,  /* residual ratio tracking (Novak et al. 2014), each
                                       brick's least extinction as the control */
-    PICVR_TRANSMITTANCE_RATIO      /* ratio tracking against the majorant (the paper's) */
+    PICVR_TRANSMITTANCE_RATIO,     /* ratio tracking against the majorant (the paper's) */
+    PICVR_TRANSMITTANCE_RAY_MARCHING /* unbiased ray marching (Kettunen et al. 2021): exact
+                                      in a homogeneous medium, far less noisy in smooth
+                                      ones, several times the cost per estimate: pays in
+                                      thin media, where the shadow rays' noise dominates
+                                      (docs/sampling.md) */
 } picvr_transmittance_estimator;
 typedef struct picvr_config {
     const char *device_name;  /* substring of the device name; NULL: PICVR_DEVICE or auto */

@@ -5,7 +5,7 @@
  *   picvr-bench-sampling [--scenes thin,bonsai,engine,cloud] [--data ../shared/data]
  *       [--size 256x256] [--time MS] [--slice MS] [--ref-time MS] [--ref-chunks N]
  *       [--seed 101] [--out bench/results/sampling] [--write-thin FILE]
- *       [--before paper|mis] [--after default|forced|auto]
+ *       [--before paper|mis] [--after default|forced|auto|forced-rm]
  *       [--bounces 0,1,4,unlimited]
  *
  * With --bounces the conditions are those picvr_scattering.max_bounces values (the
@@ -323,15 +323,17 @@ static void free_scene(loaded_scene *ls)
     free(ls->thin);
 }
 
-/* The condition code of an --after sampler: "forced" 3, "auto" 4, else the default 0. */
+/* The condition code of an --after sampler: "forced" 3, "auto" 4, "forced-rm" 5, else the
+   default 0. */
 static int after_kind(const char *after)
 {
-    return !strcmp(after, "forced") ? 3 : !strcmp(after, "auto") ? 4 : 0;
+    return !strcmp(after, "forced") ? 3 : !strcmp(after, "auto") ? 4 : !strcmp(after, "forced-rm") ? 5 : 0;
 }
 
 static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const condition *cd)
 {
-    int before = cd->before;   /* 1: the paper's sampler, 2: the default (MIS), 3: forced, 4: auto */
+    int before = cd->before;   /* 1: the paper's sampler, 2: the default (MIS), 3: forced, 4: auto,
+                                  5: forced with ray-marched transmittance */
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = seed;
@@ -345,6 +347,10 @@ static picvr_context *open_context(const loaded_scene *ls, uint32_t seed, const 
     }
     if (before == 3) cfg.distance_sampling = PICVR_DISTANCE_FORCED;
     if (before == 4) cfg.distance_sampling = PICVR_DISTANCE_AUTO;
+    if (before == 5) {
+        cfg.distance_sampling = PICVR_DISTANCE_FORCED;
+        cfg.transmittance = PICVR_TRANSMITTANCE_RAY_MARCHING;
+    }
     picvr_context *ctx = NULL;
     if (!pvc_check(picvr_create(&cfg, &ctx), "picvr_create")) return NULL;
     if (!pvc_check(picvr_upload_volume(ctx, &ls->desc), "picvr_upload_volume") ||
@@ -740,7 +746,8 @@ static void print_help(FILE *f)
         "                   picvr-render --volume) and exit\n"
         "  --before KIND    the \"before\" sampler: paper (free flight, ratio tracking; the\n"
         "                   default) or mis (the default sampler: equiangular sampling alone)\n"
-        "  --after KIND     the \"after\" sampler: default, forced (PICVR_DISTANCE_FORCED) or auto\n"
+        "  --after KIND     the \"after\" sampler: default, forced (PICVR_DISTANCE_FORCED), auto or\n"
+        "                   forced-rm (forced with PICVR_TRANSMITTANCE_RAY_MARCHING)\n"
         "  --bounces LIST   compare these max_bounces values (0,1,4,unlimited) instead of the\n"
         "                   two samplers; results in OUT/paths.md, .csv\n"
         "  --frames N       the engine's case instead: N real-time frames, temporal reuse off\n"
@@ -768,7 +775,10 @@ static int apply_option(void *target, const char *name, const char *value)
         o->before = value;
     }
     else if (!strcmp(name, "after")) {
-        if (strcmp(value, "default") && strcmp(value, "forced") && strcmp(value, "auto")) { pvc_bad_value(name, value); return 0; }
+        if (strcmp(value, "default") && strcmp(value, "forced") && strcmp(value, "auto") && strcmp(value, "forced-rm")) {
+            pvc_bad_value(name, value);
+            return 0;
+        }
         o->after = value;
     }
     else if (!strcmp(name, "size")) return pvc_parse_size(value, PICVR_MAX_IMAGE_SIZE, &o->width, &o->height) ? 1 : (pvc_bad_value(name, value), 0);

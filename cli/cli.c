@@ -254,7 +254,7 @@ const char *pvc_log_level_name(picvr_log_level level)
 }
 
 static const char *const DISTANCE_NAMES[] = {"default", "mis", "free-flight", "forced", "auto"};
-static const char *const TRANSMITTANCE_NAMES[] = {"default", "residual", "ratio"};
+static const char *const TRANSMITTANCE_NAMES[] = {"default", "residual", "ratio", "ray-marching"};
 
 const char *pvc_distance_sampling_name(picvr_distance_sampling d)
 {
@@ -263,7 +263,7 @@ const char *pvc_distance_sampling_name(picvr_distance_sampling d)
 
 const char *pvc_transmittance_name(picvr_transmittance_estimator t)
 {
-    return t >= PICVR_TRANSMITTANCE_DEFAULT && t <= PICVR_TRANSMITTANCE_RATIO ? TRANSMITTANCE_NAMES[t] : "?";
+    return t >= PICVR_TRANSMITTANCE_DEFAULT && t <= PICVR_TRANSMITTANCE_RAY_MARCHING ? TRANSMITTANCE_NAMES[t] : "?";
 }
 
 int pvc_parse_distance_sampling(const char *text, picvr_distance_sampling *out)
@@ -275,7 +275,7 @@ int pvc_parse_distance_sampling(const char *text, picvr_distance_sampling *out)
 
 int pvc_parse_transmittance(const char *text, picvr_transmittance_estimator *out)
 {
-    for (int i = 1; i <= PICVR_TRANSMITTANCE_RATIO; i++)
+    for (int i = 1; i <= PICVR_TRANSMITTANCE_RAY_MARCHING; i++)
         if (!strcmp(text, TRANSMITTANCE_NAMES[i])) { *out = (picvr_transmittance_estimator)i; return 1; }
     return 0;
 }

@@ -129,7 +129,8 @@ const char *pvc_cache_mode_name(picvr_cache_mode mode);
 
 /* "default", "debug", "info", "warning", "error"; "?" for another value. */
 const char *pvc_log_level_name(picvr_log_level level);
-/* "default", "mis", "free-flight", "forced", "auto" and "default", "residual", "ratio" ("?" otherwise);
+/* "default", "mis", "free-flight", "forced", "auto" and "default", "residual", "ratio",
+   "ray-marching" ("?" otherwise);
    the parsers take the names but "default". */
 const char *pvc_distance_sampling_name(picvr_distance_sampling d);
 const char *pvc_transmittance_name(picvr_transmittance_estimator t);

@@ -79,7 +79,7 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     if ((unsigned)cfg.log_level > PICVR_LOG_ERROR) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.validation > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.distance_sampling > PICVR_DISTANCE_AUTO) return PICVR_ERROR_INVALID_ARGUMENT;
-    if ((unsigned)cfg.transmittance > PICVR_TRANSMITTANCE_RATIO) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)cfg.transmittance > PICVR_TRANSMITTANCE_RAY_MARCHING) return PICVR_ERROR_INVALID_ARGUMENT;
     picvr_context *ctx = (picvr_context *)picvr_host_alloc(&cfg.allocator, sizeof *ctx);
     if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(ctx, 0, sizeof *ctx);

@@ -103,6 +103,7 @@ enum { PICVR_PROC_CREATE, PICVR_PROC_UPDATE, PICVR_PROC_RENDER };
 #define PICVR_KEY_LOOKUP_SHIFT 14u  /* LOOKUP_EVENT - 1: 3 bits (render_shade_cache.comp) */
 #define PICVR_KEY_FORCED 131072u    /* USE_FORCED (bit 17, past LOOKUP_EVENT's three) */
 #define PICVR_KEY_MEASURE 262144u   /* USE_MEASURE */
+#define PICVR_KEY_RAY_MARCHING 524288u /* USE_RAY_MARCHING */
 /* The specialization constants' ids: PICVR_SPEC_<name> is the constant_id of <name> in
    shaders/specialization.glsl (`make check-layout` compares the two lists). */
 enum {
@@ -126,6 +127,7 @@ enum {
     PICVR_SPEC_LOOKUP_EVENT = 17,
     PICVR_SPEC_USE_FORCED = 18,
     PICVR_SPEC_USE_MEASURE = 19,
+    PICVR_SPEC_USE_RAY_MARCHING = 20,
     PICVR_SPEC_CONSTANTS            /* their number */
 };
 /* The multiply scattered cache on a CPU device (llvmpipe's loop cap of 65535 per

@@ -171,11 +171,15 @@ static void picvr_update_equiangular(picvr_context *ctx) {
        gentle falloff), so that every ray through the medium gathers each light's share
        by one strategy or the other.  The sum of the unserved shares, not 1 minus the
        served ones: exactly 0 when every light is served.  The background and environment
-       map are left out: a camera ray that passes the medium sees them, so delta
-       tracking's pass or collision already gathers their light with little variance
-       (a white sky over a thin grey medium is nearly a furnace), and the forced point
-       would only add its cost (docs/sampling.md).  Rule: no such power gives 0. */
-    double unserved = 0.0;
+       map are left out with ratio tracking: a camera ray that passes the medium sees
+       them, so delta tracking's pass or collision already gathers their light with
+       little variance (a white sky over a thin grey medium is nearly a furnace), and the
+       forced point's split into a transmitted and an in-scattered part, the first by a
+       nearly 0/1 estimate, costs more than it brings.  With ray-marched transmittance
+       the transmitted part is nearly exact in smooth media and they take their share
+       (docs/sampling.md).  Rule: no such power gives 0. */
+    double unserved = ctx->config.transmittance == PICVR_TRANSMITTANCE_RAY_MARCHING
+                    ? ctx->scene.gpu.background_pmf : 0.0;
     for (uint32_t i = 0; i < n; i++)
         if (!served[i]) unserved += g[i].pmf;
     int forced = (ctx->config.distance_sampling == PICVR_DISTANCE_FORCED ||

@@ -150,6 +150,7 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain,
     uint32_t mono = (uint32_t)ctx->scene.gpu.mono_channel << PICVR_KEY_MONO_SHIFT;
     uint32_t residual = ctx->config.transmittance == PICVR_TRANSMITTANCE_RESIDUAL && ctx->scene.use_control
                       ? PICVR_KEY_RESIDUAL : 0u;
+    if (ctx->config.transmittance == PICVR_TRANSMITTANCE_RAY_MARCHING) residual = PICVR_KEY_RAY_MARCHING;
     uint32_t mis_mode = ctx->config.distance_sampling != PICVR_DISTANCE_FREE_FLIGHT;
     uint32_t equi = ctx->scene.use_equiangular && mis_mode ? PICVR_KEY_EQUIANGULAR : 0u;
     /* the forced point (PICVR_DISTANCE_FORCED, and PICVR_DISTANCE_AUTO's forced kind):
@@ -217,6 +218,7 @@ static void picvr_build_variant(const picvr_context *ctx, int proc, uint32_t key
     value[PICVR_SPEC_LOOKUP_EVENT] = ((key >> PICVR_KEY_LOOKUP_SHIFT) & 7u) + 1u;
     value[PICVR_SPEC_USE_FORCED] = (key & PICVR_KEY_FORCED) != 0;
     value[PICVR_SPEC_USE_MEASURE] = (key & PICVR_KEY_MEASURE) != 0;
+    value[PICVR_SPEC_USE_RAY_MARCHING] = (key & PICVR_KEY_RAY_MARCHING) != 0;
     for (uint32_t i = 0; i < PICVR_SPEC_CONSTANTS; i++) {
         v->entry[i].constantID = i;
         v->entry[i].offset = 4 * i;

@@ -73,7 +73,7 @@ float segment_equiangular(vec3 x, vec3 w, float t0, float t1, float t_a, inout R
     float t_b = b_sample(x, w, t0, t1, 0.0, u_light, u, z);
     float s_b = t_b >= 0.0 ? sigma_t(x + w * t_b) : 0.0;
     float T_b = s_b > 0.0 ? transmittance(x, w, t_b, rng, truncated) : 0.0;
-    bool b_counts = s_b > 0.0 && T_b > 0.0;
+    bool b_counts = s_b > 0.0 && T_b != 0.0;   // a ray-marched T_b may be negative
     float tb = b_counts ? t_b : -1.0;
     SegmentDepths sd = segment_depths(x, w, t0, max(t_a, tb), t_a, tb);
     vec2 p_b = b_pdfs(x, w, t0, t1, t_a, tb, sd, 0.0, z);

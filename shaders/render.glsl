@@ -308,8 +308,9 @@ CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, ino
     float t_mid = max(c.t_b, seg.t0);
     c.T_end = -1.0;
     if (need_end)
-        c.T_end = T_b > 0.0 ? T_b * transmittance(ro + e.rd * t_mid, e.rd, seg.t1 - t_mid, rng, truncated) : 0.0;
-    bool b_counts = s_b > 0.0 && T_b > 0.0;
+        c.T_end = T_b != 0.0 ? T_b * transmittance(ro + e.rd * t_mid, e.rd, seg.t1 - t_mid, rng, truncated) : 0.0;
+    // T_b != 0, not > 0: a ray-marched estimate may be negative (transmittance.glsl)
+    bool b_counts = s_b > 0.0 && T_b != 0.0;
     float t_b_counts = b_counts ? c.t_b : -1.0;
     SegmentDepths sd = segment_depths(ro, e.rd, seg.t0, max(e.t, t_b_counts), e.t, t_b_counts);
     vec2 p_b = b_pdfs(ro, e.rd, seg.t0, seg.t1, e.t, t_b_counts, sd, f, z);
@@ -344,6 +345,8 @@ vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, vec3 re
         vec3 xb = scene.cam_pos + e.rd * c.t_b;
         L += c.f_b * albedo_at(xb) * direct_light(xb, phase_at(xb, e.rd), e.rng, e.truncated);
     }
+    // Rule: a ray-marched T_end outside [0, 1] (rare) is clamped in the coverage alone;
+    // the radiance keeps it
     coverage = need_end ? clamp(1.0 - c.T_end, 0.0, 1.0) : (e.t >= 0.0 ? 1.0 : 0.0);
     return L;
 }

@@ -99,4 +99,9 @@ layout(constant_id = 18) const bool USE_FORCED = false;
 // both of its rendering variants (the forced point's and the one without), nowhere else.
 layout(constant_id = 19) const bool USE_MEASURE = false;
 
+// Transmittance by unbiased ray marching in the rendering kernels
+// (PICVR_TRANSMITTANCE_RAY_MARCHING; transmittance.glsl; false: ratio tracking, residual
+// with USE_RESIDUAL).  Entry creation always ray-marches.
+layout(constant_id = 20) const bool USE_RAY_MARCHING = false;
+
 #endif

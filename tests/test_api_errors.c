@@ -885,7 +885,7 @@ void test_create_config_errors(void **state) {
     CFG_ROW("validation 7", PICVR_ERROR_INVALID_ARGUMENT, cfg.validation = (picvr_switch)7);
     CFG_ROW("distance_sampling 5", PICVR_ERROR_INVALID_ARGUMENT, cfg.distance_sampling = (picvr_distance_sampling)5);
     CFG_ROW("distance_sampling -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.distance_sampling = (picvr_distance_sampling)-1);
-    CFG_ROW("transmittance 3", PICVR_ERROR_INVALID_ARGUMENT, cfg.transmittance = (picvr_transmittance_estimator)3);
+    CFG_ROW("transmittance 4", PICVR_ERROR_INVALID_ARGUMENT, cfg.transmittance = (picvr_transmittance_estimator)4);
     CFG_ROW("transmittance -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.transmittance = (picvr_transmittance_estimator)-1);
     CFG_ROW("vulkan.device without instance/queue", PICVR_ERROR_INVALID_ARGUMENT, cfg.vulkan.device = (void *)&cfg);
     CFG_ROW("allocator free only", PICVR_ERROR_INVALID_ARGUMENT, cfg.allocator.free = free_hook);

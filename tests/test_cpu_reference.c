@@ -1293,6 +1293,7 @@ typedef struct cr_case {
     picvr_camera cam;
     uint32_t n_gpu, n_cpu, seed;
     picvr_distance_sampling ds;   /* the GPU's camera-ray sampler (0: the default) */
+    picvr_transmittance_estimator te;   /* the GPU's transmittance estimator (0: the default) */
 } cr_case;
 
 /* The same scene on the GPU (n_gpu samples in 4 batches) and on the reference (n_cpu in
@@ -1305,6 +1306,7 @@ static void cr_gpu_vs_cpu(const cr_case *c) {
     memset(&cfg, 0, sizeof cfg);
     cfg.seed = c->seed;
     cfg.distance_sampling = c->ds;
+    cfg.transmittance = c->te;
     picvr_context *ctx = tu_create_config(&cfg);
     TU_OK(picvr_upload_volume(ctx, &vd));
     TU_OK(picvr_set_transfer_function(ctx, c->tf, c->tf_count, c->D));
@@ -1377,6 +1379,35 @@ void test_gpu_matches_cpu_reference_forced(void **state) {
     c.cam = cr_camera(4, 3, 30, 32, 32, 40);
     c.n_gpu = 128; c.n_cpu = 256; c.seed = 85;
     c.ds = PICVR_DISTANCE_FORCED;
+    cr_gpu_vs_cpu(&c);
+    tu_vol_free(&vol);
+}
+
+/* Ray-marched transmittance (PICVR_TRANSMITTANCE_RAY_MARCHING) against the reference's
+   delta tracking: the forced case's scene with 4 bounces, so every shadow ray, the camera
+   ray's end term through the heterogeneous ball and the path's later segments draw on
+   the estimator, whose loops share the path's pool with tracking (transmittance.glsl);
+   none may be cut. */
+void test_gpu_matches_cpu_reference_ray_marching(void **state) {
+    (void)state;
+    tu_vol vol = tu_vol_ball(16);
+    picvr_tf_point tf[3] = {{0.0f, {0.9f, 0.9f, 0.9f}, 0.0f, 0.0f},
+                            {0.4f, {0.8f, 0.85f, 0.9f}, 0.3f, 0.0f},
+                            {1.0f, {0.9f, 0.9f, 0.9f}, 1.0f, 0.0f}};
+    picvr_light l[2];
+    cr_lights_sun_sphere(l);
+    picvr_background bg = {{0.3f, 0.4f, 0.6f}, 0.5f};
+    cr_case c;
+    memset(&c, 0, sizeof c);
+    c.name = "ray marching, forced, 4 bounces";
+    c.vol = &vol;
+    c.tf = tf; c.tf_count = 3; c.D = 0.4f;
+    c.lights = l; c.light_count = 2; c.bg = &bg;
+    c.sc.max_bounces = 4;
+    c.cam = cr_camera(4, 3, 30, 32, 32, 40);
+    c.n_gpu = 128; c.n_cpu = 256; c.seed = 87;
+    c.ds = PICVR_DISTANCE_FORCED;
+    c.te = PICVR_TRANSMITTANCE_RAY_MARCHING;
     cr_gpu_vs_cpu(&c);
     tu_vol_free(&vol);
 }

@@ -870,8 +870,10 @@ typedef struct point_sweep_case {
     double tau, p[3], I, sys_rel;
 } point_sweep_case;
 
-/* The cases of a point-light sweep with distance sampler ds; *ok cleared on a failure. */
-static void point_sweep(const point_sweep_case *cases, size_t n, picvr_distance_sampling ds, uint32_t seed, int *ok) {
+/* The cases of a point-light sweep with distance sampler ds and transmittance estimator
+   te; *ok cleared on a failure. */
+static void point_sweep(const point_sweep_case *cases, size_t n, picvr_distance_sampling ds,
+                        picvr_transmittance_estimator te, uint32_t seed, int *ok) {
     const uint32_t W = 32, H = 32, N = 96;
     for (size_t i = 0; i < n; i++) {
         const point_sweep_case *c = &cases[i];
@@ -879,6 +881,7 @@ static void point_sweep(const point_sweep_case *cases, size_t n, picvr_distance_
         memset(&cfg, 0, sizeof cfg);
         cfg.seed = seed + (uint32_t)i;
         cfg.distance_sampling = ds;
+        cfg.transmittance = te;
         picvr_context *ctx = tu_create_config(&cfg);
         tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
         tu_upload(ctx, &vol);
@@ -923,7 +926,7 @@ void test_sweep_point_light_extremes(void **state) {
         {"tau 1e5, light above the top face", 1e5, {0.0, 12.0, 0.0}, 40.0, 3e-3},
     };
     int ok = 1;
-    point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_DEFAULT, 70, &ok);
+    point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_DEFAULT, PICVR_TRANSMITTANCE_DEFAULT, 70, &ok);
     if (!ok) fail_msg("a point light at an extreme differs from the closed form");
 }
 
@@ -941,8 +944,30 @@ void test_sweep_forced_extremes(void **state) {
         {"forced, tau 1, light on the axis 8 radii away", 1.0, {0.0, 0.0, 110.0}, 5000.0, 3e-3},
     };
     int ok = 1;
-    point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_FORCED, 80, &ok);
+    point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_FORCED, PICVR_TRANSMITTANCE_DEFAULT, 80, &ok);
     if (!ok) fail_msg("the forced point at an extreme differs from the closed form");
+}
+
+/* Ray-marched transmittance (PICVR_TRANSMITTANCE_RAY_MARCHING) at the extremes: the
+   forced point's shadow rays and end term through optical depth 1e-6 and 1 under a light
+   1e6 away, and the default sampler's with the light inside a box of optical depth 1e5
+   (every pivot darker than RM_DARK: Russian roulette decides each estimate) and 1e-6
+   above the face of a thin one.  The medium is homogeneous, where the estimator is
+   exact up to its roulette.  Tolerances as above. */
+void test_sweep_ray_marching_extremes(void **state) {
+    (void)state;
+    static const point_sweep_case forced[] = {
+        {"ray marching, forced, tau 1e-6, light 1e6 away", 1e-6, {0.0, 1e6, 0.0}, 4e13, 3e-3},
+        {"ray marching, forced, tau 1, light 1e6 away", 1.0, {0.0, 1e6, 0.0}, 4e13, 3e-3},
+    };
+    static const point_sweep_case mis[] = {
+        {"ray marching, tau 1e5, light inside", 1e5, {2.0, 3.0, -1.0}, 40.0, 3e-3},
+        {"ray marching, tau 1e-6, light 1e-6 above the top face", 1e-6, {1.0, 8.000001, 0.5}, 40.0, 3e-3},
+    };
+    int ok = 1;
+    point_sweep(forced, sizeof forced / sizeof forced[0], PICVR_DISTANCE_FORCED, PICVR_TRANSMITTANCE_RAY_MARCHING, 100, &ok);
+    point_sweep(mis, sizeof mis / sizeof mis[0], PICVR_DISTANCE_DEFAULT, PICVR_TRANSMITTANCE_RAY_MARCHING, 110, &ok);
+    if (!ok) fail_msg("ray-marched transmittance at an extreme differs from the closed form");
 }
 
 /* PICVR_DISTANCE_AUTO at the extremes of its measure (render.glsl, measure_spread: the
@@ -958,7 +983,7 @@ void test_sweep_auto_extremes(void **state) {
         {"auto, tau 1e5, light 1e6 away", 1e5, {0.0, 1e6, 0.0}, 4e13, 3e-3},
     };
     int ok = 1;
-    point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_AUTO, 90, &ok);
+    point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_AUTO, PICVR_TRANSMITTANCE_DEFAULT, 90, &ok);
     if (!ok) fail_msg("PICVR_DISTANCE_AUTO at an extreme differs from the closed form");
 }
 

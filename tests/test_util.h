@@ -163,6 +163,7 @@
     X(test_cpu_reference_roulette_unbiased)                         \
     X(test_cpu_reference_albedo_per_bounce)                         \
     X(test_gpu_matches_cpu_reference_forced)                        \
+    X(test_gpu_matches_cpu_reference_ray_marching)                  \
     X(test_gpu_matches_cpu_reference_bounces_forward_hg)            \
     X(test_gpu_matches_cpu_reference_bounces_chromatic)             \
     X(test_gpu_matches_cpu_reference_environment_map)               \
@@ -201,6 +202,7 @@
     /* test_robust_sweep.c (issue 6) */                             \
     X(test_sweep_point_light_extremes)                              \
     X(test_sweep_forced_extremes)                                   \
+    X(test_sweep_ray_marching_extremes)                             \
     X(test_sweep_auto_extremes)                                     \
     X(test_sweep_path_extremes)                                     \
     X(test_sweep_optical_thickness_beer_lambert)                    \

@@ -120,6 +120,7 @@ int main(void)
     PICVR_SPEC(LOOKUP_EVENT);
     PICVR_SPEC(USE_FORCED);
     PICVR_SPEC(USE_MEASURE);
+    PICVR_SPEC(USE_RAY_MARCHING);
     printf("SPEC_CONSTANTS %d\n", (int)PICVR_SPEC_CONSTANTS);
     return 0;
 }
