@@ -37,6 +37,17 @@
 #include "cache_math_host.h"
 #undef CM_HOST_FORMULAS
 #include "shaders/sampling_math.glsl"
+/* shaders/sobol.glsl: integers only, so compiled once (cm_sobol_*) */
+#include <stdint.h>
+typedef uint32_t cm_uint;
+static inline cm_uint cm_bitrev(cm_uint x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
+    return (x >> 16) | (x << 16);
+}
+#include "shaders/sobol.glsl"
 #undef real
 #undef CM_FN
 #undef cm_log

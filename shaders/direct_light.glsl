@@ -15,9 +15,13 @@
 
 // Light-sampling strategy: one light (or the background) chosen by power.
 // Returns f * L * T * w / pdf with f the phase function ph (1/(4 pi) when isotropic).
+// The choice and the direction come from the pixel's pairs of purpose rng.event where
+// it is set (random.glsl), else from independent numbers.
 vec3 sample_one_light(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
-    uint li = select_light(rnd(rng));
-    float u1 = rnd(rng), u2 = rnd(rng);
+    bool q = USE_QMC && rng.event != 0u;
+    uint li = select_light(q ? qmc_pair(rng, rng.event + 1u).x : rnd(rng));
+    vec2 u = pair_or_rnd(rng, q, rng.event);
+    float u1 = u.x, u2 = u.y;
     vec3 w;
     vec3 L;
     float dist = 1e30;
@@ -120,9 +124,11 @@ vec3 phase_emission(vec3 x, vec3 w, int hit, float t_hit, float f) {
 }
 
 // Phase-sampling strategy: f / pdf = 1 (phase_sample is exact), so the estimate is
-// Le * T * w, the transmittance by ratio tracking.
+// Le * T * w, the transmittance by ratio tracking.  Its direction from the pair of
+// purpose rng.event + 2 where that is set.
 vec3 sample_phase(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
-    float u1 = rnd(rng), u2 = rnd(rng);
+    vec2 u = pair_or_rnd(rng, rng.event != 0u, rng.event + 2u);
+    float u1 = u.x, u2 = u.y;
     vec3 w = phase_sample(ph, u1, u2);
     float t_hit;
     int hit = nearest_area_light(x, w, 1e30, t_hit);

@@ -52,10 +52,12 @@
 
 #define BOUNCES_UNLIMITED 0xffffffffu
 
-// In-scattered radiance at x by plain Monte Carlo: one light and one phase sample (MIS).
+// In-scattered radiance at x by plain Monte Carlo: one light and one phase sample (MIS),
+// from the pixel's pairs of purpose rng.event if set (cleared here: one event's).
 vec3 direct_light(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
     vec3 L = sample_one_light(x, ph, rng, truncated);
     if (USE_PHASE_MIS) L += sample_phase(x, ph, rng, truncated);
+    rng.event = 0u;
     return L;
 }
 
@@ -130,15 +132,18 @@ bool path_event(inout PathState s, uint first, inout Rng rng, inout bool truncat
         end = rnd(rng) >= q;
     }
     Phase ph = phase_at(s.x, s.d);
+    // this event's pairs (rng.event, the camera's first event), then independent numbers
     vec3 L = sample_one_light(s.x, ph, rng, truncated);
     vec3 w = vec3(0.0);
     float t = -1.0;
     float w_next = 1.0;  // the next event's direct-light weight (its segment's MIS)
     if (end) {
         if (USE_PHASE_MIS) L += sample_phase(s.x, ph, rng, truncated);
+        rng.event = 0u;
     } else {
-        float u1 = rnd(rng), u2 = rnd(rng);
-        w = phase_sample(ph, u1, u2);
+        vec2 u = pair_or_rnd(rng, rng.event != 0u, rng.event + 2u);
+        rng.event = 0u;
+        w = phase_sample(ph, u.x, u.y);
         float t_light, t0 = 0.0, t1 = 0.0;
         int hit = nearest_area_light(s.x, w, 1e30, t_light);
         bool cut = false;

@@ -161,6 +161,7 @@ struct ScatterEvent { uint idx; uvec2 px; vec3 rd; float t; vec3 x; Rng rng; boo
 // Plain Monte Carlo's single-scattered light at the event e, albedo included: one light
 // and one phase sample, combined by MIS.
 vec3 event_direct(inout ScatterEvent e) {
+    e.rng.event = QMC_EVENT_A;
     return albedo_at(e.x) * direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
 }
 
@@ -216,6 +217,7 @@ vec3 event_radiance(inout ScatterEvent e, out vec3 direct, out uint events) {
         return direct;
     }
     vec3 indirect;
+    e.rng.event = QMC_EVENT_A;
 #ifdef PICVR_CACHE_PATHS
     if (LOOKUP_EVENT > 1u) {
         cached_path(e, direct, indirect, events);
@@ -294,7 +296,7 @@ CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, ino
     if (USE_BOUNCES && f > 0.0)
         path_pool -= min(path_pool, 2u * (scene.grid.x + scene.grid.y + scene.grid.z));
     CameraSample c;
-    float u_light = rnd(rng);
+    float u_light = USE_QMC ? qmc_pair(rng, QMC_B_CHOICE).x : rnd(rng);
     float z;
     c.t_b = b_sample(ro, e.rd, seg.t0, seg.t1, f, u_light, qmc(rng, 2u), z);
     c.f_b = 0.0;
@@ -343,6 +345,7 @@ vec3 finish_camera_sample(inout ScatterEvent e, bool a_known, vec3 Ls_a, vec3 re
     }
     if (c.f_b > 0.0) {
         vec3 xb = scene.cam_pos + e.rd * c.t_b;
+        e.rng.event = QMC_EVENT_B;
         L += c.f_b * albedo_at(xb) * direct_light(xb, phase_at(xb, e.rd), e.rng, e.truncated);
     }
     // Rule: a ray-marched T_end outside [0, 1] (rare) is clamped in the coverage alone;

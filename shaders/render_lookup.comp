@@ -45,12 +45,14 @@ void main() {
         // direction, and the event's direct light as event_direct shades it
         Phase ph = phase_at(e.x, e.rd);
         Ls = USE_BOUNCES ? ms_inscattered(E, aniso, ph) : E * INV_4PI;
+        e.rng.event = QMC_EVENT_A;
         if (USE_BOUNCES) direct = albedo * direct_light(e.x, ph, e.rng, e.truncated);
     } else {
         if (!USE_DEBUG_VIEW) {
             QUEUE_EVENT(shade_queue, e.idx, e.t, e.rng, e.truncated)
             return;
         }
+        e.rng.event = QMC_EVENT_A;
         Ls = direct_light(e.x, phase_at(e.x, e.rd), e.rng, e.truncated);
     }
     vec3 cached = albedo * Ls;

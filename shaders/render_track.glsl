@@ -22,6 +22,7 @@ void main() {
     float t = -1.0, t0 = 0.0, t1 = 0.0;
     if (box_interval(ro, rd, t0, t1)) {
         t1 = min(t1, t_light);
+        rng.flight = true;   // the first free flight from the pixel's sequence
         if (t1 > t0) t = delta_track(ro, rd, t0, t1, rng, truncated);
     }
     // with strategy B every ray through medium has more to gather (a segment without

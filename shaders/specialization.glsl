@@ -51,7 +51,8 @@ layout(constant_id = 7) const bool USE_EQUIANGULAR = false;
 // paper's Exposure Render estimator; tracking.glsl).
 layout(constant_id = 8) const bool USE_RESIDUAL = true;
 
-// The pixel's jitter from the low-discrepancy sequence (random.glsl, qmc; false:
+// The camera sample from the pixel's low-discrepancy sequences (random.glsl: the jitter,
+// B's distance and choice, the first free flight, the first events' direct light; false:
 // independent numbers, the paper's baseline as picvr_config.distance_sampling
 // FREE_FLIGHT renders it).
 layout(constant_id = 9) const bool USE_QMC = true;

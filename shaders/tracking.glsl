@@ -45,21 +45,52 @@ float cell_control(Dda d, float maj) { return USE_RESIDUAL && maj > 0.0 ? min(ce
 // media", §5: the control's part exp(-c l) is applied exactly by the caller along the
 // way, the residual part is ratio-tracked, so E[T] = exp(-tau)); returns true when T
 // fell to 0.
-bool tentative_collision(bool ratio, vec3 x, float m, float c, inout float T, inout Rng rng) {
+bool tentative_collision(bool ratio, vec3 x, float m, float c, float u_qmc, inout float T, inout Rng rng) {
     if (!ratio) {
-        float u = rnd(rng) * m;
+        float u = (u_qmc >= 0.0 ? u_qmc : rnd(rng)) * m;
         return u < c || u < sigma_t(x);
     }
     return ratio_collide(T, sigma_t(x) - c, m - c, rng);
 }
 
+// A free flight in optical depth against the tracking rate: -log(1 - u), drawn when the
+// previous one ended (flight.depth < 0) and carried across cell boundaries, so that one
+// number decides the whole flight (the memoryless exponential makes carrying the rest
+// and drawing afresh per cell the same distribution; carried, a pixel's sequence
+// stratifies where its camera rays first collide).  The camera ray's first flight takes
+// its number and its tentative collision's test from the pixel's QMC_FLIGHT pair
+// (rng.flight); u_test < 0 where the test draws its own.
+struct Flight { float depth; float u_test; };
+
+Flight flight_start() { return Flight(-1.0, -1.0); }
+
 // The next tentative collision after t under majorant m and control c: delta tracking
-// at rate m, ratio tracking at rate m - c (the residual); t_end when the rate is 0.  Ratio
-// tracking's T takes the control's attenuation up to there.  -log(1 - u) is finite
-// because u < 1 (rnd has 24 bits).
-float next_tentative(bool ratio, float t, float t_end, float m, float c, inout float T, inout Rng rng) {
+// at rate m, ratio tracking at rate m - c (the residual); t_end when the rate is 0 (the
+// flight's depth is then kept whole).  Ratio tracking's T takes the control's
+// attenuation up to there.  -log(1 - u) is finite because u < 1 (24 bits).  Rule: the
+// depth left after a cell is clamped at 0 (rounding), which ends the flight at the next
+// cell's start, a bias below float's resolution.
+float next_tentative(bool ratio, float t, float t_end, float m, float c, inout float T, inout Flight fl,
+                     inout Rng rng) {
     float rate = ratio ? m - c : m;
-    float t_try = rate > 0.0 ? t - log(1.0 - rnd(rng)) / rate : t_end;
+    float t_try = t_end;
+    if (rate > 0.0) {
+        if (fl.depth < 0.0) {
+            float u;
+            if (USE_QMC && rng.flight) {
+                vec2 q = qmc_pair(rng, QMC_FLIGHT);
+                u = q.x;
+                fl.u_test = q.y;
+            } else {
+                u = rnd(rng);
+                fl.u_test = -1.0;
+            }
+            rng.flight = false;
+            fl.depth = -log(1.0 - u);
+        }
+        t_try = t + fl.depth / rate;
+        fl.depth = t_try < t_end ? -1.0 : max(fl.depth - rate * (t_end - t), 0.0);
+    }
     if (ratio && c > 0.0) T *= exp(-c * (min(t_try, t_end) - t));
     return t_try;
 }
@@ -79,15 +110,16 @@ bool track_met_medium = false;
 // caller's step counter and its bound.  Returns true when the walk ended the whole track:
 // a real collision (delta tracking; t holds it) or a zero transmittance (ratio tracking).
 bool fine_segment(bool ratio, vec3 ro, vec3 rd, inout float t, float t_end, float c, inout float T,
-                  inout Rng rng, inout uint steps, uint limit) {
+                  inout Flight fl, inout Rng rng, inout uint steps, uint limit) {
     Dda f = fine_start(ro, rd, t);
     float m = max(fine_majorant(f), c);
     for (; steps < limit; steps++) {
         float t_seg = min(dda_exit(f), t_end);
-        float t_try = next_tentative(ratio, t, t_seg, m, c, T, rng);
+        float t_try = next_tentative(ratio, t, t_seg, m, c, T, fl, rng);
         if (t_try < t_seg) {
             t = t_try;
-            if (tentative_collision(ratio, ro + rd * t, m, c, T, rng)) return true;
+            if (tentative_collision(ratio, ro + rd * t, m, c, fl.u_test, T, rng)) return true;
+            fl.u_test = -1.0;
             continue;
         }
         t = t_seg;
@@ -119,6 +151,7 @@ float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, ino
     float c = cell_control(d, maj);
     uint limit = USE_BOUNCES ? min(MAX_TRACK_STEPS, path_pool) : MAX_TRACK_STEPS;
     uint i = 0u;
+    Flight fl = flight_start();
     bool ended = false;      // a collision (delta) or a zero transmittance (ratio)
     bool passed = false;     // the ray left [t0, t1]
     track_met_medium = false;
@@ -127,13 +160,14 @@ float track(bool ratio, vec3 ro, vec3 rd, float t0, float t1, inout Rng rng, ino
         if (maj > 0.0) {
             track_met_medium = true;
             if (USE_FINE && (ratio ? maj - c : maj) * (t_cell - t) > FINE_THRESHOLD) {
-                if (fine_segment(ratio, ro, rd, t, t_cell, c, T, rng, i, limit)) { ended = true; break; }
+                if (fine_segment(ratio, ro, rd, t, t_cell, c, T, fl, rng, i, limit)) { ended = true; break; }
                 if (i >= limit) break;
             } else {
-                float t_try = next_tentative(ratio, t, t_cell, maj, c, T, rng);
+                float t_try = next_tentative(ratio, t, t_cell, maj, c, T, fl, rng);
                 if (t_try < t_cell) {
                     t = t_try;
-                    if (tentative_collision(ratio, ro + rd * t, maj, c, T, rng)) { ended = true; break; }
+                    if (tentative_collision(ratio, ro + rd * t, maj, c, fl.u_test, T, rng)) { ended = true; break; }
+                    fl.u_test = -1.0;
                     continue;
                 }
             }

@@ -22,9 +22,11 @@
 #include "reference/cache_math_host.h"
 
 #include <float.h>
+#include <stdint.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 /* ---- host: the formulas ---------------------------------------------------------------- */
 
@@ -321,6 +323,81 @@ void test_sampling_forced_pdf_integrates_and_histogram(void **state) {
             if (!(chi2 <= tu_chi2_quantile_upper(df, 3.09))) fail_msg("profile %zu: forced draws do not follow the pdf", i);
         }
     }
+}
+
+/* The kernels' scrambled Sobol pairs (shaders/sobol.glsl, compiled here as C; random.glsl's
+   qmc_pair hashes the index's seed and the two digital shifts from the pixel and
+   purpose where this test takes three related ones, and keeps the top 24 bits as here):
+   - stratified: for 64 seeds, every prefix of 2^k points (k = 1..12) and the aligned
+     block of 2^k after it put exactly one point in each elementary interval of area
+     2^-k (each of the k + 1 grids 2^a x 2^(k - a)), the property the renderer relies
+     on for each pixel's samples (a count, exact);
+   - uniform: sample n (0, 1, 7, 1000, 65535) over 2^16 seeds in a 16 x 16 grid, chi-square
+     below its 99.9 % point (df 255): each sample is uniform on its own, which is what
+     keeps every estimate unbiased;
+   - unrelated purposes: the correlation of two seeds' x over 4096 samples, averaged over
+     64 pairs of seeds, within 4.5 standard errors of 0 (unrelated sequences: each
+     correlation's spread 1 / sqrt(4096), their mean's 1 / 512). */
+static void sobol_point(uint32_t n, uint32_t seed, double *x, double *y) {
+    uint32_t i = cm_sobol_shuffle(n, seed);
+    *x = (double)((cm_sobol_x(i) ^ (seed * 747796405u + 1u)) >> 8) / 16777216.0;
+    *y = (double)((cm_sobol_y(i) ^ (seed * 2891336453u + 3u)) >> 8) / 16777216.0;
+}
+
+void test_sampling_sobol_pairs_stratified_and_uniform(void **state) {
+    (void)state;
+    enum { KMAX = 12 };
+    static uint8_t cell[1u << KMAX];
+    uint64_t rng = 0x13198a2e03707344ull;
+    for (int s = 0; s < 64; s++) {
+        uint32_t seed = (uint32_t)(tu_rand01(&rng) * 4294967296.0);
+        for (int k = 1; k <= KMAX; k++) {
+            uint32_t N = 1u << k;
+            for (uint32_t start = 0; start <= N; start += N) {
+                for (int a = 0; a <= k; a++) {
+                    memset(cell, 0, N);
+                    for (uint32_t n = start; n < start + N; n++) {
+                        double x, y;
+                        sobol_point(n, seed, &x, &y);
+                        if (!(x >= 0 && x < 1 && y >= 0 && y < 1)) fail_msg("point %u outside [0, 1)^2", n);
+                        uint32_t c = ((uint32_t)(x * (1u << a)) << (k - a)) | (uint32_t)(y * (1u << (k - a)));
+                        if (cell[c]++) fail_msg("seed %u: points %u..%u, grid 2^%d x 2^%d: two points in one cell",
+                                                seed, start, start + N - 1, a, k - a);
+                    }
+                }
+            }
+        }
+    }
+    const uint32_t ns[] = {0, 1, 7, 1000, 65535};
+    for (size_t j = 0; j < sizeof ns / sizeof ns[0]; j++) {
+        enum { G = 16, M = 1 << 16 };
+        static long count[G * G];
+        memset(count, 0, sizeof count);
+        for (uint32_t s = 0; s < M; s++) {
+            double x, y;
+            sobol_point(ns[j], s * 2654435761u ^ 0x5bd1e995u, &x, &y);
+            count[(int)(x * G) * G + (int)(y * G)]++;
+        }
+        double e = (double)M / (G * G), chi2 = 0;
+        for (int c = 0; c < G * G; c++) chi2 += (count[c] - e) * (count[c] - e) / e;
+        print_message("    sample %u over %d seeds: chi2 %.1f (df %d)\n", ns[j], M, chi2, G * G - 1);
+        if (!(chi2 <= tu_chi2_quantile_upper(G * G - 1, 3.09))) fail_msg("sample %u is not uniform over seeds", ns[j]);
+    }
+    double rsum = 0;
+    for (int s = 0; s < 64; s++) {
+        uint32_t s1 = (uint32_t)(tu_rand01(&rng) * 4294967296.0), s2 = (uint32_t)(tu_rand01(&rng) * 4294967296.0);
+        double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+        for (uint32_t n = 0; n < 4096; n++) {
+            double x1, y1, x2, y2;
+            sobol_point(n, s1, &x1, &y1);
+            sobol_point(n, s2, &x2, &y2);
+            sx += x1; sy += x2; sxx += x1 * x1; syy += x2 * x2; sxy += x1 * x2;
+        }
+        double n = 4096, cov = sxy / n - sx * sy / (n * n);
+        rsum += cov / sqrt((sxx / n - sx * sx / (n * n)) * (syy / n - sy * sy / (n * n)));
+    }
+    print_message("    two purposes: mean correlation %.4f over 64 seeds\n", rsum / 64);
+    if (!(fabs(rsum / 64) < 4.5 / sqrt(4096.0) / 8.0)) fail_msg("two purposes' sequences are correlated: %.4f", rsum / 64);
 }
 
 /* Extreme and non-finite inputs: finite outputs in range, and the rules (no medium:

@@ -54,6 +54,7 @@
     X(test_sampling_forced_norm_and_inversion)                      \
     X(test_sampling_forced_pdf_integrates_and_histogram)            \
     X(test_sampling_forced_extreme_inputs)                          \
+    X(test_sampling_sobol_pairs_stratified_and_uniform)             \
     X(test_sampling_point_light_thin_closed_form)                   \
     X(test_sampling_point_light_inside_closed_form)                 \
     X(test_sampling_point_light_forced_closed_form)                 \
