@@ -18,8 +18,8 @@
 // The choice and the direction come from the pixel's pairs of purpose rng.event where
 // it is set (random.glsl), else from independent numbers.
 vec3 sample_one_light(vec3 x, Phase ph, inout Rng rng, inout bool truncated) {
-    bool q = USE_QMC && rng.event != 0u;
-    uint li = select_light(q ? qmc_pair(rng, rng.event + 1u).x : rnd(rng));
+    bool q = rng.event != 0u;
+    uint li = select_light(one_or_rnd(rng, q, rng.event + 1u));
     vec2 u = pair_or_rnd(rng, q, rng.event);
     float u1 = u.x, u2 = u.y;
     vec3 w;

@@ -54,15 +54,19 @@ float rnd(inout Rng r) {
     return float(h >> 8u) * (1.0 / 16777216.0);
 }
 
-// The purposes of the camera sample's further sequences (qmc_pair), one pair each: the
-// first free flight of the camera ray (its distance, then its tentative collision's
-// test), B's choice between its strategies, and for the direct light of the first scatter
-// event (A) and of B's point, each: +0 the light's direction, +1 which light, +2 the
-// phase function's direction (also the path's next direction).
+// The purposes of the camera sample's further sequences (qmc_pair; one_or_rnd where one
+// number is needed): the first free flight of the camera ray (its distance, then its
+// tentative collision's test), B's choice between its strategies, and for the direct
+// light of the first scatter event (A) and of B's point, each: +0 the light's direction,
+// +1 which light, +2 the phase function's direction (also the path's next direction).
 #define QMC_FLIGHT 1u
 #define QMC_B_CHOICE 2u
 #define QMC_EVENT_A 8u
 #define QMC_EVENT_B 12u
+
+// The seed of the pixel's sequence for `purpose`: its index shuffle and, hashed again,
+// its digital shifts.
+uint qmc_seed(Rng r, uint purpose) { return pcg_hash(r.lattice_key ^ (purpose * 0x2545f491u)); }
 
 // Point `index` of the pixel's two-dimensional sequence for `purpose` (> 0): the Sobol
 // pair, its index shuffled and each coordinate digitally shifted with three hashes of the
@@ -70,7 +74,7 @@ float rnd(inout Rng r) {
 // unbiased; successive points of a pixel fill the square evenly, and two purposes visit
 // the sequence in unrelated orders).  24 bits each.
 vec2 qmc_pair(Rng r, uint purpose) {
-    uint seed = pcg_hash(r.lattice_key ^ (purpose * 0x2545f491u));
+    uint seed = qmc_seed(r, purpose);
     uint shift_x = pcg_hash(seed), shift_y = pcg_hash(shift_x);
     uint i = cm_sobol_shuffle(r.index, seed);
     uint x = cm_sobol_x(i) ^ shift_x, y = cm_sobol_y(i) ^ shift_y;
@@ -83,6 +87,15 @@ vec2 pair_or_rnd(inout Rng r, bool use, uint purpose) {
     if (USE_QMC && use) return qmc_pair(r, purpose);
     float u1 = rnd(r);
     return vec2(u1, rnd(r));
+}
+
+// One number: qmc_pair(r, purpose).x without its second coordinate (the Sobol y loop)
+// with USE_QMC when `use`, else an independent number.
+float one_or_rnd(inout Rng r, bool use, uint purpose) {
+    if (!(USE_QMC && use)) return rnd(r);
+    uint seed = qmc_seed(r, purpose);
+    uint x = cm_sobol_x(cm_sobol_shuffle(r.index, seed)) ^ pcg_hash(seed);
+    return float(x >> 8u) * (1.0 / 16777216.0);
 }
 
 #endif

@@ -296,7 +296,7 @@ CameraSample camera_sample(ScatterEvent e, CameraSegment seg, bool need_end, ino
     if (USE_BOUNCES && f > 0.0)
         path_pool -= min(path_pool, 2u * (scene.grid.x + scene.grid.y + scene.grid.z));
     CameraSample c;
-    float u_light = USE_QMC ? qmc_pair(rng, QMC_B_CHOICE).x : rnd(rng);
+    float u_light = one_or_rnd(rng, true, QMC_B_CHOICE);
     float z;
     c.t_b = b_sample(ro, e.rd, seg.t0, seg.t1, f, u_light, qmc(rng, 2u), z);
     c.f_b = 0.0;

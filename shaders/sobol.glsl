@@ -1,7 +1,7 @@
 // sobol.glsl - the first two dimensions of the Sobol sequence, shuffled per pixel and
 // purpose by an Owen scramble of the index (Burley 2020, "Practical Hash-based Owen
-// Scrambling", JCGT 9(4)) and randomized by a digital shift, in 32-bit integers, written in the common subset of C and
-// GLSL so that tests/test_sampling.c runs this very code (the C side defines cm_uint as
+// Scrambling", JCGT 9(4)) and randomized by a digital shift, in 32-bit integers,
+// written in the common subset of C and GLSL so that tests/test_sampling.c runs this very code (the C side defines cm_uint as
 // uint32_t and cm_bitrev; GLSL's are uint and bitfieldReverse, below).
 //
 // Why these properties, and why the estimate stays unbiased:
@@ -39,13 +39,11 @@ CM_API cm_uint CM_FN(sobol_lk_hash)(cm_uint x, cm_uint seed) {
     return x;
 }
 
-// Nested uniform (Owen) scramble of x: bit b flipped by a hash of the bits above b.
-CM_API cm_uint CM_FN(sobol_owen)(cm_uint x, cm_uint seed) {
-    return cm_bitrev(CM_FN(sobol_lk_hash)(cm_bitrev(x), seed));
+// The index of a pixel's n-th sample in the sequence of `seed` (see the top): a nested
+// uniform (Owen) scramble of n, bit b flipped by a hash of the bits above b.
+CM_API cm_uint CM_FN(sobol_shuffle)(cm_uint n, cm_uint seed) {
+    return cm_bitrev(CM_FN(sobol_lk_hash)(cm_bitrev(n), seed));
 }
-
-// The index of a pixel's n-th sample in the sequence of `seed` (see the top).
-CM_API cm_uint CM_FN(sobol_shuffle)(cm_uint n, cm_uint seed) { return CM_FN(sobol_owen)(n, seed); }
 
 // Dimension 0 of point i, as a 32-bit fraction: the van der Corput sequence.
 CM_API cm_uint CM_FN(sobol_x)(cm_uint i) { return cm_bitrev(i); }
