@@ -146,10 +146,17 @@ $(B)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h cli/pre
 $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.h | $(B)/.deps
 	$(CC) $(CFLAGS) -O3 -fopenmp -c -o $@ $<
 
-$(B)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
-              shaders/cache_math.glsl shaders/sampling_math.glsl $(B)/cpu_reference.o $(B)/libpicvr.a \
-              $(B)/libpicvr_io.a $(TEST_CXX_OBJ) tests/dicom_writer.h tests/vdb_writer.h
-	$(CC) $(CFLAGS) -fopenmp -o $@ $(TEST_SRC) $(TEST_CXX_OBJ) $(B)/libpicvr_io.a $(B)/cpu_reference.o \
+# The suite's objects one per source (a build of two jobs compiles two at once); the
+# mutated builds of `make test-power` link them too.
+TEST_HDR := tests/test_util.h tests/dicom_writer.h tests/vdb_writer.h reference/cpu_reference.h \
+            reference/cache_math_host.h shaders/cache_math.glsl shaders/sampling_math.glsl shaders/sobol.glsl \
+            shaders/ray_marching_series.glsl picvr.h picvr_io.h
+TEST_OBJ := $(patsubst tests/%.c,$(B)/obj/%.o,$(TEST_SRC))
+$(B)/obj/%.o: tests/%.c $(TEST_HDR) | $(B)/.deps
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -fopenmp -c -o $@ $<
+$(B)/picvr-tests: $(TEST_OBJ) $(B)/cpu_reference.o $(B)/libpicvr.a $(B)/libpicvr_io.a $(TEST_CXX_OBJ)
+	$(CC) -fopenmp -o $@ $(TEST_OBJ) $(TEST_CXX_OBJ) $(B)/libpicvr_io.a $(B)/cpu_reference.o \
 	  $(B)/libpicvr.a $(LDLIBS) -lcmocka $(IO_LIBS)
 
 
@@ -180,11 +187,7 @@ BP := build-power
 POWER_MUTATIONS := render:1:1.005 cache:2:1.02 direct:3:0.98 transmittance:4:1.02 phase:5:0.98 \
                    throughput:7:0.98 extrapolation:6:0.5
 mutation_field = $(word $(2),$(subst :, ,$(filter $(1):%,$(POWER_MUTATIONS))))
-POWER_TEST_OBJ := $(patsubst tests/%.c,$(BP)/obj/%.o,$(TEST_SRC))
-$(BP)/obj/%.o: tests/%.c tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
-               shaders/cache_math.glsl shaders/sampling_math.glsl picvr.h | $(B)/.deps
-	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) -fopenmp -c -o $@ $<
+POWER_TEST_OBJ := $(TEST_OBJ)
 $(BP)/%/spv/.done: $(SHADER_SRC) $(SHADER_INC) Makefile | $(B)/.deps
 	@mkdir -p $(@D)
 	@for s in $(SHADER_SRC); do n=$$(basename $$s .comp); \
@@ -199,7 +202,7 @@ $(BP)/%/picvr_vk.o: $(BP)/%/picvr_shaders.h $(LIB_SRC)
 $(BP)/%/picvr-tests: $(BP)/%/picvr_vk.o $(POWER_TEST_OBJ) $(TEST_CXX_OBJ) $(B)/libpicvr_io.a $(B)/cpu_reference.o
 	$(CC) -fopenmp -o $@ $(POWER_TEST_OBJ) $(TEST_CXX_OBJ) $(B)/libpicvr_io.a $(B)/cpu_reference.o \
 	  $< $(LDLIBS) -lcmocka $(IO_LIBS)
-.PRECIOUS: $(BP)/obj/%.o $(BP)/%/spv/.done $(BP)/%/picvr_shaders.h $(BP)/%/picvr_vk.o
+.PRECIOUS: $(B)/obj/%.o $(BP)/%/spv/.done $(BP)/%/picvr_shaders.h $(BP)/%/picvr_vk.o
 POWER_BUILDS = $(foreach m,$(POWER_MUTATIONS),$(BP)/$(firstword $(subst :, ,$(m)))/picvr-tests)
 # The builds two at a time (CI's two cores), then the tests one at a time.
 test-power: $(B)/.deps
@@ -273,10 +276,13 @@ $(BA)/io/%.o: io/%.cpp $(IO_HDR) | $(B)/.deps
 	$(CXX) $(IO_CXXFLAGS) $(ASAN_FLAGS) -c -o $@ $<
 $(BA)/libpicvr_io.a: $(call io_objects,$(BA),$(IO_SRC))
 	ar rcs $@ $^
-$(BA)/picvr-tests: $(TEST_SRC) tests/test_util.h reference/cpu_reference.h reference/cache_math_host.h \
-              tests/asan_keep_drivers.c $(BA)/cpu_reference.o $(BA)/libpicvr.a $(BA)/libpicvr_io.a $(TEST_CXX_OBJ)
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -o $@ $(TEST_SRC) tests/asan_keep_drivers.c $(TEST_CXX_OBJ) \
-	  $(BA)/libpicvr_io.a $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl $(IO_LIBS)
+$(BA)/obj/%.o: tests/%.c $(TEST_HDR) | $(B)/.deps
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) -fopenmp -c -o $@ $<
+$(BA)/picvr-tests: $(patsubst tests/%.c,$(BA)/obj/%.o,$(TEST_SRC) tests/asan_keep_drivers.c) $(BA)/cpu_reference.o \
+              $(BA)/libpicvr.a $(BA)/libpicvr_io.a $(TEST_CXX_OBJ)
+	$(CC) $(ASAN_FLAGS) -fopenmp -o $@ $(patsubst tests/%.c,$(BA)/obj/%.o,$(TEST_SRC) tests/asan_keep_drivers.c) \
+	  $(TEST_CXX_OBJ) $(BA)/libpicvr_io.a $(BA)/cpu_reference.o $(BA)/libpicvr.a $(LDLIBS) -lcmocka -ldl $(IO_LIBS)
 $(BA)/picvr-render: $(RENDER_SRC) examples/render.h $(CLI_SRC) picvr_io.h cli/presets.h cli/env_io.h \
               tests/asan_keep_drivers.c $(BA)/libpicvr.a $(BA)/libpicvr_io.a $(B)/exr_write.o
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) -Icli -o $@ $(RENDER_SRC) tests/asan_keep_drivers.c $(B)/exr_write.o $(BA)/libpicvr_io.a \
@@ -358,9 +364,14 @@ $(BF)/fuzz_tf_file: tests/fuzz/fuzz_tf_file.c cli/presets.c cli/presets.h | $(B)
 	@mkdir -p $(BF)
 	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -Icli -fsanitize=fuzzer,address,undefined \
 	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_tf_file.c cli/presets.c -lm
+# The kernel pruning's SPIR-V parser (host/spirv.c), compiled into the harness.
+$(BF)/fuzz_spirv: tests/fuzz/fuzz_spirv.c host/spirv.c picvr.h | $(B)/.deps-robust
+	@mkdir -p $(BF)
+	clang -g -O1 -std=c11 -D_GNU_SOURCE -I. -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=undefined -o $@ tests/fuzz/fuzz_spirv.c
 # Two harnesses at a time (libFuzzer runs on one core; this machine kind has two), each
 # run's output kept together (-Otarget).
-FUZZERS := volume_io env_io nifti vdb dicom tf_file
+FUZZERS := volume_io env_io nifti vdb dicom tf_file spirv
 .PHONY: $(FUZZERS:%=fuzz-run-%)
 fuzz: deps-robust $(FUZZERS:%=$(BF)/fuzz_%)
 	@$(MAKE) --no-print-directory -j2 -Otarget $(FUZZERS:%=fuzz-run-%)
@@ -371,8 +382,10 @@ fuzz-run-vdb: FZ = -max_len=32768 corpus_vdb $(abspath tests/fuzz/corpus_vdb)
 fuzz-run-dicom: FZ = -max_len=16384 corpus_dicom $(abspath tests/fuzz/corpus_dicom)
 fuzz-run-dicom: FZ_ENV = LSAN_OPTIONS=suppressions=$(abspath tests/lsan.supp)
 fuzz-run-tf_file: FZ = -max_len=4096 corpus_tf $(abspath tests/fuzz/corpus_tf)
+fuzz-run-spirv: FZ = -max_len=131072 corpus_spirv $(abspath tests/fuzz/corpus_spirv)
 $(FUZZERS:%=fuzz-run-%): fuzz-run-%: $(BF)/fuzz_%
-	@mkdir -p $(BF)/corpus $(BF)/corpus_env $(BF)/corpus_nifti $(BF)/corpus_vdb $(BF)/corpus_dicom $(BF)/corpus_tf
+	@mkdir -p $(BF)/corpus $(BF)/corpus_env $(BF)/corpus_nifti $(BF)/corpus_vdb $(BF)/corpus_dicom $(BF)/corpus_tf \
+	  $(BF)/corpus_spirv
 	cd $(BF) && $(FZ_ENV) ./fuzz_$* -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 $(FZ)
 
 # SOAK_SECONDS of picvr_step with random camera, TF and light changes and image reads;

@@ -383,6 +383,12 @@ typedef struct picvr_config {
                                  while the steps go on (picvr_destroy waits for it).
                                  0: the processors online; 1: the calling thread only,
                                  always; at most 16 are used */
+    picvr_switch kernel_pruning; /* ON (default): before a pipeline variant is made,
+                                 the calls its specialization constants make
+                                 unreachable are left out of the SPIR-V the driver
+                                 compiles (the same kernel, made several times faster
+                                 on lavapipe: docs/performance.md); OFF: each kernel's
+                                 whole SPIR-V, as embedded */
 } picvr_config;
 
 typedef struct picvr_context picvr_context;

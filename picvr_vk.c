@@ -23,6 +23,7 @@
 #include "host/cache.c"
 #include "host/image.c"
 #include "host/scattering.c"
+#include "host/spirv.c"
 #include "host/pipelines.c"
 #include "host/reproject.c"
 #include "host/camera.c"

@@ -3,7 +3,7 @@
  *
  *   picvr-bench-speed --volume bonsai_256x256x256_uint8.raw.gz [--size 512]
  *                     [--iterations-gpu N] [--iterations-cpu N] [--json FILE] [--quick]
- *   picvr-bench-speed --volume FILE --first-step K
+ *   picvr-bench-speed --volume FILE --first-step K [--pruning]
  *
  * Scene (fixed, so runs compare): the volume, a transfer function with opacity 0
  * below 0.15 ramping to 1 at 0.4, albedo 0.8, density 1; one sphere area light plus
@@ -20,7 +20,8 @@
  * (the calling thread alone), the other with 0 (the processors online), alternating,
  * each timed from picvr_create to the end of its first picvr_step_iterations(ctx, 1)
  * (volume upload included), plain and with the cache (object-space); prints each
- * condition's median and their ratio.  Run it with the shader cache warm (a first run
+ * condition's median and their ratio.  With --pruning the pairs differ in
+ * config.kernel_pruning instead (OFF against the default ON, both with compile_threads 0).  Run it with the shader cache warm (a first run
  * of the pair warms it) or cold (MESA_SHADER_CACHE_DISABLE=true).
  *
  * Sanity check: both images' mean luminance must agree within 3 % plus 4 standard
@@ -55,6 +56,7 @@ typedef struct options {
     uint32_t iterations_cpu;     /* 0: calibrate (at least 2) */
     uint32_t seed;
     uint32_t first_step;         /* --first-step K: K pairs; 0: the speed run */
+    int pruning;                 /* --pruning: the pairs differ in kernel_pruning */
     int quick;
     int have_size;               /* --size was given (--quick keeps it) */
 } options;
@@ -80,7 +82,8 @@ static void usage(FILE *f)
             "  --device NAME          Vulkan device name substring\n"
             "  --json FILE            write the figures as JSON\n"
             "  --quick                smoke run: 128x128, ~%.1f s GPU, ~%.1f s CPU\n"
-            "  --first-step K         time to the first image, compile_threads 1 against 0, K pairs\n",
+            "  --first-step K         time to the first image, compile_threads 1 against 0, K pairs\n"
+            "  --pruning              with --first-step: kernel_pruning OFF against ON instead\n",
             GPU_TARGET_S, CPU_TARGET_S, GPU_TARGET_QUICK_S, CPU_TARGET_QUICK_S);
 }
 
@@ -97,7 +100,7 @@ static int parse_size(const char *text, uint32_t *w, uint32_t *h)
 
 static const pvc_option OPTIONS[] = {
     {"help", 0}, {"quick", 0}, {"volume", 1}, {"json", 1}, {"device", 1}, {"size", 1},
-    {"iterations-gpu", 1}, {"iterations-cpu", 1}, {"seed", 1}, {"first-step", 1}, {NULL, 0}};
+    {"iterations-gpu", 1}, {"iterations-cpu", 1}, {"seed", 1}, {"first-step", 1}, {"pruning", 0}, {NULL, 0}};
 
 /* Applies one option of OPTIONS; returns 0 after reporting a bad value. */
 static int apply_option(void *target, const char *name, const char *value)
@@ -113,6 +116,7 @@ static int apply_option(void *target, const char *name, const char *value)
     else if (!strcmp(name, "iterations-cpu")) ok = pvc_parse_u32(value, 1, 1000000, &o->iterations_cpu);
     else if (!strcmp(name, "seed")) ok = pvc_parse_u32(value, 0, UINT32_MAX, &o->seed);
     else if (!strcmp(name, "first-step")) ok = pvc_parse_u32(value, 1, 1000, &o->first_step);
+    else if (!strcmp(name, "pruning")) o->pruning = 1;
     if (!ok) pvc_bad_value(name, value);
     return ok;
 }
@@ -277,12 +281,13 @@ static int run_gpu(const options *o, const picvr_volume_desc *vol, const picvr_l
 /* --first-step: seconds from picvr_create to the end of the first one-iteration step. */
 static int first_step_time(const options *o, const picvr_volume_desc *vol, const picvr_light *light,
                            const picvr_background *sky, const picvr_camera *cam, uint32_t threads,
-                           int cached, double *seconds)
+                           picvr_switch pruning, int cached, double *seconds)
 {
     picvr_config cfg = {0};
     cfg.seed = o->seed;
     cfg.device_name = o->device;
     cfg.compile_threads = threads;
+    cfg.kernel_pruning = pruning;
     cfg.cache.mode = cached ? PICVR_CACHE_OBJECT_SPACE : PICVR_CACHE_NONE;
     picvr_context *ctx = NULL;
     double t0 = now_s();
@@ -310,16 +315,23 @@ static int run_first_step(const options *o, const picvr_volume_desc *vol, const 
     if (!t) { pvc_fail("out of memory"); return 0; }
     int ok = 1;
     for (int cached = 0; cached < 2 && ok; cached++) {
+        /* condition a (one thread, or pruning off) against b (the defaults) */
+        uint32_t threads_a = o->pruning ? 0u : 1u;
+        picvr_switch pruning_a = o->pruning ? PICVR_SWITCH_OFF : PICVR_SWITCH_DEFAULT;
         for (uint32_t i = 0; i < k && ok; i++)
-            ok = first_step_time(o, vol, light, sky, cam, 1u, cached, &t[i]) &&
-                 first_step_time(o, vol, light, sky, cam, 0u, cached, &t[k + i]);
+            ok = first_step_time(o, vol, light, sky, cam, threads_a, pruning_a, cached, &t[i]) &&
+                 first_step_time(o, vol, light, sky, cam, 0u, PICVR_SWITCH_DEFAULT, cached, &t[k + i]);
         if (!ok) break;
         qsort(t, k, sizeof *t, cmp_double);
         qsort(t + k, k, sizeof *t, cmp_double);
         double one = t[k / 2], all = t[k + k / 2];
-        printf("first image, %s: compile_threads 1 %.3f s, 0 (processors online) %.3f s "
-               "(medians of %u): %.2fx\n", cached ? "cached" : "plain", one, all, k,
-               all > 0.0 ? one / all : 0.0);
+        if (o->pruning)
+            printf("first image, %s: kernel_pruning OFF %.3f s, ON %.3f s (medians of %u): %.2fx\n",
+                   cached ? "cached" : "plain", one, all, k, all > 0.0 ? one / all : 0.0);
+        else
+            printf("first image, %s: compile_threads 1 %.3f s, 0 (processors online) %.3f s "
+                   "(medians of %u): %.2fx\n", cached ? "cached" : "plain", one, all, k,
+                   all > 0.0 ? one / all : 0.0);
     }
     free(t);
     return ok;

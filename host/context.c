@@ -80,6 +80,7 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     if ((unsigned)cfg.validation > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.distance_sampling > PICVR_DISTANCE_AUTO) return PICVR_ERROR_INVALID_ARGUMENT;
     if ((unsigned)cfg.transmittance > PICVR_TRANSMITTANCE_RAY_MARCHING) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)cfg.kernel_pruning > PICVR_SWITCH_OFF) return PICVR_ERROR_INVALID_ARGUMENT;
     picvr_context *ctx = (picvr_context *)picvr_host_alloc(&cfg.allocator, sizeof *ctx);
     if (!ctx) return PICVR_ERROR_OUT_OF_HOST_MEMORY;
     memset(ctx, 0, sizeof *ctx);
@@ -91,6 +92,7 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     if (!cfg.log_level) ctx->config.log_level = PICVR_LOG_WARNING;
     if (!cfg.distance_sampling) ctx->config.distance_sampling = PICVR_DISTANCE_MIS;
     if (!cfg.transmittance) ctx->config.transmittance = PICVR_TRANSMITTANCE_RESIDUAL;
+    if (!cfg.kernel_pruning) ctx->config.kernel_pruning = PICVR_SWITCH_ON;
     ctx->config.compile_threads = picvr_resolve_compile_threads(cfg.compile_threads);
     picvr_status s = picvr_resolve_cache_config(&cfg.cache, &ctx->cache.cfg);
     if (!s) s = picvr_resolve_scheduler_config(&cfg.scheduler, &ctx->sched.cfg);

@@ -355,6 +355,8 @@ typedef struct picvr_variant_build {
     VkSpecializationMapEntry entry[PICVR_SPEC_CONSTANTS];
     VkSpecializationInfo spec;
     VkShaderModule mod[PICVR_KERNELS];
+    VkShaderModule own[PICVR_KERNELS];   /* modules made for this variant alone (pruned,
+                                            host/spirv.c), destroyed once it is made */
 } picvr_variant_build;
 
 /* A variant made on a thread of its own while the steps go on (PICVR_DISTANCE_AUTO's
@@ -377,6 +379,7 @@ typedef struct picvr_async_variant {
 #endif
 } picvr_async_variant;
 
+#define PICVR_MODULES 16u
 typedef struct picvr_pipelines {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout layout, stats_layout;
@@ -388,6 +391,12 @@ typedef struct picvr_pipelines {
     VkShaderModule plain_track_module; /* PICVR_CACHE_AUTO's plain rounds (VK_NULL_HANDLE otherwise) */
     VkShaderModule stats_module, create_module, update_module, rebuild_module;
     VkShaderModule select_module, priority_module;
+    struct {                         /* each module above: the SPIR-V it was made from */
+        VkShaderModule mod;
+        const uint32_t *code;
+        size_t size;
+    } code[PICVR_MODULES];
+    uint32_t codes;
     VkPipeline select_pipe, priority_pipe; /* the rendering queue; priority_pipe only with priorities */
     VkPipeline stats_pipe, rebuild_pipe;
     picvr_variant_slot variants[3][PICVR_VARIANT_SLOTS]; /* PROC_*: the variants made so far */

@@ -10,7 +10,53 @@ static picvr_status picvr_create_shader(picvr_context *ctx, const uint32_t *code
     ci.codeSize = size;
     ci.pCode = code;
     PICVR_VK_TRY(ctx, vkCreateShaderModule(ctx->vk.device, &ci, NULL, out));
+    picvr_pipelines *p = &ctx->pipes;
+    if (p->codes < PICVR_MODULES) {
+        p->code[p->codes].mod = *out;
+        p->code[p->codes].code = code;
+        p->code[p->codes++].size = size;
+    }
     return PICVR_OK;
+}
+
+/* The variant's kernels from their SPIR-V without the calls its constants rule out
+   (host/spirv.c), each a module of its own in v->own; a kernel whose module does not
+   prune, or prunes to nothing, keeps the context's module.  Off with
+   config.kernel_pruning OFF.  Rule: a failure here is no failure of the variant: the
+   whole module compiles to the same kernel, only more slowly. */
+static void picvr_prune_variant(picvr_context *ctx, picvr_variant_build *v) {
+    for (int k = 0; k < PICVR_KERNELS; k++) v->own[k] = VK_NULL_HANDLE;
+    if (ctx->config.kernel_pruning == PICVR_SWITCH_OFF) return;
+    for (int k = 0; k < PICVR_KERNELS; k++) {
+        if (!v->mod[k]) continue;
+        const uint32_t *code = NULL;
+        size_t size = 0;
+        for (uint32_t i = 0; i < ctx->pipes.codes; i++)
+            if (ctx->pipes.code[i].mod == v->mod[k]) { code = ctx->pipes.code[i].code; size = ctx->pipes.code[i].size; }
+        if (!code) continue;
+        uint32_t *pruned = NULL;
+        size_t words = 0;
+        long calls = picvr_spirv_prune(&ctx->config.allocator, code, size / 4, &v->spec, &pruned, &words);
+        if (calls > 0) {
+            VkShaderModuleCreateInfo ci;
+            PICVR_VK_INIT(ci, VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
+            ci.codeSize = words * 4;
+            ci.pCode = pruned;
+            if (vkCreateShaderModule(ctx->vk.device, &ci, NULL, &v->own[k]) == VK_SUCCESS) v->mod[k] = v->own[k];
+            else v->own[k] = VK_NULL_HANDLE;
+        }
+        picvr_host_free(&ctx->config.allocator, pruned);
+    }
+}
+
+/* The modules picvr_prune_variant made, once the variant's pipelines are made (a
+   pipeline does not need its module afterwards). */
+static void picvr_release_variant(picvr_context *ctx, picvr_variant_build *v) {
+    for (int k = 0; k < PICVR_KERNELS; k++)
+        if (v->own[k]) {
+            vkDestroyShaderModule(ctx->vk.device, v->own[k], NULL);
+            v->own[k] = VK_NULL_HANDLE;
+        }
 }
 
 /* ---- pipelines made in parallel ------------------------------------------------
@@ -261,7 +307,7 @@ static picvr_status picvr_select_batch(picvr_context *ctx, const picvr_variant_w
                                        uint32_t *slot) {
     uint32_t key[PICVR_MAX_WANTS];
     int found[PICVR_MAX_WANTS], first[PICVR_MAX_WANTS];   /* first: the earlier want of the same variant */
-    int from_async[PICVR_MAX_WANTS];
+    int from_async[PICVR_MAX_WANTS], built[PICVR_MAX_WANTS];
     picvr_async_variant *async = &ctx->pipes.async;
     picvr_variant_build build[PICVR_MAX_WANTS];
     picvr_pipeline_job job[PICVR_MAX_WANTS * PICVR_KERNELS];
@@ -274,12 +320,15 @@ static picvr_status picvr_select_batch(picvr_context *ctx, const picvr_variant_w
         for (uint32_t e = 0; e < w; e++)
             if (want[e].proc == want[w].proc && key[e] == key[w]) { first[w] = (int)e; break; }
         from_async[w] = 0;
+        built[w] = 0;
         if (found[w] >= 0 || first[w] >= 0) continue;
         if (async->valid && async->proc == want[w].proc && async->key == key[w]) {   /* made beside the steps */
             from_async[w] = 1;
             continue;
         }
         picvr_build_variant(ctx, want[w].proc, key[w], &build[w]);
+        picvr_prune_variant(ctx, &build[w]);
+        built[w] = 1;
         for (int k = 0; k < PICVR_KERNELS; k++) {
             job_of[w][k] = -1;
             if (!build[w].mod[k]) continue;
@@ -288,6 +337,8 @@ static picvr_status picvr_select_batch(picvr_context *ctx, const picvr_variant_w
         }
     }
     picvr_status s = picvr_make_pipelines(ctx, job, jobs);
+    for (uint32_t w = 0; w < n; w++)
+        if (built[w]) picvr_release_variant(ctx, &build[w]);
     if (s) return s;
     /* the variants already held are this step's first, so that a new one never takes
        the slot of one the step also renders with */
@@ -345,6 +396,7 @@ static void picvr_async_finish(picvr_context *ctx, int wait) {
     pthread_join(a->thread, NULL);
     pthread_mutex_destroy(&a->lock);
     a->running = 0;
+    picvr_release_variant(ctx, &a->build);
     int ok = 1;
     for (uint32_t i = 0; i < a->batch.n; i++) ok &= a->job[i].result == VK_SUCCESS;
     for (int k = 0; k < PICVR_KERNELS; k++) a->pipe[k] = VK_NULL_HANDLE;
@@ -381,6 +433,7 @@ static int picvr_async_start(picvr_context *ctx, int proc, uint32_t key) {
     a->proc = proc;
     a->key = key;
     picvr_build_variant(ctx, proc, key, &a->build);
+    picvr_prune_variant(ctx, &a->build);
     uint32_t n = 0;
     for (int k = 0; k < PICVR_KERNELS; k++)
         if (a->build.mod[k]) {
@@ -392,9 +445,13 @@ static int picvr_async_start(picvr_context *ctx, int proc, uint32_t key) {
     a->batch.job = a->job;
     a->batch.n = n;
     a->done = 0;
-    if (pthread_mutex_init(&a->lock, NULL) != 0) return 0;
+    if (pthread_mutex_init(&a->lock, NULL) != 0) {
+        picvr_release_variant(ctx, &a->build);
+        return 0;
+    }
     if (pthread_create(&a->thread, NULL, picvr_async_main, a) != 0) {
         pthread_mutex_destroy(&a->lock);
+        picvr_release_variant(ctx, &a->build);
         return 0;
     }
     a->running = 1;

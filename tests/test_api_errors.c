@@ -887,6 +887,8 @@ void test_create_config_errors(void **state) {
     CFG_ROW("distance_sampling -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.distance_sampling = (picvr_distance_sampling)-1);
     CFG_ROW("transmittance 4", PICVR_ERROR_INVALID_ARGUMENT, cfg.transmittance = (picvr_transmittance_estimator)4);
     CFG_ROW("transmittance -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.transmittance = (picvr_transmittance_estimator)-1);
+    CFG_ROW("kernel_pruning 3", PICVR_ERROR_INVALID_ARGUMENT, cfg.kernel_pruning = (picvr_switch)3);
+    CFG_ROW("kernel_pruning -1", PICVR_ERROR_INVALID_ARGUMENT, cfg.kernel_pruning = (picvr_switch)-1);
     CFG_ROW("vulkan.device without instance/queue", PICVR_ERROR_INVALID_ARGUMENT, cfg.vulkan.device = (void *)&cfg);
     CFG_ROW("allocator free only", PICVR_ERROR_INVALID_ARGUMENT, cfg.allocator.free = free_hook);
     /* cache */
@@ -997,6 +999,7 @@ void test_get_config_resolves_defaults(void **state) {
     assert_int_equal(c.log_level, PICVR_LOG_WARNING);
     assert_int_equal(c.distance_sampling, PICVR_DISTANCE_MIS);   /* the header: DEFAULT is MIS */
     assert_int_equal(c.transmittance, PICVR_TRANSMITTANCE_RESIDUAL);
+    assert_int_equal(c.kernel_pruning, PICVR_SWITCH_ON);          /* the header: DEFAULT is ON */
     picvr_stats st;
     TU_OK(picvr_get_stats(a, &st));
     assert_int_equal(c.validation, st.validation_enabled ? PICVR_SWITCH_ON : PICVR_SWITCH_OFF);

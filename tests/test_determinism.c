@@ -132,6 +132,89 @@ void test_error_estimate_halves_with_4x_iterations(void **state) {
     tu_finish(ctx);
 }
 
+/* One scene of test_kernel_pruning_changes_nothing: varied_scene with the features the
+   case turns on (case c: 0 as is; 1 unlimited bounces, two HG lobes and an environment
+   map; 2 the forced distance point and ray-marched shadow rays; 3 a clip plane, an HG g
+   per TF point and a point light, equiangular where it falls off), rendered N
+   iterations with config.kernel_pruning `pruning`; the image. */
+static float *pruning_case(int c, picvr_switch pruning, uint32_t N) {
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = 77 + (uint32_t)c;
+    cfg.kernel_pruning = pruning;
+    if (c == 2) {
+        cfg.distance_sampling = PICVR_DISTANCE_FORCED;
+        cfg.transmittance = PICVR_TRANSMITTANCE_RAY_MARCHING;
+    }
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_vol vol;
+    varied_scene(ctx, &vol);
+    static float env[8 * 4 * 3];
+    if (c == 1) {
+        for (int i = 0; i < 8 * 4 * 3; i++) env[i] = 0.2f + 0.1f * (float)(i % 7);
+        picvr_scattering sc = {PICVR_BOUNCES_UNLIMITED, -0.3f, 0.25f};
+        TU_OK(picvr_set_scattering(ctx, &sc));
+        picvr_background bg = {{1.0f, 1.0f, 1.0f}, 0.8f, env, 8, 4, 0.5f};
+        TU_OK(picvr_set_lights(ctx, NULL, 0, &bg));
+    }
+    if (c == 3) {
+        picvr_clip clip;
+        memset(&clip, 0, sizeof clip);
+        clip.planes[0][0] = 1.0f;
+        clip.planes[0][3] = 2.0f;
+        clip.plane_count = 1;
+        TU_OK(picvr_set_clip(ctx, &clip));
+        picvr_tf_point tf[2] = {{0.0f, {0.9f, 0.7f, 0.5f}, 0.0f, 0.6f}, {1.0f, {1.0f, 1.0f, 1.0f}, 1.0f, -0.2f}};
+        TU_OK(picvr_set_transfer_function(ctx, tf, 2, 0.8f));
+    }
+    if (c == 3) {
+        picvr_light l;
+        memset(&l, 0, sizeof l);
+        l.type = PICVR_LIGHT_POINT;
+        l.position[0] = 2;
+        l.position[1] = 3;
+        l.color[0] = l.color[1] = l.color[2] = 1;
+        l.intensity = 50;
+        TU_OK(picvr_set_lights(ctx, &l, 1, NULL));
+    }
+    TU_OK(picvr_step_iterations(ctx, N));
+    float *img = tu_read(ctx, 32, 32);
+    tu_assert_finite(img, 32 * 32 * 4, "kernel pruning");
+    tu_vol_free(&vol);
+    tu_finish(ctx);
+    return img;
+}
+
+/* picvr_config.kernel_pruning (host/spirv.c): leaving out the calls a variant's
+   constants make unreachable changes nothing the device computes.  Each case renders
+   the same seed's image bit for bit with pruning on and off; the cases between them
+   take both ways the constants a plain scene turns (bounces, HG lobes, the environment
+   map, the forced point, ray marching, clipping, equiangular sampling).  The cached
+   kernels are left to the cache's tests against closed forms, all of which run pruned:
+   a cached image is not bit-reproducible (the entries' order in the pool follows the
+   threads' timing; two runs with pruning on differ in a few pixels). */
+void test_kernel_pruning_changes_nothing(void **state) {
+    (void)state;
+    const uint32_t N = 4;
+    const size_t nf = 32 * 32 * 4;
+    int ok = 1;
+    for (int c = 0; c < 4; c++) {
+        float *on = pruning_case(c, PICVR_SWITCH_DEFAULT, N), *off = pruning_case(c, PICVR_SWITCH_OFF, N);
+        size_t ndiff = 0;
+        double mean = 0;
+        for (size_t i = 0; i < nf; i++) {
+            ndiff += memcmp(&on[i], &off[i], sizeof(float)) != 0;
+            mean += on[i];
+        }
+        print_message("    case %d: %zu of %zu floats differ, mean %.5g\n", c, ndiff, nf, mean / (double)nf);
+        if (ndiff) ok = 0;
+        if (!(mean > 0)) fail_msg("case %d renders a black image: nothing compared", c);
+        free(on);
+        free(off);
+    }
+    if (!ok) fail_msg("pruned kernels render another image than whole ones (listed above)");
+}
+
 /* picvr_config.compile_threads: the threads that make pipelines change nothing the
    device computes.  Contexts with 1 thread (the calling one) and UINT32_MAX (16 are
    used) render the same seed's image bit for bit; a cached context, whose first step

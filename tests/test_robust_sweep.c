@@ -794,23 +794,23 @@ void test_sweep_cameras_and_image_sizes(void **state) {
 
 /* ---- long runs --------------------------------------------------------------------------- */
 
-/* 2^18 samples in one pixel.  Scene: Beer-Lambert with T = exp(-1) on the pixel's rays
+/* 2^16 samples in one pixel.  Scene: Beer-Lambert with T = exp(-1) on the pixel's rays
    (albedo 0, background 1): every sample is exactly 0 or 1 in R, G, B and the complement
    in alpha.  After N samples with k ones the exact mean is k / N, and:
    (1) R is within one float32 ulp of some k / N (|N R - round(N R)| <= N ulp(R), i.e.
-       0.008 for N = 2^18): an accumulator that lost precision drifts from the lattice
-       k / N by a random walk of its rounding errors (~ulp sqrt(N) / 2 = 1.5e-5 relative,
-       so N R would be off by ~1.5, 200 times the bound: 2^18 samples show it as well as
-       10^6 did, in a quarter of the time);
+       0.002 for N = 2^16): an accumulator that lost precision drifts from the lattice
+       k / N by a random walk of its rounding errors (~ulp sqrt(N) / 2 = 7.5e-6 relative,
+       so N R would be off by ~0.18, 90 times the bound: 2^16 samples show it as well as
+       10^6 did, in a sixteenth of the time);
    (2) R + alpha = 1 within ulp(R) + ulp(alpha) (complementary samples);
    (3) R is within 5 standard errors of T (the mean still converges: a mean that stopped
        changing after 2^24 / ... samples would be stuck at an earlier value);
    (4) the mean keeps moving: the checks hold at N / 100, N / 10 and N (the run
        continues without reset), so the last 90 % of the samples changed it correctly.
-   Cost: 2^18 dispatches of one workgroup. */
+   Cost: 2^16 passes of three dispatches each, of one workgroup. */
 void test_sweep_long_run_precision(void **state) {
     (void)state;
-    /* 2^18 passes of three dispatches each take half a minute on a CPU driver, and
+    /* 2^16 passes of three dispatches each take a quarter of a minute on a CPU driver, and
        PICVR_LONG_RUN may ask for more: this test has its own budget. */
     tu_watchdog(900);
     picvr_context *ctx = tu_create(70);
@@ -827,9 +827,9 @@ void test_sweep_long_run_precision(void **state) {
     double *expv = tu_expected_image(&cam, 4, tu_homog_ray, &hm);
     memcpy(ex, expv, sizeof ex);
     free(expv);
-    /* PICVR_LONG_RUN=N: N samples instead of 2^18 (10^6 for the old, longer run). */
+    /* PICVR_LONG_RUN=N: N samples instead of 2^16 (10^6 for the old, longer run). */
     const char *env = getenv("PICVR_LONG_RUN");
-    uint32_t total = env && atoi(env) > 0 ? (uint32_t)atoi(env) : 1u << 18;
+    uint32_t total = env && atoi(env) > 0 ? (uint32_t)atoi(env) : 1u << 16;
     uint32_t done = 0;
     const uint32_t checkpoints[3] = {total / 100, total / 10, total};
     double t0 = now_s();

@@ -117,6 +117,7 @@
     X(test_create_config_errors)                                    \
     X(test_get_config_resolves_defaults)                            \
     X(test_compile_threads_change_nothing)                          \
+    X(test_kernel_pruning_changes_nothing)                          \
     /* test_accumulation.c */                                       \
     X(test_image_zero_before_first_iteration)                       \
     X(test_changes_reset_accumulation_identical_camera_does_not)    \
