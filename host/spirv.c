@@ -219,7 +219,8 @@ static int picvr_spv_blocks(picvr_spv *m, size_t begin, size_t end) {
     return !open;
 }
 
-/* Block c (-1: none) reached: marked, and queued if it was not. */
+/* The block labelled `label` reached (a label of no block of this function: nothing):
+   marked, and queued if it was not yet. */
 static void picvr_spv_visit(picvr_spv *m, uint32_t label, uint32_t *top) {
     int32_t c = picvr_spv_id_ok(m, label) ? m->block_of[label] : -1;
     if (c >= 0 && !m->live[c]) {
