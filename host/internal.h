@@ -379,7 +379,7 @@ typedef struct picvr_async_variant {
 #endif
 } picvr_async_variant;
 
-#define PICVR_MODULES 16u
+#define PICVR_MODULES 8u              /* the procedures' kernels: track (two), shade (two), lookup, create, update */
 typedef struct picvr_pipelines {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout layout, stats_layout;
@@ -391,7 +391,7 @@ typedef struct picvr_pipelines {
     VkShaderModule plain_track_module; /* PICVR_CACHE_AUTO's plain rounds (VK_NULL_HANDLE otherwise) */
     VkShaderModule stats_module, create_module, update_module, rebuild_module;
     VkShaderModule select_module, priority_module;
-    struct {                         /* each module above: the SPIR-V it was made from */
+    struct {                         /* the procedures' kernels above: the SPIR-V each was made from */
         VkShaderModule mod;
         const uint32_t *code;
         size_t size;

@@ -10,13 +10,20 @@ static picvr_status picvr_create_shader(picvr_context *ctx, const uint32_t *code
     ci.codeSize = size;
     ci.pCode = code;
     PICVR_VK_TRY(ctx, vkCreateShaderModule(ctx->vk.device, &ci, NULL, out));
+    return PICVR_OK;
+}
+
+/* A procedure's kernel (a module variants are made from, kept until the context is
+   destroyed): its module, and the SPIR-V it came from for picvr_prune_variant. */
+static picvr_status picvr_create_kernel(picvr_context *ctx, const uint32_t *code, size_t size, VkShaderModule *out) {
+    picvr_status s = picvr_create_shader(ctx, code, size, out);
     picvr_pipelines *p = &ctx->pipes;
-    if (p->codes < PICVR_MODULES) {
+    if (!s && p->codes < PICVR_MODULES) {
         p->code[p->codes].mod = *out;
         p->code[p->codes].code = code;
         p->code[p->codes++].size = size;
     }
-    return PICVR_OK;
+    return s;
 }
 
 /* The variant's kernels from their SPIR-V without the calls its constants rule out
@@ -31,7 +38,7 @@ static void picvr_prune_variant(picvr_context *ctx, picvr_variant_build *v) {
         if (!v->mod[k]) continue;
         const uint32_t *code = NULL;
         size_t size = 0;
-        for (uint32_t i = 0; i < ctx->pipes.codes; i++)
+        for (uint32_t i = 0; i < ctx->pipes.codes && !code; i++)
             if (ctx->pipes.code[i].mod == v->mod[k]) { code = ctx->pipes.code[i].code; size = ctx->pipes.code[i].size; }
         if (!code) continue;
         uint32_t *pruned = NULL;
@@ -600,22 +607,22 @@ static picvr_status picvr_create_pipelines(picvr_context *ctx) {
     PICVR_VK_TRY(ctx, vkAllocateDescriptorSets(ctx->vk.device, &ai, &ctx->pipes.set));
 
     picvr_status s = ctx->cache.on
-        ? picvr_create_shader(ctx, picvr_spv_render_track_cache, sizeof picvr_spv_render_track_cache, &ctx->pipes.track_module)
-        : picvr_create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->pipes.track_module);
-    if (!s) s = picvr_create_shader(ctx, picvr_spv_render_shade, sizeof picvr_spv_render_shade, &ctx->pipes.shade_module);
+        ? picvr_create_kernel(ctx, picvr_spv_render_track_cache, sizeof picvr_spv_render_track_cache, &ctx->pipes.track_module)
+        : picvr_create_kernel(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->pipes.track_module);
+    if (!s) s = picvr_create_kernel(ctx, picvr_spv_render_shade, sizeof picvr_spv_render_shade, &ctx->pipes.shade_module);
     if (!s && ctx->cache.on && ctx->cache.cfg.lookup_event > 1)   /* render_shade_cache.comp's only use */
-        s = picvr_create_shader(ctx, picvr_spv_render_shade_cache, sizeof picvr_spv_render_shade_cache,
+        s = picvr_create_kernel(ctx, picvr_spv_render_shade_cache, sizeof picvr_spv_render_shade_cache,
                                 &ctx->pipes.shade_cache_module);
     if (!s) s = picvr_create_shader(ctx, picvr_spv_stats, sizeof picvr_spv_stats, &ctx->pipes.stats_module);
     if (!s) s = picvr_create_shader(ctx, picvr_spv_block_select, sizeof picvr_spv_block_select, &ctx->pipes.select_module);
     if (!s) s = picvr_create_pipeline(ctx, ctx->pipes.select_module, ctx->pipes.layout, NULL, &ctx->pipes.select_pipe);
     if (!s && ctx->sched.use_priorities) s = picvr_create_priority_pipeline(ctx);
     if (!s && ctx->cache.on && ctx->cache.cfg.mode == PICVR_CACHE_AUTO)
-        s = picvr_create_shader(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->pipes.plain_track_module);
+        s = picvr_create_kernel(ctx, picvr_spv_render_track, sizeof picvr_spv_render_track, &ctx->pipes.plain_track_module);
     if (!s && ctx->cache.on) {
-        s = picvr_create_shader(ctx, picvr_spv_render_lookup, sizeof picvr_spv_render_lookup, &ctx->pipes.lookup_module);
-        if (!s) s = picvr_create_shader(ctx, picvr_spv_cache_create, sizeof picvr_spv_cache_create, &ctx->pipes.create_module);
-        if (!s) s = picvr_create_shader(ctx, picvr_spv_cache_update, sizeof picvr_spv_cache_update, &ctx->pipes.update_module);
+        s = picvr_create_kernel(ctx, picvr_spv_render_lookup, sizeof picvr_spv_render_lookup, &ctx->pipes.lookup_module);
+        if (!s) s = picvr_create_kernel(ctx, picvr_spv_cache_create, sizeof picvr_spv_cache_create, &ctx->pipes.create_module);
+        if (!s) s = picvr_create_kernel(ctx, picvr_spv_cache_update, sizeof picvr_spv_cache_update, &ctx->pipes.update_module);
         if (!s) s = picvr_create_shader(ctx, picvr_spv_cache_rebuild, sizeof picvr_spv_cache_rebuild, &ctx->pipes.rebuild_module);
         if (!s) s = picvr_create_pipeline(ctx, ctx->pipes.rebuild_module, ctx->pipes.layout, NULL, &ctx->pipes.rebuild_pipe);
     }
