@@ -80,9 +80,26 @@ VKAPI_ATTR void VKAPI_CALL vkFreeMemory(VkDevice device, VkDeviceMemory mem, con
 
 /* Pipeline compiles, counted the same way: each is a driver compile whose memory
    lavapipe keeps in part after the pipeline is destroyed, so RSS is compared only
-   across a stretch with no compile (see main). */
+   across a stretch with no compile (see main).  A pipeline's first dispatch grows the
+   driver's memory too (its worker threads' state for that shader), and it may come
+   iterations after the compile (one made at the end of the warm-up and first bound
+   after the reference measurement grows RSS in a stretch with no compile).  So first
+   binds are counted like compiles. */
 static unsigned long long g_compiles;        /* pipelines whose compile began */
 static unsigned long long g_compiles_done;   /* ... and ended (picvr compiles on a thread) */
+static unsigned long long g_first_binds;     /* pipelines bound for the first time */
+static VkPipeline g_unbound[1024];           /* made, not yet bound, not destroyed */
+static size_t g_nunbound;
+
+/* Removes p from the unbound pipelines; 1 if it was there.  Caller holds g_lock. */
+static int take_unbound(VkPipeline p) {
+    for (size_t i = 0; i < g_nunbound; i++)
+        if (g_unbound[i] == p) {
+            g_unbound[i] = g_unbound[--g_nunbound];
+            return 1;
+        }
+    return 0;
+}
 
 VKAPI_ATTR VkResult VKAPI_CALL vkCreateComputePipelines(VkDevice device, VkPipelineCache cache, uint32_t n,
                                                         const VkComputePipelineCreateInfo *infos,
@@ -95,15 +112,41 @@ VKAPI_ATTR VkResult VKAPI_CALL vkCreateComputePipelines(VkDevice device, VkPipel
     VkResult r = real(device, cache, n, infos, cb, out);
     pthread_mutex_lock(&g_lock);
     g_compiles_done += n;
+    for (uint32_t i = 0; r == VK_SUCCESS && i < n; i++) {
+        if (g_nunbound == sizeof g_unbound / sizeof g_unbound[0]) {
+            fprintf(stderr, "soak: more than 1024 pipelines never bound\n");
+            exit(2);
+        }
+        g_unbound[g_nunbound++] = out[i];
+    }
     pthread_mutex_unlock(&g_lock);
     return r;
 }
 
-/* Compiles begun and ended so far, read together. */
+VKAPI_ATTR void VKAPI_CALL vkCmdBindPipeline(VkCommandBuffer cmd, VkPipelineBindPoint point, VkPipeline p) {
+    static PFN_vkCmdBindPipeline real;
+    if (!real) real = (PFN_vkCmdBindPipeline)dlsym(RTLD_NEXT, "vkCmdBindPipeline");
+    pthread_mutex_lock(&g_lock);
+    g_first_binds += (unsigned long long)take_unbound(p);
+    pthread_mutex_unlock(&g_lock);
+    real(cmd, point, p);
+}
+
+VKAPI_ATTR void VKAPI_CALL vkDestroyPipeline(VkDevice device, VkPipeline p, const VkAllocationCallbacks *cb) {
+    static PFN_vkDestroyPipeline real;
+    if (!real) real = (PFN_vkDestroyPipeline)dlsym(RTLD_NEXT, "vkDestroyPipeline");
+    pthread_mutex_lock(&g_lock);
+    take_unbound(p);
+    pthread_mutex_unlock(&g_lock);
+    real(device, p, cb);
+}
+
+/* Compiles begun and ended so far, read together; a first bind counts as a compile
+   that began and ended (its driver memory grows then). */
 static void compile_counts(unsigned long long *begun, unsigned long long *ended) {
     pthread_mutex_lock(&g_lock);
-    *begun = g_compiles;
-    *ended = g_compiles_done;
+    *begun = g_compiles + g_first_binds;
+    *ended = g_compiles_done + g_first_binds;
     pthread_mutex_unlock(&g_lock);
 }
 
@@ -371,8 +414,9 @@ int main(int argc, char **argv) {
            about 8 MiB of each compile, which no destroy returns (measured: flat between
            compiles, +8 MiB at each).  picvr's own memory is checked exactly above. */
         /* picvr compiles variants on its own thread: an iteration "compiled" when a
-           compile began or ended in it, or one was under way as it began (the driver's
-           memory grows while the compile runs, not when it is counted) */
+           compile began or ended in it, one was under way as it began (the driver's
+           memory grows while the compile runs, not when it is counted), or it bound a
+           pipeline for the first time (compile_counts) */
         unsigned long long c_begun, c_ended;
         compile_counts(&c_begun, &c_ended);
         int measured_iter = have_base;
