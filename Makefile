@@ -148,7 +148,7 @@ $(B)/cpu_reference.o: reference/cpu_reference.c reference/cpu_reference.h picvr.
 
 # The suite's objects one per source (a build of two jobs compiles two at once); the
 # mutated builds of `make test-power` link them too.
-TEST_HDR := tests/test_util.h tests/dicom_writer.h tests/vdb_writer.h reference/cpu_reference.h \
+TEST_HDR := tests/test_util.h tests/dicom_writer.h tests/vdb_writer.h reference/cpu_reference.h reference/field_reference.h \
             reference/cache_math_host.h shaders/cache_math.glsl shaders/sampling_math.glsl shaders/sobol.glsl \
             shaders/ray_marching_series.glsl picvr.h picvr_io.h
 TEST_OBJ := $(patsubst tests/%.c,$(B)/obj/%.o,$(TEST_SRC))

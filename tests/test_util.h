@@ -153,6 +153,14 @@
     X(test_dense_medium_surface_lit_thin_is_background)             \
     X(test_extreme_cameras_and_image_sizes_finite)                  \
     X(test_extreme_volumes_finite)                                  \
+    /* test_field_reference.c */                                    \
+    X(test_field_reference_empty_renders_background)                \
+    X(test_field_reference_sun_cube_closed_form)                    \
+    X(test_field_reference_white_furnace)                           \
+    X(test_field_reference_sweep_energy)                            \
+    X(test_field_reference_every_cell_crossed)                      \
+    X(test_field_reference_bad_input)                               \
+    X(test_field_reference_refinement_ladder)                       \
     /* test_cpu_reference.c */                                      \
     X(test_gpu_matches_cpu_reference_area_light_background)         \
     X(test_gpu_matches_cpu_reference_point_light_equiangular)       \

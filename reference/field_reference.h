@@ -1,0 +1,333 @@
+/* field_reference.h - a C reference of the light field of paper 002 carried to
+ * participating media: radiance propagated through a grid of cells along D global
+ * directions, each a sweep of parallel rays, iterated for multiple scattering; and a
+ * deterministic camera ray marched through the stored field.  Double precision, one
+ * thread, small grids: it fixes the discrete model and is the oracle the device's
+ * field is tested against.  stb style: `#define FREF_IMPLEMENTATION` in one file.
+ *
+ * The discrete model (what the device must reproduce):
+ *   - Cells: n[0] x n[1] x n[2] cubes of side h, the grid's corner at the origin; in
+ *     each a constant extinction sigma_t and albedo a (the transfer function applied
+ *     first, so a cell's sigma_t is the mean of the classified voxels it holds).
+ *   - Directions: D = 2 * half global directions, a Fibonacci set over the upper
+ *     hemisphere (z > 0), each used both ways; each stands for the solid angle 4 pi / D.
+ *   - A sweep along direction w: parallel rays on a square lattice of spacing h / 2 in
+ *     the plane normal to w, covering the grid's projection.  A lattice of spacing s
+ *     has a point within s / sqrt 2 of any point, and every cell's projection contains
+ *     a disk of radius h / 2, so each cell is crossed by at least one ray of every
+ *     direction (s / sqrt 2 = 0.354 h < h / 2).  A ray enters with the boundary
+ *     radiance (the background) and crosses cell i over length l with optical depth
+ *     tau = sigma_t l; with the cell's source J (radiance scattered into w, per unit
+ *     of extinction: albedo times the in-scattered radiance) the exact solution of
+ *     dL/ds = sigma_t (J - L) is
+ *         L_out = J + (L_in - J) e^-tau,
+ *         mean over the segment = J + (L_in - J) (1 - e^-tau) / tau,
+ *     and the cell's radiance along w is the length-weighted mean of its segments.
+ *   - Phase function: isotropic (the in-scattered radiance is the fluence / 4 pi).
+ *   - Lights: one delta sun (unit direction toward it, irradiance E) and a constant
+ *     background radiance.  The sun's transmittance per cell is a sweep of its own
+ *     along the sun's direction (no source, entering with 1), so the sun's in-scattered
+ *     radiance in cell i is E T_i / 4 pi.
+ *   - Bounces b (scatter events per path, as picvr_scattering.max_bounces + 1, the
+ *     camera's included): L_s^(1) = E T / 4 pi + phi_bg / 4 pi, phi_bg the fluence of
+ *     the background swept with no source; L_s^(k+1) = E T / 4 pi + phi(J = a L_s^(k))
+ *     / 4 pi.  Unlimited: iterated until no cell's L_s moves by more than tol (relative
+ *     to the largest), at most max_iterations.
+ *   - Rendering: a camera ray crosses the cells front to back; a segment of optical
+ *     depth tau adds T (1 - e^-tau) a L_s of its cell and multiplies T by e^-tau; the
+ *     background is added times the final T.
+ *
+ * Conserved exactly by this model (the tests): an empty grid renders the background;
+ * with albedo 1, a background L and no sun, L_s = L is the fixed point of every sweep
+ * (the white furnace), so the converged field renders L at any density; one sweep's
+ * absorbed power equals the power its rays carry in minus out.
+ *
+ * Numerics: (1 - e^-tau) / tau is 1 - tau / 2 below tau = 1e-6 (no 0 / 0), and every
+ * exp takes tau >= 0.  A cell no ray crossed (impossible with the lattice above; kept
+ * as a rule) takes its source J as its radiance.
+ */
+#ifndef FIELD_REFERENCE_H
+#define FIELD_REFERENCE_H
+
+#include <stdint.h>
+
+typedef struct fref_grid {
+    uint32_t n[3];
+    double h;               /* cell side (world units) */
+    const double *sigma_t;  /* n[0] n[1] n[2] values, x fastest; >= 0 */
+    const double *albedo;   /* the same layout; in [0, 1] */
+} fref_grid;
+
+typedef struct fref_lights {
+    double sun_dir[3];      /* unit, toward the sun */
+    double sun_irradiance;  /* 0: no sun */
+    double background;      /* constant radiance of every escaping direction */
+} fref_lights;
+
+#define FREF_BOUNCES_UNLIMITED 0xffffffffu
+
+typedef struct fref_config {
+    uint32_t half_directions;   /* D / 2 >= 1 */
+    uint32_t bounces;           /* >= 1, or FREF_BOUNCES_UNLIMITED */
+    double tol;                 /* unlimited: stop when the largest change is below tol * max L_s */
+    uint32_t max_iterations;    /* unlimited: at most this many sweeps of all directions */
+} fref_config;
+
+typedef struct fref_field {
+    uint32_t n[3];
+    double *T_sun;          /* the sun's transmittance, cell means */
+    double *L_s;            /* in-scattered radiance (isotropic phase included), cell means */
+    uint32_t iterations;    /* sweeps of all directions made */
+    double last_change;     /* the last iteration's largest change relative to max L_s */
+} fref_field;
+
+/* 0 on success, -1 on bad input or no memory (*out then holds nothing to free). */
+int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, fref_field *out);
+void fref_free(fref_field *f);
+
+/* The radiance that reaches ro from along -rd (rd unit) through the field. */
+double fref_render_ray(const fref_grid *g, const fref_field *f, const fref_lights *l, const double ro[3],
+                       const double rd[3]);
+
+/* One sweep along unit w of a grid with cell sources J (NULL: none) entering with
+   radiance L_in: each cell's mean radiance along w into L (n cells), and the power the
+   rays carry in, carry out and that the cells absorb (sigma_t times the integral of L
+   over each segment, times each ray's cross-section), for the energy check. */
+void fref_sweep(const fref_grid *g, const double w[3], const double *J, double L_in, double *L, double *power_in,
+                double *power_out, double *power_absorbed);
+
+/* The k-th of the half directions (unit, z > 0). */
+void fref_direction(uint32_t k, uint32_t half, double w[3]);
+
+#endif
+
+#ifdef FREF_IMPLEMENTATION
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define FREF_PI 3.14159265358979323846
+
+/* (1 - e^-tau) / tau; tau >= 0.  Rule: below 1e-6 its series 1 - tau / 2 (no 0 / 0). */
+static double fref_mean_factor(double tau) {
+    return tau < 1e-6 ? 1.0 - 0.5 * tau : -expm1(-tau) / tau;
+}
+
+void fref_direction(uint32_t k, uint32_t half, double w[3]) {
+    /* Fibonacci points on the hemisphere: z uniform in (0, 1) (equal areas), azimuth by
+       the golden angle */
+    double z = 1.0 - (k + 0.5) / half;
+    double r = sqrt(fmax(0.0, 1.0 - z * z));
+    double phi = (double)k * FREF_PI * (3.0 - sqrt(5.0));
+    w[0] = r * cos(phi);
+    w[1] = r * sin(phi);
+    w[2] = z;
+}
+
+/* An orthonormal basis u, v of the plane normal to unit w. */
+static void fref_basis(const double w[3], double u[3], double v[3]) {
+    double a[3] = {fabs(w[0]) < 0.9 ? 1.0 : 0.0, fabs(w[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+    u[0] = a[1] * w[2] - a[2] * w[1];
+    u[1] = a[2] * w[0] - a[0] * w[2];
+    u[2] = a[0] * w[1] - a[1] * w[0];
+    double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int i = 0; i < 3; i++) u[i] /= nu;
+    v[0] = w[1] * u[2] - w[2] * u[1];
+    v[1] = w[2] * u[0] - w[0] * u[2];
+    v[2] = w[0] * u[1] - w[1] * u[0];
+}
+
+/* The ray ro + t rd against the grid's box: [t0, t1]; 0 when it misses. */
+static int fref_box(const fref_grid *g, const double ro[3], const double rd[3], double *t0, double *t1) {
+    double a = 0.0, b = INFINITY;
+    for (int i = 0; i < 3; i++) {
+        double size = g->n[i] * g->h;
+        if (rd[i] == 0.0) {
+            if (ro[i] < 0.0 || ro[i] > size) return 0;
+            continue;
+        }
+        double ta = (0.0 - ro[i]) / rd[i], tb = (size - ro[i]) / rd[i];
+        if (ta > tb) { double s = ta; ta = tb; tb = s; }
+        if (ta > a) a = ta;
+        if (tb < b) b = tb;
+    }
+    *t0 = a;
+    *t1 = b;
+    return b > a;
+}
+
+/* Calls visit(cell, length, user) for each cell the ray crosses, front to back (3D
+   DDA); the callback returns 0 to stop. */
+typedef int (*fref_visit)(uint64_t cell, double length, void *user);
+static void fref_walk(const fref_grid *g, const double ro[3], const double rd[3], fref_visit visit, void *user) {
+    double t0, t1;
+    if (!fref_box(g, ro, rd, &t0, &t1)) return;
+    int c[3], step[3];
+    double next[3], delta[3];
+    for (int i = 0; i < 3; i++) {
+        double p = (ro[i] + rd[i] * (t0 + 1e-12 * g->h)) / g->h;
+        c[i] = (int)floor(p);
+        if (c[i] < 0) c[i] = 0;
+        if (c[i] >= (int)g->n[i]) c[i] = (int)g->n[i] - 1;
+        step[i] = rd[i] > 0.0 ? 1 : -1;
+        /* Rule: an axis the ray does not move along never has the next boundary */
+        if (rd[i] == 0.0) { next[i] = INFINITY; delta[i] = INFINITY; continue; }
+        double boundary = (c[i] + (rd[i] > 0.0 ? 1 : 0)) * g->h;
+        next[i] = (boundary - ro[i]) / rd[i];
+        delta[i] = g->h / fabs(rd[i]);
+    }
+    double t = t0;
+    while (t < t1) {
+        int a = next[0] < next[1] ? (next[0] < next[2] ? 0 : 2) : (next[1] < next[2] ? 1 : 2);
+        double te = fmin(next[a], t1);
+        uint64_t cell = ((uint64_t)c[2] * g->n[1] + (uint64_t)c[1]) * g->n[0] + (uint64_t)c[0];
+        if (te > t && !visit(cell, te - t, user)) return;
+        t = te;
+        next[a] += delta[a];
+        c[a] += step[a];
+        if (c[a] < 0 || c[a] >= (int)g->n[a]) return;
+    }
+}
+
+typedef struct fref_sweep_ray {
+    const fref_grid *g;
+    const double *J;
+    double L;            /* the radiance the ray carries */
+    double *sum_L, *sum_l;
+    double absorbed;     /* sigma_t times the integral of L, this ray */
+} fref_sweep_ray;
+
+static int fref_sweep_visit(uint64_t cell, double l, void *user) {
+    fref_sweep_ray *r = (fref_sweep_ray *)user;
+    double s = r->g->sigma_t[cell], J = r->J ? r->J[cell] : 0.0;
+    double tau = s * l;
+    double mean = J + (r->L - J) * fref_mean_factor(tau);
+    r->sum_L[cell] += l * mean;
+    r->sum_l[cell] += l;
+    r->absorbed += s * l * mean;
+    r->L = J + (r->L - J) * exp(-tau);
+    return 1;
+}
+
+void fref_sweep(const fref_grid *g, const double w[3], const double *J, double L_in, double *L, double *power_in,
+                double *power_out, double *power_absorbed) {
+    uint64_t cells = (uint64_t)g->n[0] * g->n[1] * g->n[2];
+    double *sum_l = (double *)calloc(cells, sizeof(double));
+    memset(L, 0, cells * sizeof(double));
+    if (power_in) *power_in = 0.0;
+    if (power_out) *power_out = 0.0;
+    if (power_absorbed) *power_absorbed = 0.0;
+    if (!sum_l) return;   /* rule: no memory, no sweep (L all 0); fref_build checks first */
+    double u[3], v[3], centre[3], radius = 0.0;
+    fref_basis(w, u, v);
+    for (int i = 0; i < 3; i++) {
+        centre[i] = 0.5 * g->n[i] * g->h;
+        radius += centre[i] * centre[i];
+    }
+    radius = sqrt(radius);
+    double s = 0.5 * g->h, area = s * s;
+    int m = (int)ceil(radius / s);
+    double pin = 0.0, pout = 0.0, pabs = 0.0;
+    for (int j = -m; j <= m; j++)
+        for (int i = -m; i <= m; i++) {
+            double ro[3];
+            for (int k = 0; k < 3; k++) ro[k] = centre[k] + (i + 0.5) * s * u[k] + (j + 0.5) * s * v[k] - 2.0 * radius * w[k];
+            double t0, t1;
+            if (!fref_box(g, ro, w, &t0, &t1)) continue;
+            fref_sweep_ray r = {g, J, L_in, L, sum_l, 0.0};
+            fref_walk(g, ro, w, fref_sweep_visit, &r);
+            pin += L_in * area;
+            pout += r.L * area;
+            pabs += r.absorbed * area;
+        }
+    for (uint64_t c = 0; c < cells; c++)
+        L[c] = sum_l[c] > 0.0 ? L[c] / sum_l[c] : (J ? J[c] : 0.0);   /* rule: no ray crossed it */
+    free(sum_l);
+    if (power_in) *power_in = pin;
+    if (power_out) *power_out = pout;
+    if (power_absorbed) *power_absorbed = pabs;
+}
+
+/* phi = sum over the D directions of 4 pi / D times each cell's radiance along them. */
+static void fref_fluence(const fref_grid *g, uint32_t half, const double *J, double L_in, double *phi, double *L) {
+    uint64_t cells = (uint64_t)g->n[0] * g->n[1] * g->n[2];
+    memset(phi, 0, cells * sizeof(double));
+    double weight = 4.0 * FREF_PI / (2.0 * half);
+    for (uint32_t k = 0; k < 2 * half; k++) {
+        double w[3];
+        fref_direction(k / 2, half, w);
+        if (k & 1) for (int i = 0; i < 3; i++) w[i] = -w[i];
+        fref_sweep(g, w, J, L_in, L, NULL, NULL, NULL);
+        for (uint64_t c = 0; c < cells; c++) phi[c] += weight * L[c];
+    }
+}
+
+int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, fref_field *out) {
+    memset(out, 0, sizeof *out);
+    if (!g || !l || !c || !g->sigma_t || !g->albedo || !(g->h > 0.0) || !g->n[0] || !g->n[1] || !g->n[2] ||
+        !c->half_directions || !c->bounces)
+        return -1;
+    uint64_t cells = (uint64_t)g->n[0] * g->n[1] * g->n[2];
+    double *T = (double *)calloc(cells, sizeof(double)), *Ls = (double *)calloc(cells, sizeof(double));
+    double *J = (double *)calloc(cells, sizeof(double)), *phi = (double *)calloc(cells, sizeof(double));
+    double *L = (double *)calloc(cells, sizeof(double));
+    if (!T || !Ls || !J || !phi || !L) { free(T); free(Ls); free(J); free(phi); free(L); return -1; }
+    double toward[3] = {-l->sun_dir[0], -l->sun_dir[1], -l->sun_dir[2]};
+    if (l->sun_irradiance > 0.0) fref_sweep(g, toward, NULL, 1.0, T, NULL, NULL, NULL);
+    double sun = l->sun_irradiance / (4.0 * FREF_PI);
+    /* L_s^(1): the sun and the background, attenuated */
+    fref_fluence(g, c->half_directions, NULL, l->background, phi, L);
+    for (uint64_t i = 0; i < cells; i++) Ls[i] = sun * T[i] + phi[i] / (4.0 * FREF_PI);
+    uint32_t it = 1, limit = c->bounces == FREF_BOUNCES_UNLIMITED ? c->max_iterations : c->bounces;
+    double change = 0.0;
+    while (it < limit) {
+        for (uint64_t i = 0; i < cells; i++) J[i] = g->albedo[i] * Ls[i];
+        fref_fluence(g, c->half_directions, J, l->background, phi, L);
+        double top = 0.0;
+        change = 0.0;
+        for (uint64_t i = 0; i < cells; i++) {
+            double next = sun * T[i] + phi[i] / (4.0 * FREF_PI);
+            change = fmax(change, fabs(next - Ls[i]));
+            top = fmax(top, next);
+            Ls[i] = next;
+        }
+        it++;
+        change = top > 0.0 ? change / top : 0.0;   /* rule: an all-dark field has converged */
+        if (c->bounces == FREF_BOUNCES_UNLIMITED && change <= c->tol) break;
+    }
+    free(J); free(phi); free(L);
+    out->n[0] = g->n[0]; out->n[1] = g->n[1]; out->n[2] = g->n[2];
+    out->T_sun = T;
+    out->L_s = Ls;
+    out->iterations = it;
+    out->last_change = change;
+    return 0;
+}
+
+void fref_free(fref_field *f) {
+    free(f->T_sun);
+    free(f->L_s);
+    memset(f, 0, sizeof *f);
+}
+
+typedef struct fref_camera_ray {
+    const fref_grid *g;
+    const fref_field *f;
+    double T, L;
+} fref_camera_ray;
+
+static int fref_camera_visit(uint64_t cell, double l, void *user) {
+    fref_camera_ray *r = (fref_camera_ray *)user;
+    double e = exp(-r->g->sigma_t[cell] * l);
+    r->L += r->T * (1.0 - e) * r->g->albedo[cell] * r->f->L_s[cell];
+    r->T *= e;
+    return r->T > 0.0;
+}
+
+double fref_render_ray(const fref_grid *g, const fref_field *f, const fref_lights *l, const double ro[3],
+                       const double rd[3]) {
+    fref_camera_ray r = {g, f, 1.0, 0.0};
+    fref_walk(g, ro, rd, fref_camera_visit, &r);
+    return r.L + r.T * l->background;
+}
+#endif
