@@ -4,9 +4,11 @@
 
 #define FREF_IMPLEMENTATION
 #include "reference/field_reference.h"
+#include "reference/cpu_reference.h"
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 /* A cubic grid of n^3 cells of side 1, every cell sigma and albedo a (arrays owned by
    the caller, n^3 doubles each). */
@@ -226,4 +228,128 @@ void test_field_reference_refinement_ladder(void **state) {
         free(albedo);
     }
     assert_true(last_p < 2e-3 && last_q < 1e-2);
+}
+
+/* The field approaches the path tracer: a small cloud (a 16^3 Gaussian blob modulated by
+   a slow sine, grey albedo 0.9, optical depth about 2.5 through its centre) under a sun
+   and a sky, unlimited bounces, isotropic phase, rendered at 24x24 by the independent
+   C path tracer (reference/cpu_reference.c, 16384 samples per pixel: its own relative
+   error 0.0025 over the covered pixels) and by the field at a ladder of cells and
+   directions.  The field's cells take the mean extinction of 4^3 points of the
+   trilinear, classified volume and the extinction-weighted albedo; each pixel is the
+   mean of 4x4 stratified rays over its footprint, as the path tracer's jitter averages.
+   Error: relative RMSE over the pixels the medium covers (path tracer's alpha > 0.05),
+   relative to their mean, the path tracer's noise included.  It falls at every step
+   (measured: 0.0239, 0.0106, 0.0032; with the noise removed in quadrature 0.024,
+   0.010, 0.002), and the last is within 0.006. */
+void test_field_reference_approaches_path_tracer(void **state) {
+    (void)state;
+    enum { V = 16, W = 24, H = 24, SPP = 16384 };
+    static float vox[V * V * V];
+    for (int z = 0; z < V; z++)
+        for (int y = 0; y < V; y++)
+            for (int x = 0; x < V; x++) {
+                double dx = (x + 0.5) / V - 0.5, dy = (y + 0.5) / V - 0.5, dz = (z + 0.5) / V - 0.5;
+                double r2 = dx * dx + dy * dy + dz * dz;
+                vox[(z * V + y) * V + x] = (float)(exp(-r2 / (2 * 0.15 * 0.15)) * (0.8 + 0.2 * sin(9 * dx + 4 * dy)));
+            }
+    picvr_volume_desc vd;
+    memset(&vd, 0, sizeof vd);
+    vd.dims[0] = vd.dims[1] = vd.dims[2] = V;
+    vd.type = PICVR_VOXEL_FLOAT32;
+    vd.data = vox;
+    vd.value_max = 1.0f;
+    picvr_tf_point tf[2] = {{0.0f, {0.9f, 0.9f, 0.9f}, 0.0f, 0.0f}, {1.0f, {0.9f, 0.9f, 0.9f}, 1.0f, 0.0f}};
+    picvr_light sun;
+    memset(&sun, 0, sizeof sun);
+    sun.type = PICVR_LIGHT_DIRECTIONAL;
+    sun.direction[0] = 0.3f; sun.direction[1] = 0.8f; sun.direction[2] = 0.5f;
+    sun.color[0] = sun.color[1] = sun.color[2] = 1.0f;
+    sun.intensity = 3.0f;
+    picvr_background bg;
+    memset(&bg, 0, sizeof bg);
+    bg.color[0] = bg.color[1] = bg.color[2] = 1.0f;
+    bg.intensity = 0.5f;
+    picvr_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position[0] = 10; cam.position[1] = 6; cam.position[2] = 30;
+    cam.fov_y_degrees = 32;
+    cam.width = W;
+    cam.height = H;
+    cref_scene s;
+    assert_int_equal(cref_scene_init(&s, &vd, tf, 2, 0.35f, &sun, 1, &bg, &cam, 7), PICVR_OK);
+    picvr_scattering sc = {PICVR_BOUNCES_UNLIMITED, 0.0f, 0.0f};
+    assert_int_equal(cref_scene_set_scattering(&s, &sc), PICVR_OK);
+    float *img = malloc((size_t)W * H * 4 * sizeof(float));
+    assert_non_null(img);
+    assert_int_equal(cref_render(&s, SPP, img, NULL), PICVR_OK);
+    double mean = 0.0;
+    int covered = 0;
+    for (int i = 0; i < W * H; i++)
+        if (img[4 * i + 3] > 0.05f) { mean += img[4 * i]; covered++; }
+    assert_true(covered > 100);
+    mean /= covered;
+
+    const uint32_t cells[3] = {4, 8, 16}, half[3] = {4, 16, 16};
+    const double sun_dir[3] = {0.3 / sqrt(0.98), 0.8 / sqrt(0.98), 0.5 / sqrt(0.98)};
+    const double size = s.box_max[0] - s.box_min[0];
+    double last = INFINITY;
+    for (int k = 0; k < 3; k++) {
+        uint32_t N = cells[k];
+        double h = size / N;
+        size_t n = (size_t)N * N * N;
+        double *sigma = malloc(n * sizeof(double)), *albedo = malloc(n * sizeof(double));
+        assert_non_null(sigma);
+        assert_non_null(albedo);
+        for (uint32_t cz = 0; cz < N; cz++)
+            for (uint32_t cy = 0; cy < N; cy++)
+                for (uint32_t cx = 0; cx < N; cx++) {
+                    double sum = 0.0, scattered = 0.0;
+                    for (int a = 0; a < 4; a++)
+                        for (int b = 0; b < 4; b++)
+                            for (int c = 0; c < 4; c++) {
+                                double x[3] = {s.box_min[0] + (cx + (c + 0.5) / 4) * h, s.box_min[1] + (cy + (b + 0.5) / 4) * h,
+                                               s.box_min[2] + (cz + (a + 0.5) / 4) * h};
+                                double alb[3], sig = cref_sigma_t(&s, x);
+                                cref_tf_eval(s.tf, s.tf_count, cref_sample_value(&s, x), alb);
+                                sum += sig;
+                                scattered += sig * alb[0];
+                            }
+                    size_t i = ((size_t)cz * N + cy) * N + cx;
+                    sigma[i] = sum / 64.0;
+                    albedo[i] = sum > 0.0 ? scattered / sum : 0.9;   /* rule: an empty cell scatters nothing anyway */
+                }
+        fref_grid g = {{N, N, N}, h, sigma, albedo};
+        fref_lights l = {{sun_dir[0], sun_dir[1], sun_dir[2]}, 3.0, 0.5};
+        fref_config c = {half[k], FREF_BOUNCES_UNLIMITED, 1e-6, 2000};
+        fref_field f;
+        assert_int_equal(fref_build(&g, &l, &c, &f), 0);
+        double ro[3] = {s.cam_pos[0] - s.box_min[0], s.cam_pos[1] - s.box_min[1], s.cam_pos[2] - s.box_min[2]};
+        double se = 0.0;
+        for (int py = 0; py < H; py++)
+            for (int px = 0; px < W; px++) {
+                int i = py * W + px;
+                if (!(img[4 * i + 3] > 0.05f)) continue;
+                double L = 0.0;
+                for (int a = 0; a < 4; a++)
+                    for (int b = 0; b < 4; b++) {
+                        double d[3];
+                        cref_camera_ray(&s, (uint32_t)px, (uint32_t)py, (b + 0.5) / 4, (a + 0.5) / 4, d);
+                        L += fref_render_ray(&g, &f, &l, ro, d);
+                    }
+                double e = L / 16.0 - img[4 * i];
+                se += e * e;
+            }
+        double err = sqrt(se / covered) / mean;
+        print_message("    %u^3 cells, D = %u: relative RMSE %.4f against the path tracer (%u passes)\n", N, 2 * half[k], err,
+                      f.iterations);
+        assert_true(err < last);
+        last = err;
+        fref_free(&f);
+        free(sigma);
+        free(albedo);
+    }
+    assert_true(last < 0.006);
+    free(img);
+    cref_free(&s);
 }
