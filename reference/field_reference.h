@@ -23,23 +23,46 @@
  *         L_out = J + (L_in - J) e^-tau,
  *         mean over the segment = J + (L_in - J) (1 - e^-tau) / tau,
  *     and the cell's radiance along w is the length-weighted mean of its segments.
- *   - Phase function: isotropic (the in-scattered radiance is the fluence / 4 pi).
+ *   - Phase function: Henyey-Greenstein of one g for the whole grid (g = 0: isotropic).
+ *     Directions below are those the light travels along; p(cos) with cos the cosine
+ *     between the light's direction before and after scattering.
  *   - Lights: one delta sun (unit direction toward it, irradiance E) and a constant
  *     background radiance.  The sun's transmittance per cell is a sweep of its own
- *     along the sun's direction (no source, entering with 1), so the sun's in-scattered
- *     radiance in cell i is E T_i / 4 pi.
+ *     along the sun's direction (no source, entering with 1); its in-scattered radiance
+ *     into direction o is E T p(o . s), s = -sun_dir its light's direction, exact for
+ *     every g.
+ *   - The scattered field per cell: its fluence phi = sum over the D directions of
+ *     4 pi / D times the cell's radiance along them, and with FREF_STORE_MOMENT its
+ *     first moment F = the same sum of the radiance times the direction.  The
+ *     in-scattered radiance into o is taken as (phi + 3 g F . o) / 4 pi: the first two
+ *     spherical-harmonic bands of the radiance, (phi + 3 F . w) / 4 pi, convolved with
+ *     Henyey-Greenstein, whose band-l factor is g^l.  Rule: it is clamped at 0 (a
+ *     peaked field's two bands can go negative).  FREF_STORE_FLUENCE keeps phi alone
+ *     (isotropic in-scattering of the scattered light, the sun's still exact).
+ *   - delta-M (fref_config.delta_m; Wiscombe 1977): a forward-peaked phase function is
+ *     split as f delta(forward) + (1 - f) HG(g'), f = g^2, g' = (g - f) / (1 - f): its
+ *     first two moments kept, and the peak, which two bands cannot hold, counted as
+ *     light that was not scattered.  The sweeps of the scattered field then run in the
+ *     scaled medium sigma' = sigma (1 - f a), a' = a (1 - f) / (1 - f a), g', with the
+ *     sun's transmittance T' through it in their source.  The camera's view keeps the
+ *     true medium and phase function: the scattered field as (phi + 3 g F . o) / 4 pi
+ *     (the peak's f L(o) plus (1 - f) HG(g') of the two bands has first moment g), and
+ *     the sun as E T' p(o . s) (T' - T is light the peak scattered forward, which the
+ *     camera's event scatters again: two events).  With one bounce there is no
+ *     multiple scattering to approximate, and delta-M is off.
  *   - Bounces b (scatter events per path, as picvr_scattering.max_bounces + 1, the
- *     camera's included): L_s^(1) = E T / 4 pi + phi_bg / 4 pi, phi_bg the fluence of
- *     the background swept with no source; L_s^(k+1) = E T / 4 pi + phi(J = a L_s^(k))
- *     / 4 pi.  Unlimited: iterated until no cell's L_s moves by more than tol (relative
- *     to the largest), at most max_iterations.
- *   - Rendering: a camera ray crosses the cells front to back; a segment of optical
- *     depth tau adds T (1 - e^-tau) a L_s of its cell and multiplies T by e^-tau; the
- *     background is added times the final T.
+ *     camera's included): pass 1 sweeps the background with no source; pass k + 1
+ *     sweeps with the source J(w) = a (E T p(w . s) + in-scattered of pass k into w).
+ *     Unlimited: iterated until no cell's phi moves by more than tol (relative to the
+ *     largest), at most max_iterations.
+ *   - Rendering: a camera ray (direction d) crosses the cells front to back; a segment
+ *     of optical depth tau adds T (1 - e^-tau) a L_s(-d) of its cell and multiplies T by
+ *     e^-tau; the background is added times the final T.
  *
  * Conserved exactly by this model (the tests): an empty grid renders the background;
- * with albedo 1, a background L and no sun, L_s = L is the fixed point of every sweep
- * (the white furnace), so the converged field renders L at any density; one sweep's
+ * with albedo 1, a background L and no sun, phi = 4 pi L and F = 0 (radiance L
+ * everywhere) is the fixed point of every sweep, whatever g (the white furnace), so the
+ * converged field renders L at any density; one sweep's
  * absorbed power equals the power its rays carry in minus out.
  *
  * Numerics: (1 - e^-tau) / tau is 1 - tau / 2 below tau = 1e-6 (no 0 / 0), and every
@@ -56,6 +79,7 @@ typedef struct fref_grid {
     double h;               /* cell side (world units) */
     const double *sigma_t;  /* n[0] n[1] n[2] values, x fastest; >= 0 */
     const double *albedo;   /* the same layout; in [0, 1] */
+    double g;               /* Henyey-Greenstein asymmetry of every cell, in (-1, 1) */
 } fref_grid;
 
 typedef struct fref_lights {
@@ -65,25 +89,38 @@ typedef struct fref_lights {
 } fref_lights;
 
 #define FREF_BOUNCES_UNLIMITED 0xffffffffu
+#define FREF_STORE_FLUENCE 0u   /* phi per cell */
+#define FREF_STORE_MOMENT 1u    /* phi and its first moment F per cell */
 
 typedef struct fref_config {
     uint32_t half_directions;   /* D / 2 >= 1 */
     uint32_t bounces;           /* >= 1, or FREF_BOUNCES_UNLIMITED */
-    double tol;                 /* unlimited: stop when the largest change is below tol * max L_s */
+    double tol;                 /* unlimited: stop when phi's largest change is below tol * its max */
     uint32_t max_iterations;    /* unlimited: at most this many sweeps of all directions */
+    uint32_t store;             /* FREF_STORE_* */
+    uint32_t delta_m;           /* 1: the scattered field's sweeps in the delta-M scaled
+                                   medium (below); the camera's view stays exact */
 } fref_config;
 
 typedef struct fref_field {
     uint32_t n[3];
+    uint32_t store;         /* FREF_STORE_* */
     double *T_sun;          /* the sun's transmittance, cell means */
-    double *L_s;            /* in-scattered radiance (isotropic phase included), cell means */
+    double *T_scaled;       /* delta-M: through the scaled medium (the sweeps' source); else NULL */
+    int multiple;           /* bounces > 1 (delta-M's camera view of the sun takes T_scaled) */
+    double *phi;            /* fluence of the scattered light and the background, cell means */
+    double *F;              /* FREF_STORE_MOMENT: its first moment, 3 per cell; else NULL */
     uint32_t iterations;    /* sweeps of all directions made */
-    double last_change;     /* the last iteration's largest change relative to max L_s */
+    double last_change;     /* the last iteration's largest change of phi relative to its max */
 } fref_field;
 
 /* 0 on success, -1 on bad input or no memory (*out then holds nothing to free). */
 int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, fref_field *out);
 void fref_free(fref_field *f);
+
+/* The radiance scattered in cell `cell` into direction o (unit, the light's direction
+   after scattering), per unit of scattering: the sun's and the scattered field's. */
+double fref_in_scatter(const fref_grid *g, const fref_field *f, const fref_lights *l, uint64_t cell, const double o[3]);
 
 /* The radiance that reaches ro from along -rd (rd unit) through the field. */
 double fref_render_ray(const fref_grid *g, const fref_field *f, const fref_lights *l, const double ro[3],
@@ -248,57 +285,118 @@ void fref_sweep(const fref_grid *g, const double w[3], const double *J, double L
     if (power_absorbed) *power_absorbed = pabs;
 }
 
-/* phi = sum over the D directions of 4 pi / D times each cell's radiance along them. */
-static void fref_fluence(const fref_grid *g, uint32_t half, const double *J, double L_in, double *phi, double *L) {
+/* Henyey-Greenstein, normalized over the sphere; cos between the directions before and
+   after.  Rule: the denominator 1 + g^2 - 2 g cos >= (1 - |g|)^2 > 0 for |g| < 1. */
+static double fref_hg(double g, double cos) {
+    double den = 1.0 + g * g - 2.0 * g * cos;
+    return (1.0 - g * g) / (4.0 * FREF_PI * den * sqrt(den));
+}
+
+/* As fref_in_scatter, with the sun's transmittance T and asymmetry g given. */
+static double fref_in_scatter_with(double g, const double *T, const fref_field *f, const fref_lights *l, uint64_t cell,
+                                   const double o[3]) {
+    double L = 0.0;
+    if (l->sun_irradiance > 0.0)
+        L += l->sun_irradiance * T[cell] * fref_hg(g, -(o[0] * l->sun_dir[0] + o[1] * l->sun_dir[1] + o[2] * l->sun_dir[2]));
+    double band = f->phi[cell];
+    if (f->F) band += 3.0 * g * (f->F[3 * cell] * o[0] + f->F[3 * cell + 1] * o[1] + f->F[3 * cell + 2] * o[2]);
+    return L + fmax(band, 0.0) / (4.0 * FREF_PI);   /* rule: two bands clamped at 0 */
+}
+
+double fref_in_scatter(const fref_grid *g, const fref_field *f, const fref_lights *l, uint64_t cell, const double o[3]) {
+    return fref_in_scatter_with(g->g, f->T_scaled && f->multiple ? f->T_scaled : f->T_sun, f, l, cell, o);
+}
+
+/* One pass: every direction swept with the source of the field so far (src: NULL for
+   none), into phi (and F). */
+static void fref_pass(const fref_grid *g, const fref_lights *l, uint32_t half, const fref_field *src, double *J,
+                      double *L, double *phi, double *F) {
     uint64_t cells = (uint64_t)g->n[0] * g->n[1] * g->n[2];
     memset(phi, 0, cells * sizeof(double));
+    if (F) memset(F, 0, 3 * cells * sizeof(double));
     double weight = 4.0 * FREF_PI / (2.0 * half);
     for (uint32_t k = 0; k < 2 * half; k++) {
         double w[3];
         fref_direction(k / 2, half, w);
         if (k & 1) for (int i = 0; i < 3; i++) w[i] = -w[i];
-        fref_sweep(g, w, J, L_in, L, NULL, NULL, NULL);
-        for (uint64_t c = 0; c < cells; c++) phi[c] += weight * L[c];
+        if (src)
+            for (uint64_t c = 0; c < cells; c++)
+                J[c] = g->albedo[c] * fref_in_scatter_with(g->g, src->T_scaled ? src->T_scaled : src->T_sun, src, l, c, w);
+        fref_sweep(g, w, src ? J : NULL, l->background, L, NULL, NULL, NULL);
+        for (uint64_t c = 0; c < cells; c++) {
+            phi[c] += weight * L[c];
+            if (F) for (int i = 0; i < 3; i++) F[3 * c + i] += weight * L[c] * w[i];
+        }
     }
 }
 
 int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, fref_field *out) {
     memset(out, 0, sizeof *out);
     if (!g || !l || !c || !g->sigma_t || !g->albedo || !(g->h > 0.0) || !g->n[0] || !g->n[1] || !g->n[2] ||
-        !c->half_directions || !c->bounces)
+        !c->half_directions || !c->bounces || !(fabs(g->g) < 1.0) || c->store > FREF_STORE_MOMENT)
         return -1;
     uint64_t cells = (uint64_t)g->n[0] * g->n[1] * g->n[2];
-    double *T = (double *)calloc(cells, sizeof(double)), *Ls = (double *)calloc(cells, sizeof(double));
-    double *J = (double *)calloc(cells, sizeof(double)), *phi = (double *)calloc(cells, sizeof(double));
-    double *L = (double *)calloc(cells, sizeof(double));
-    if (!T || !Ls || !J || !phi || !L) { free(T); free(Ls); free(J); free(phi); free(L); return -1; }
+    int moment = c->store == FREF_STORE_MOMENT;
+    double *T = (double *)calloc(cells, sizeof(double)), *phi = (double *)calloc(cells, sizeof(double));
+    double *F = moment ? (double *)calloc(3 * cells, sizeof(double)) : NULL;
+    double *phi2 = (double *)calloc(cells, sizeof(double)), *F2 = moment ? (double *)calloc(3 * cells, sizeof(double)) : NULL;
+    double *J = (double *)calloc(cells, sizeof(double)), *L = (double *)calloc(cells, sizeof(double));
+    if (!T || !phi || !phi2 || !J || !L || (moment && (!F || !F2))) {
+        free(T); free(phi); free(F); free(phi2); free(F2); free(J); free(L);
+        return -1;
+    }
     double toward[3] = {-l->sun_dir[0], -l->sun_dir[1], -l->sun_dir[2]};
     if (l->sun_irradiance > 0.0) fref_sweep(g, toward, NULL, 1.0, T, NULL, NULL, NULL);
-    double sun = l->sun_irradiance / (4.0 * FREF_PI);
-    /* L_s^(1): the sun and the background, attenuated */
-    fref_fluence(g, c->half_directions, NULL, l->background, phi, L);
-    for (uint64_t i = 0; i < cells; i++) Ls[i] = sun * T[i] + phi[i] / (4.0 * FREF_PI);
+    out->n[0] = g->n[0]; out->n[1] = g->n[1]; out->n[2] = g->n[2];
+    out->store = c->store;
+    out->T_sun = T;
+    out->multiple = c->bounces > 1;
+    /* delta-M: the sweeps' medium; rule: 1 - f a >= 1 - f > 0 for |g| < 1 */
+    fref_grid scaled = *g;
+    double *sigma2 = NULL, *albedo2 = NULL;
+    if (c->delta_m && g->g != 0.0 && c->bounces > 1) {   /* one event: nothing to scale */
+        double f = g->g * g->g;
+        sigma2 = (double *)malloc(cells * sizeof(double));
+        albedo2 = (double *)malloc(cells * sizeof(double));
+        out->T_scaled = (double *)calloc(cells, sizeof(double));
+        if (!sigma2 || !albedo2 || !out->T_scaled) {
+            free(sigma2); free(albedo2); free(out->T_scaled); free(T); free(phi); free(F); free(phi2); free(F2);
+            free(J); free(L);
+            memset(out, 0, sizeof *out);
+            return -1;
+        }
+        for (uint64_t i = 0; i < cells; i++) {
+            double a = g->albedo[i];
+            sigma2[i] = g->sigma_t[i] * (1.0 - f * a);
+            albedo2[i] = a * (1.0 - f) / (1.0 - f * a);
+        }
+        scaled.sigma_t = sigma2;
+        scaled.albedo = albedo2;
+        scaled.g = (g->g - f) / (1.0 - f);
+        if (l->sun_irradiance > 0.0) fref_sweep(&scaled, toward, NULL, 1.0, out->T_scaled, NULL, NULL, NULL);
+        g = &scaled;
+    }
+    /* pass 1: the background, attenuated */
+    fref_pass(g, l, c->half_directions, NULL, J, L, phi, F);
+    out->phi = phi;
+    out->F = F;
     uint32_t it = 1, limit = c->bounces == FREF_BOUNCES_UNLIMITED ? c->max_iterations : c->bounces;
     double change = 0.0;
     while (it < limit) {
-        for (uint64_t i = 0; i < cells; i++) J[i] = g->albedo[i] * Ls[i];
-        fref_fluence(g, c->half_directions, J, l->background, phi, L);
+        fref_pass(g, l, c->half_directions, out, J, L, phi2, F2);
         double top = 0.0;
         change = 0.0;
         for (uint64_t i = 0; i < cells; i++) {
-            double next = sun * T[i] + phi[i] / (4.0 * FREF_PI);
-            change = fmax(change, fabs(next - Ls[i]));
-            top = fmax(top, next);
-            Ls[i] = next;
+            change = fmax(change, fabs(phi2[i] - out->phi[i]));
+            top = fmax(top, phi2[i]);
         }
+        double *swap = out->phi; out->phi = phi2; phi2 = swap;
+        swap = out->F; out->F = F2; F2 = swap;
         it++;
         change = top > 0.0 ? change / top : 0.0;   /* rule: an all-dark field has converged */
         if (c->bounces == FREF_BOUNCES_UNLIMITED && change <= c->tol) break;
     }
-    free(J); free(phi); free(L);
-    out->n[0] = g->n[0]; out->n[1] = g->n[1]; out->n[2] = g->n[2];
-    out->T_sun = T;
-    out->L_s = Ls;
+    free(phi2); free(F2); free(J); free(L); free(sigma2); free(albedo2);
     out->iterations = it;
     out->last_change = change;
     return 0;
@@ -306,27 +404,31 @@ int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, f
 
 void fref_free(fref_field *f) {
     free(f->T_sun);
-    free(f->L_s);
+    free(f->T_scaled);
+    free(f->phi);
+    free(f->F);
     memset(f, 0, sizeof *f);
 }
 
 typedef struct fref_camera_ray {
     const fref_grid *g;
     const fref_field *f;
+    const fref_lights *l;
+    double o[3];         /* toward the camera */
     double T, L;
 } fref_camera_ray;
 
 static int fref_camera_visit(uint64_t cell, double l, void *user) {
     fref_camera_ray *r = (fref_camera_ray *)user;
     double e = exp(-r->g->sigma_t[cell] * l);
-    r->L += r->T * (1.0 - e) * r->g->albedo[cell] * r->f->L_s[cell];
+    r->L += r->T * (1.0 - e) * r->g->albedo[cell] * fref_in_scatter(r->g, r->f, r->l, cell, r->o);
     r->T *= e;
     return r->T > 0.0;
 }
 
 double fref_render_ray(const fref_grid *g, const fref_field *f, const fref_lights *l, const double ro[3],
                        const double rd[3]) {
-    fref_camera_ray r = {g, f, 1.0, 0.0};
+    fref_camera_ray r = {g, f, l, {-rd[0], -rd[1], -rd[2]}, 1.0, 0.0};
     fref_walk(g, ro, rd, fref_camera_visit, &r);
     return r.L + r.T * l->background;
 }
