@@ -26,8 +26,14 @@
  *   - Phase function: Henyey-Greenstein of one g for the whole grid (g = 0: isotropic).
  *     Directions below are those the light travels along; p(cos) with cos the cosine
  *     between the light's direction before and after scattering.
- *   - Lights: one delta sun (unit direction toward it, irradiance E) and a constant
- *     background radiance.  The sun's transmittance per cell is a sweep of its own
+ *   - Lights: one delta sun (unit direction toward it, irradiance E), point lights
+ *     (intensity I) and the background: constant, or a function of direction (an
+ *     environment map).  A sweep along w enters with the background seen looking along
+ *     -w (one sample per direction); a camera ray that escapes sees it along its own
+ *     direction.  A point light's transmittance is held per cell as its value at the
+ *     cell's centre, exact along the line to the light through constant cells; its
+ *     in-scattered radiance at x is I / d^2 T p, d = |x - light| (rule: d >= 1e-3 h).
+ *     The sun:  The sun's transmittance per cell is a sweep of its own
  *     along the sun's direction (no source, entering with 1); its in-scattered radiance
  *     into direction o is E T p(o . s), s = -sun_dir its light's direction, exact for
  *     every g.
@@ -82,10 +88,18 @@ typedef struct fref_grid {
     double g;               /* Henyey-Greenstein asymmetry of every cell, in (-1, 1) */
 } fref_grid;
 
+#define FREF_MAX_POINTS 4
+
 typedef struct fref_lights {
     double sun_dir[3];      /* unit, toward the sun */
     double sun_irradiance;  /* 0: no sun */
-    double background;      /* constant radiance of every escaping direction */
+    double background;      /* constant radiance of every escaping direction (sky NULL) */
+    /* the radiance seen looking along unit w (an environment map); NULL: background */
+    double (*sky)(const double w[3], void *user);
+    void *sky_user;
+    uint32_t point_count;   /* point lights, <= FREF_MAX_POINTS */
+    double point_pos[FREF_MAX_POINTS][3];   /* grid coordinates (the grid's corner at 0) */
+    double point_intensity[FREF_MAX_POINTS];
 } fref_lights;
 
 #define FREF_BOUNCES_UNLIMITED 0xffffffffu
@@ -107,6 +121,8 @@ typedef struct fref_field {
     uint32_t store;         /* FREF_STORE_* */
     double *T_sun;          /* the sun's transmittance, cell means */
     double *T_scaled;       /* delta-M: through the scaled medium (the sweeps' source); else NULL */
+    double *T_point;        /* point light k's transmittance from cell c's centre at [k * cells + c] */
+    double *T_point_scaled; /* delta-M: the same through the scaled medium; else NULL */
     int multiple;           /* bounces > 1 (delta-M's camera view of the sun takes T_scaled) */
     double *phi;            /* fluence of the scattered light and the background, cell means */
     double *F;              /* FREF_STORE_MOMENT: its first moment, 3 per cell; else NULL */
@@ -118,9 +134,11 @@ typedef struct fref_field {
 int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, fref_field *out);
 void fref_free(fref_field *f);
 
-/* The radiance scattered in cell `cell` into direction o (unit, the light's direction
-   after scattering), per unit of scattering: the sun's and the scattered field's. */
-double fref_in_scatter(const fref_grid *g, const fref_field *f, const fref_lights *l, uint64_t cell, const double o[3]);
+/* The radiance scattered at x (in cell `cell`) into direction o (unit, the light's
+   direction after scattering), per unit of scattering: the lights' and the scattered
+   field's. */
+double fref_in_scatter(const fref_grid *g, const fref_field *f, const fref_lights *l, uint64_t cell, const double x[3],
+                       const double o[3]);
 
 /* The radiance that reaches ro from along -rd (rd unit) through the field. */
 double fref_render_ray(const fref_grid *g, const fref_field *f, const fref_lights *l, const double ro[3],
@@ -193,12 +211,16 @@ static int fref_box(const fref_grid *g, const double ro[3], const double rd[3], 
     return b > a;
 }
 
-/* Calls visit(cell, length, user) for each cell the ray crosses, front to back (3D
-   DDA); the callback returns 0 to stop. */
-typedef int (*fref_visit)(uint64_t cell, double length, void *user);
-static void fref_walk(const fref_grid *g, const double ro[3], const double rd[3], fref_visit visit, void *user) {
+/* Calls visit(cell, t, length, user) for each cell the ray crosses within [tmin, tmax],
+   front to back (3D DDA; t where it enters the cell); the callback returns 0 to stop. */
+typedef int (*fref_visit)(uint64_t cell, double t, double length, void *user);
+static void fref_walk(const fref_grid *g, const double ro[3], const double rd[3], double tmin, double tmax,
+                      fref_visit visit, void *user) {
     double t0, t1;
     if (!fref_box(g, ro, rd, &t0, &t1)) return;
+    t0 = fmax(t0, tmin);
+    t1 = fmin(t1, tmax);
+    if (!(t1 > t0)) return;
     int c[3], step[3];
     double next[3], delta[3];
     for (int i = 0; i < 3; i++) {
@@ -218,7 +240,7 @@ static void fref_walk(const fref_grid *g, const double ro[3], const double rd[3]
         int a = next[0] < next[1] ? (next[0] < next[2] ? 0 : 2) : (next[1] < next[2] ? 1 : 2);
         double te = fmin(next[a], t1);
         uint64_t cell = ((uint64_t)c[2] * g->n[1] + (uint64_t)c[1]) * g->n[0] + (uint64_t)c[0];
-        if (te > t && !visit(cell, te - t, user)) return;
+        if (te > t && !visit(cell, t, te - t, user)) return;
         t = te;
         next[a] += delta[a];
         c[a] += step[a];
@@ -234,7 +256,8 @@ typedef struct fref_sweep_ray {
     double absorbed;     /* sigma_t times the integral of L, this ray */
 } fref_sweep_ray;
 
-static int fref_sweep_visit(uint64_t cell, double l, void *user) {
+static int fref_sweep_visit(uint64_t cell, double t, double l, void *user) {
+    (void)t;
     fref_sweep_ray *r = (fref_sweep_ray *)user;
     double s = r->g->sigma_t[cell], J = r->J ? r->J[cell] : 0.0;
     double tau = s * l;
@@ -272,7 +295,7 @@ void fref_sweep(const fref_grid *g, const double w[3], const double *J, double L
             double t0, t1;
             if (!fref_box(g, ro, w, &t0, &t1)) continue;
             fref_sweep_ray r = {g, J, L_in, L, sum_l, 0.0};
-            fref_walk(g, ro, w, fref_sweep_visit, &r);
+            fref_walk(g, ro, w, 0.0, INFINITY, fref_sweep_visit, &r);
             pin += L_in * area;
             pout += r.L * area;
             pabs += r.absorbed * area;
@@ -292,19 +315,71 @@ static double fref_hg(double g, double cos) {
     return (1.0 - g * g) / (4.0 * FREF_PI * den * sqrt(den));
 }
 
-/* As fref_in_scatter, with the sun's transmittance T and asymmetry g given. */
-static double fref_in_scatter_with(double g, const double *T, const fref_field *f, const fref_lights *l, uint64_t cell,
-                                   const double o[3]) {
+/* The background seen looking along unit w. */
+static double fref_background(const fref_lights *l, const double w[3]) {
+    return l->sky ? l->sky(w, l->sky_user) : l->background;
+}
+
+/* As fref_in_scatter, with the lights' transmittances (T the sun's, Tp the points')
+   and the asymmetry g given; h the cell side. */
+static double fref_in_scatter_with(const fref_grid *grid, double g, const double *T, const double *Tp, const fref_field *f,
+                                   const fref_lights *l, uint64_t cell, const double x[3], const double o[3]) {
     double L = 0.0;
+    uint64_t cells = (uint64_t)grid->n[0] * grid->n[1] * grid->n[2];
     if (l->sun_irradiance > 0.0)
         L += l->sun_irradiance * T[cell] * fref_hg(g, -(o[0] * l->sun_dir[0] + o[1] * l->sun_dir[1] + o[2] * l->sun_dir[2]));
+    for (uint32_t k = 0; k < l->point_count; k++) {
+        double s[3], d2 = 0.0;
+        for (int i = 0; i < 3; i++) { s[i] = x[i] - l->point_pos[k][i]; d2 += s[i] * s[i]; }
+        double dmin = 1e-3 * grid->h;   /* rule: a light on the point gives a large, finite value */
+        double d = sqrt(fmax(d2, dmin * dmin));
+        double cos = (s[0] * o[0] + s[1] * o[1] + s[2] * o[2]) / d;
+        L += l->point_intensity[k] / (d * d) * Tp[k * cells + cell] * fref_hg(g, fmax(-1.0, fmin(1.0, cos)));
+    }
     double band = f->phi[cell];
     if (f->F) band += 3.0 * g * (f->F[3 * cell] * o[0] + f->F[3 * cell + 1] * o[1] + f->F[3 * cell + 2] * o[2]);
     return L + fmax(band, 0.0) / (4.0 * FREF_PI);   /* rule: two bands clamped at 0 */
 }
 
-double fref_in_scatter(const fref_grid *g, const fref_field *f, const fref_lights *l, uint64_t cell, const double o[3]) {
-    return fref_in_scatter_with(g->g, f->T_scaled && f->multiple ? f->T_scaled : f->T_sun, f, l, cell, o);
+double fref_in_scatter(const fref_grid *g, const fref_field *f, const fref_lights *l, uint64_t cell, const double x[3],
+                       const double o[3]) {
+    int scaled = f->T_scaled && f->multiple;
+    return fref_in_scatter_with(g, g->g, scaled ? f->T_scaled : f->T_sun, scaled ? f->T_point_scaled : f->T_point, f, l, cell,
+                                x, o);
+}
+
+/* The centre of cell c. */
+static void fref_centre(const fref_grid *g, uint64_t c, double x[3]) {
+    x[0] = ((double)(c % g->n[0]) + 0.5) * g->h;
+    x[1] = ((double)(c / g->n[0] % g->n[1]) + 0.5) * g->h;
+    x[2] = ((double)(c / ((uint64_t)g->n[0] * g->n[1])) + 0.5) * g->h;
+}
+
+typedef struct fref_depth_walk { const fref_grid *g; double tau; } fref_depth_walk;
+static int fref_depth_visit(uint64_t cell, double t, double l, void *user) {
+    (void)t;
+    fref_depth_walk *r = (fref_depth_walk *)user;
+    r->tau += r->g->sigma_t[cell] * l;
+    return 1;
+}
+
+/* Each point light's transmittance from every cell's centre, exact along the line
+   through the constant cells, into T (point_count x cells). */
+static void fref_point_transmittance(const fref_grid *g, const fref_lights *l, double *T) {
+    uint64_t cells = (uint64_t)g->n[0] * g->n[1] * g->n[2];
+    for (uint32_t k = 0; k < l->point_count; k++)
+        for (uint64_t c = 0; c < cells; c++) {
+            double x[3], w[3], d = 0.0;
+            fref_centre(g, c, x);
+            for (int i = 0; i < 3; i++) { w[i] = l->point_pos[k][i] - x[i]; d += w[i] * w[i]; }
+            d = sqrt(d);
+            fref_depth_walk r = {g, 0.0};
+            if (d > 0.0) {   /* rule: a light at the centre itself: T = 1 */
+                for (int i = 0; i < 3; i++) w[i] /= d;
+                fref_walk(g, x, w, 0.0, d, fref_depth_visit, &r);
+            }
+            T[k * cells + c] = exp(-r.tau);
+        }
 }
 
 /* One pass: every direction swept with the source of the field so far (src: NULL for
@@ -320,9 +395,15 @@ static void fref_pass(const fref_grid *g, const fref_lights *l, uint32_t half, c
         fref_direction(k / 2, half, w);
         if (k & 1) for (int i = 0; i < 3; i++) w[i] = -w[i];
         if (src)
-            for (uint64_t c = 0; c < cells; c++)
-                J[c] = g->albedo[c] * fref_in_scatter_with(g->g, src->T_scaled ? src->T_scaled : src->T_sun, src, l, c, w);
-        fref_sweep(g, w, src ? J : NULL, l->background, L, NULL, NULL, NULL);
+            for (uint64_t c = 0; c < cells; c++) {
+                double x[3];
+                fref_centre(g, c, x);
+                J[c] = g->albedo[c] * fref_in_scatter_with(g, g->g, src->T_scaled ? src->T_scaled : src->T_sun,
+                                                           src->T_point_scaled ? src->T_point_scaled : src->T_point, src, l,
+                                                           c, x, w);
+            }
+        double back[3] = {-w[0], -w[1], -w[2]};
+        fref_sweep(g, w, src ? J : NULL, fref_background(l, back), L, NULL, NULL, NULL);
         for (uint64_t c = 0; c < cells; c++) {
             phi[c] += weight * L[c];
             if (F) for (int i = 0; i < 3; i++) F[3 * c + i] += weight * L[c] * w[i];
@@ -333,7 +414,8 @@ static void fref_pass(const fref_grid *g, const fref_lights *l, uint32_t half, c
 int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, fref_field *out) {
     memset(out, 0, sizeof *out);
     if (!g || !l || !c || !g->sigma_t || !g->albedo || !(g->h > 0.0) || !g->n[0] || !g->n[1] || !g->n[2] ||
-        !c->half_directions || !c->bounces || !(fabs(g->g) < 1.0) || c->store > FREF_STORE_MOMENT)
+        !c->half_directions || !c->bounces || !(fabs(g->g) < 1.0) || c->store > FREF_STORE_MOMENT ||
+        l->point_count > FREF_MAX_POINTS)
         return -1;
     uint64_t cells = (uint64_t)g->n[0] * g->n[1] * g->n[2];
     int moment = c->store == FREF_STORE_MOMENT;
@@ -351,6 +433,13 @@ int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, f
     out->store = c->store;
     out->T_sun = T;
     out->multiple = c->bounces > 1;
+    out->T_point = (double *)calloc(l->point_count ? l->point_count * cells : 1, sizeof(double));
+    if (!out->T_point) {
+        free(T); free(phi); free(F); free(phi2); free(F2); free(J); free(L);
+        memset(out, 0, sizeof *out);
+        return -1;
+    }
+    fref_point_transmittance(g, l, out->T_point);
     /* delta-M: the sweeps' medium; rule: 1 - f a >= 1 - f > 0 for |g| < 1 */
     fref_grid scaled = *g;
     double *sigma2 = NULL, *albedo2 = NULL;
@@ -359,9 +448,10 @@ int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, f
         sigma2 = (double *)malloc(cells * sizeof(double));
         albedo2 = (double *)malloc(cells * sizeof(double));
         out->T_scaled = (double *)calloc(cells, sizeof(double));
-        if (!sigma2 || !albedo2 || !out->T_scaled) {
-            free(sigma2); free(albedo2); free(out->T_scaled); free(T); free(phi); free(F); free(phi2); free(F2);
-            free(J); free(L);
+        out->T_point_scaled = (double *)calloc(l->point_count ? l->point_count * cells : 1, sizeof(double));
+        if (!sigma2 || !albedo2 || !out->T_scaled || !out->T_point_scaled) {
+            free(sigma2); free(albedo2); free(out->T_scaled); free(out->T_point_scaled); free(out->T_point); free(T);
+            free(phi); free(F); free(phi2); free(F2); free(J); free(L);
             memset(out, 0, sizeof *out);
             return -1;
         }
@@ -374,6 +464,7 @@ int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, f
         scaled.albedo = albedo2;
         scaled.g = (g->g - f) / (1.0 - f);
         if (l->sun_irradiance > 0.0) fref_sweep(&scaled, toward, NULL, 1.0, out->T_scaled, NULL, NULL, NULL);
+        fref_point_transmittance(&scaled, l, out->T_point_scaled);
         g = &scaled;
     }
     /* pass 1: the background, attenuated */
@@ -405,6 +496,8 @@ int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, f
 void fref_free(fref_field *f) {
     free(f->T_sun);
     free(f->T_scaled);
+    free(f->T_point);
+    free(f->T_point_scaled);
     free(f->phi);
     free(f->F);
     memset(f, 0, sizeof *f);
@@ -414,22 +507,24 @@ typedef struct fref_camera_ray {
     const fref_grid *g;
     const fref_field *f;
     const fref_lights *l;
+    double ro[3], rd[3];
     double o[3];         /* toward the camera */
     double T, L;
 } fref_camera_ray;
 
-static int fref_camera_visit(uint64_t cell, double l, void *user) {
+static int fref_camera_visit(uint64_t cell, double t, double l, void *user) {
     fref_camera_ray *r = (fref_camera_ray *)user;
-    double e = exp(-r->g->sigma_t[cell] * l);
-    r->L += r->T * (1.0 - e) * r->g->albedo[cell] * fref_in_scatter(r->g, r->f, r->l, cell, r->o);
+    double e = exp(-r->g->sigma_t[cell] * l), x[3];
+    for (int i = 0; i < 3; i++) x[i] = r->ro[i] + r->rd[i] * (t + 0.5 * l);   /* the segment's middle */
+    r->L += r->T * (1.0 - e) * r->g->albedo[cell] * fref_in_scatter(r->g, r->f, r->l, cell, x, r->o);
     r->T *= e;
     return r->T > 0.0;
 }
 
 double fref_render_ray(const fref_grid *g, const fref_field *f, const fref_lights *l, const double ro[3],
                        const double rd[3]) {
-    fref_camera_ray r = {g, f, l, {-rd[0], -rd[1], -rd[2]}, 1.0, 0.0};
-    fref_walk(g, ro, rd, fref_camera_visit, &r);
-    return r.L + r.T * l->background;
+    fref_camera_ray r = {g, f, l, {ro[0], ro[1], ro[2]}, {rd[0], rd[1], rd[2]}, {-rd[0], -rd[1], -rd[2]}, 1.0, 0.0};
+    fref_walk(g, ro, rd, 0.0, INFINITY, fref_camera_visit, &r);
+    return r.L + r.T * fref_background(l, rd);
 }
 #endif

@@ -236,12 +236,19 @@ void test_field_reference_refinement_ladder(void **state) {
 }
 
 /* The small cloud of the tests below: a 16^3 Gaussian blob modulated by a slow sine, grey
-   albedo 0.9, Henyey-Greenstein g, optical depth about 2.5 through its centre, under a
-   sun and a sky, seen at 24x24 from (cx, cy, cz); rendered by the independent C path
-   tracer (reference/cpu_reference.c) with `spp` samples per pixel and unlimited bounces
-   into img (rgba); returns the scene (cref_free it). */
+   albedo 0.9, Henyey-Greenstein g, optical depth about 2.5 through its centre, under
+   `light` and `bg` (NULL: a sun and a constant sky), seen at 24x24 from cam_pos;
+   rendered by the independent C path tracer (reference/cpu_reference.c) with `spp`
+   samples per pixel and unlimited bounces into img (rgba); returns the scene (cref_free
+   it). */
 enum { CLOUD_V = 16, CLOUD_W = 24, CLOUD_H = 24 };
+static cref_scene cloud_path_traced_lit(float g, const float cam_pos[3], uint32_t spp, float *img,
+                                        const picvr_light *light, const picvr_background *bg);
 static cref_scene cloud_path_traced(float g, const float cam_pos[3], uint32_t spp, float *img) {
+    return cloud_path_traced_lit(g, cam_pos, spp, img, NULL, NULL);
+}
+static cref_scene cloud_path_traced_lit(float g, const float cam_pos[3], uint32_t spp, float *img,
+                                        const picvr_light *light, const picvr_background *background) {
     static float vox[CLOUD_V * CLOUD_V * CLOUD_V];
     const int V = CLOUD_V;
     for (int z = 0; z < V; z++)
@@ -275,7 +282,8 @@ static cref_scene cloud_path_traced(float g, const float cam_pos[3], uint32_t sp
     cam.width = CLOUD_W;
     cam.height = CLOUD_H;
     cref_scene s;
-    assert_int_equal(cref_scene_init(&s, &vd, tf, 2, 0.35f, &sun, 1, &bg, &cam, 7), PICVR_OK);
+    assert_int_equal(cref_scene_init(&s, &vd, tf, 2, 0.35f, light ? light : &sun, 1, background ? background : &bg, &cam, 7),
+                     PICVR_OK);
     picvr_scattering sc = {PICVR_BOUNCES_UNLIMITED, 0.0f, 0.0f};
     assert_int_equal(cref_scene_set_scattering(&s, &sc), PICVR_OK);
     assert_int_equal(cref_render(&s, spp, img, NULL), PICVR_OK);
@@ -283,11 +291,19 @@ static cref_scene cloud_path_traced(float g, const float cam_pos[3], uint32_t sp
 }
 
 /* The field of the path tracer's scene s on N^3 cells and D = 2 half directions (store,
-   delta_m as fref_config's), rendered like the path tracer's pixels (4x4 stratified rays
-   over each footprint): relative RMSE against img over the pixels the medium covers
-   (alpha > 0.05), relative to their mean; the path tracer's noise included. */
+   delta_m as fref_config's), under the lights `lit` (NULL: the sun and the constant
+   sky of cloud_path_traced; point positions in the world), rendered like the path
+   tracer's pixels (4x4 stratified rays over each footprint): relative RMSE against img
+   over the pixels the medium covers (alpha > 0.05), relative to their mean; the path
+   tracer's noise included. */
+static double cloud_field_error_lit(const cref_scene *s, const float *img, uint32_t N, uint32_t half, uint32_t store,
+                                    uint32_t delta_m, const fref_lights *lit);
 static double cloud_field_error(const cref_scene *s, const float *img, uint32_t N, uint32_t half, uint32_t store,
                                 uint32_t delta_m) {
+    return cloud_field_error_lit(s, img, N, half, store, delta_m, NULL);
+}
+static double cloud_field_error_lit(const cref_scene *s, const float *img, uint32_t N, uint32_t half, uint32_t store,
+                                    uint32_t delta_m, const fref_lights *lit) {
     double mean = 0.0;
     int covered = 0;
     for (int i = 0; i < CLOUD_W * CLOUD_H; i++)
@@ -322,6 +338,11 @@ static double cloud_field_error(const cref_scene *s, const float *img, uint32_t 
     fref_grid g = {{N, N, N}, h, sigma, albedo, s->tf[0].g};
     const double sun_dir[3] = {0.3 / sqrt(0.98), 0.8 / sqrt(0.98), 0.5 / sqrt(0.98)};
     fref_lights l = {{sun_dir[0], sun_dir[1], sun_dir[2]}, 3.0, 0.5};
+    if (lit) {
+        l = *lit;
+        for (uint32_t k = 0; k < l.point_count; k++)
+            for (int i = 0; i < 3; i++) l.point_pos[k][i] -= s->box_min[i];
+    }
     fref_config c = {half, FREF_BOUNCES_UNLIMITED, 1e-6, 2000, store, delta_m};
     fref_field f;
     assert_int_equal(fref_build(&g, &l, &c, &f), 0);
@@ -393,6 +414,64 @@ void test_field_reference_forward_scattering_storage(void **state) {
     moment = cloud_field_error(&s, img, 16, 16, FREF_STORE_MOMENT, 1);
     print_message("    g 0.85, sun behind: fluence %.4f, fluence, moment and delta-M %.4f\n", fluence, moment);
     assert_true(moment < 0.25 * fluence && moment < 0.006);
+    cref_free(&s);
+    free(img);
+}
+
+/* A sky of 8 rows from the zenith (row 0) down, as a 1x8 environment map (picvr.h's
+   rows: floor(8 acos(w.y) / pi)), radiance 0.5 x the row's value. */
+static const float SKY_ROWS[8] = {1.2f, 1.0f, 0.8f, 0.6f, 0.4f, 0.3f, 0.2f, 0.1f};
+static double row_sky(const double w[3], void *user) {
+    (void)user;
+    int r = (int)floor(8.0 * acos(fmax(-1.0, fmin(1.0, w[1]))) / M_PI);
+    return 0.5 * SKY_ROWS[r < 0 ? 0 : r > 7 ? 7 : r];
+}
+
+/* A point light and an environment map: the small cloud (g 0.6, unlimited bounces) under
+   a point light about two bounding radii from its centre and the sky of row_sky,
+   against the path tracer (16384 samples per pixel; its own relative error 0.0038),
+   the fluence and its first moment stored.  Along the ladder (8^3 cells, D = 32),
+   (16^3, 32), (24^3, 128) the error falls at every step (measured 0.0197, 0.0137,
+   0.0072, the path tracer's noise included) and ends within 0.01. */
+void test_field_reference_point_light_and_map(void **state) {
+    (void)state;
+    float *img = malloc((size_t)CLOUD_W * CLOUD_H * 4 * sizeof(float));
+    assert_non_null(img);
+    picvr_light point;
+    memset(&point, 0, sizeof point);
+    point.type = PICVR_LIGHT_POINT;
+    point.position[1] = 24;
+    point.position[2] = 10;
+    point.color[0] = point.color[1] = point.color[2] = 1.0f;
+    point.intensity = 2000.0f;
+    float map[8 * 3];
+    for (int r = 0; r < 8; r++) map[3 * r] = map[3 * r + 1] = map[3 * r + 2] = SKY_ROWS[r];
+    picvr_background bg;
+    memset(&bg, 0, sizeof bg);
+    bg.color[0] = bg.color[1] = bg.color[2] = 1.0f;
+    bg.intensity = 0.5f;
+    bg.environment = map;
+    bg.env_width = 1;
+    bg.env_height = 8;
+    const float cam[3] = {10, 6, 30};
+    cref_scene s = cloud_path_traced_lit(0.6f, cam, 16384, img, &point, &bg);
+    fref_lights l;
+    memset(&l, 0, sizeof l);
+    l.sun_dir[2] = 1.0;
+    l.sky = row_sky;
+    l.point_count = 1;
+    l.point_pos[0][1] = 24;
+    l.point_pos[0][2] = 10;
+    l.point_intensity[0] = 2000.0;
+    const uint32_t cells[3] = {8, 16, 24}, half[3] = {16, 16, 64};
+    double last = INFINITY;
+    for (int k = 0; k < 3; k++) {
+        double err = cloud_field_error_lit(&s, img, cells[k], half[k], FREF_STORE_MOMENT, 0, &l);
+        print_message("    %u^3 cells, D = %u: relative RMSE %.4f against the path tracer\n", cells[k], 2 * half[k], err);
+        assert_true(err < last);
+        last = err;
+    }
+    assert_true(last < 0.01);
     cref_free(&s);
     free(img);
 }

@@ -163,6 +163,7 @@
     X(test_field_reference_refinement_ladder)                       \
     X(test_field_reference_approaches_path_tracer)                  \
     X(test_field_reference_forward_scattering_storage)              \
+    X(test_field_reference_point_light_and_map)                     \
     /* test_cpu_reference.c */                                      \
     X(test_gpu_matches_cpu_reference_area_light_background)         \
     X(test_gpu_matches_cpu_reference_point_light_equiangular)       \
