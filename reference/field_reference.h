@@ -33,10 +33,9 @@
  *     direction.  A point light's transmittance is held per cell as its value at the
  *     cell's centre, exact along the line to the light through constant cells; its
  *     in-scattered radiance at x is I / d^2 T p, d = |x - light| (rule: d >= 1e-3 h).
- *     The sun:  The sun's transmittance per cell is a sweep of its own
- *     along the sun's direction (no source, entering with 1); its in-scattered radiance
- *     into direction o is E T p(o . s), s = -sun_dir its light's direction, exact for
- *     every g.
+ *     The sun's transmittance per cell is a sweep of its own along the sun's direction
+ *     (no source, entering with 1); its in-scattered radiance into direction o is
+ *     E T p(o . s), s = -sun_dir its light's direction, exact for every g.
  *   - The scattered field per cell: its fluence phi = sum over the D directions of
  *     4 pi / D times the cell's radiance along them, and with FREF_STORE_MOMENT its
  *     first moment F = the same sum of the radiance times the direction.  The
@@ -58,18 +57,20 @@
  *     multiple scattering to approximate, and delta-M is off.
  *   - Bounces b (scatter events per path, as picvr_scattering.max_bounces + 1, the
  *     camera's included): pass 1 sweeps the background with no source; pass k + 1
- *     sweeps with the source J(w) = a (E T p(w . s) + in-scattered of pass k into w).
+ *     sweeps with the source J(w) = a (the lights' in-scattered radiance into w + the
+ *     scattered field's of pass k), the point lights' at the cell's centre.
  *     Unlimited: iterated until no cell's phi moves by more than tol (relative to the
  *     largest), at most max_iterations.
- *   - Rendering: a camera ray (direction d) crosses the cells front to back; a segment
- *     of optical depth tau adds T (1 - e^-tau) a L_s(-d) of its cell and multiplies T by
- *     e^-tau; the background is added times the final T.
+ *   - Rendering: a camera ray (direction d, from the camera on) crosses the cells front
+ *     to back; a segment of optical depth tau adds T (1 - e^-tau) a L_s(-d) of its cell,
+ *     the point lights' 1/d^2 and direction taken at the segment's middle, and
+ *     multiplies T by e^-tau; the background along d is added times the final T.
  *
  * Conserved exactly by this model (the tests): an empty grid renders the background;
  * with albedo 1, a background L and no sun, phi = 4 pi L and F = 0 (radiance L
  * everywhere) is the fixed point of every sweep, whatever g (the white furnace), so the
- * converged field renders L at any density; one sweep's
- * absorbed power equals the power its rays carry in minus out.
+ * converged field renders L at any density; one sweep's absorbed power equals the power
+ * its rays carry in minus out.
  *
  * Numerics: (1 - e^-tau) / tau is 1 - tau / 2 below tau = 1e-6 (no 0 / 0), and every
  * exp takes tau >= 0.  A cell no ray crossed (impossible with the lattice above; kept
