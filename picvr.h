@@ -339,11 +339,12 @@ typedef enum picvr_distance_sampling {
                                       per sample times its device time per sample, the
                                       other kind probed now and then (its samples added
                                       to the image only where they lower its variance;
-                                      docs/sampling.md).  Where MIS and FORCED
-                                      are the same renderer (every light served, or only
-                                      the background with ratio tracking), it is MIS with
-                                      no measuring; with
-                                      the cache on, MIS */
+                                      docs/sampling.md).  Where FORCED would serve no
+                                      light with the default transmittance (every light
+                                      served, or only the background), the second kind
+                                      is FORCED with PICVR_TRANSMITTANCE_RAY_MARCHING
+                                      instead; with ratio tracking chosen there, MIS with
+                                      no measuring; with the cache on, MIS */
 } picvr_distance_sampling;
 /* How transmittance (shadow rays, and the camera ray with PICVR_DISTANCE_MIS) is
    estimated; all are unbiased. */
@@ -812,10 +813,11 @@ typedef struct picvr_stats {
                                     0 without, in between with PICVR_CACHE_AUTO */
     double forced_share;         /* share of the recent device time spent in rounds that
                                     drew the forced point: 1 with PICVR_DISTANCE_FORCED,
-                                    0 without, with PICVR_DISTANCE_AUTO the probes
+                                    0 without, with PICVR_DISTANCE_AUTO its second kind's
+                                    (the forced point, or ray marching), the probes
                                     included */
     double forced_efficiency;    /* PICVR_DISTANCE_AUTO: error reduction per device time
-                                    of the forced point over MIS (> 1: it pays); 0 until
+                                    of its second kind over MIS (> 1: it pays); 0 until
                                     both are measured */
     /* scheduler: measured shares of device time over the last second, and the §6 targets */
     double fraction_render, fraction_create, fraction_update;

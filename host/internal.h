@@ -432,6 +432,8 @@ typedef struct picvr_scene {
     int use_phase_mis;               /* some light or the background needs MIS */
     int use_equiangular;             /* some light is served by equiangular sampling */
     int use_forced;                  /* gpu.forced_pmf > 0: camera rays' forced point */
+    int auto_rm;                     /* PICVR_DISTANCE_AUTO's second kind is ray-marched
+                                        transmittance (host/lights.c) */
     int use_control;                 /* enough bricks have a positive minorant for residual
                                         ratio tracking (host/majorant.c) */
     picvr_scattering scattering;     /* as set (picvr_set_scattering) */

@@ -144,7 +144,7 @@ static void picvr_light_chromaticity(const float (*emit)[3], uint32_t n, float l
    engine under three large spheres near it (falloff 15) took longer to a given error
    with equiangular sampling, a thin medium under a point light just outside it (falloff
    1700) far less (docs/sampling.md).  Sets scene.use_equiangular: some light is served,
-   and scene.use_forced: the forced point has a share (below).
+   scene.use_forced: the forced point has a share (below), and scene.auto_rm.
    Called when the lights or the volume's box change. */
 static void picvr_update_equiangular(picvr_context *ctx) {
     picvr_gpu_light *g = ctx->scene.gpu.lights;
@@ -178,10 +178,23 @@ static void picvr_update_equiangular(picvr_context *ctx) {
        nearly 0/1 estimate, costs more than it brings.  With ray-marched transmittance
        the transmitted part is nearly exact in smooth media and they take their share
        (docs/sampling.md).  Rule: no such power gives 0. */
-    double unserved = ctx->config.transmittance == PICVR_TRANSMITTANCE_RAY_MARCHING
-                    ? ctx->scene.gpu.background_pmf : 0.0;
+    double lights_unserved = 0.0;
     for (uint32_t i = 0; i < n; i++)
-        if (!served[i]) unserved += g[i].pmf;
+        if (!served[i]) lights_unserved += g[i].pmf;
+    /* PICVR_DISTANCE_AUTO where the forced point would serve no light with the default
+       transmittance (every light served by equiangular sampling, or only the background
+       and map): its second kind is ray-marched transmittance instead, with the forced
+       point serving the background as it does with that estimator.  There its noise is
+       the transmittance estimates' (a served point light just outside a thin medium,
+       the map over one: 5.4-12x in variance x time, docs/sampling.md); the measured
+       efficiency decides, as for the forced point.  With the default estimator (residual
+       tracking) only: ratio tracking, which only an application chooses, is kept. */
+    int auto_rm = ctx->config.distance_sampling == PICVR_DISTANCE_AUTO &&
+                  ctx->config.transmittance == PICVR_TRANSMITTANCE_RESIDUAL && !(lights_unserved > 0.0) &&
+                  (n > 0 || ctx->scene.gpu.background_pmf > 0.0f);
+    double unserved = lights_unserved;
+    if (ctx->config.transmittance == PICVR_TRANSMITTANCE_RAY_MARCHING || auto_rm)
+        unserved += ctx->scene.gpu.background_pmf;
     int forced = (ctx->config.distance_sampling == PICVR_DISTANCE_FORCED ||
                   ctx->config.distance_sampling == PICVR_DISTANCE_AUTO) && unserved > 0.0;
     /* exactly 1 when no light is served (the shaders test forced_pmf < 1 for "some light
@@ -189,6 +202,7 @@ static void picvr_update_equiangular(picvr_context *ctx) {
     ctx->scene.gpu.forced_pmf = !forced ? 0.0f : last < 0 ? 1.0f : (float)fmin(unserved, 1.0);
     ctx->scene.use_equiangular = last >= 0;
     ctx->scene.use_forced = forced;
+    ctx->scene.auto_rm = auto_rm;
     /* The pool charge of a path's event (shaders/path.glsl) for its loops other than
        tracking: over the lights (choice, area-light hits, sun cones), the map's two
        binary searches and, with equiangular sampling, the segment's three passes over

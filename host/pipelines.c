@@ -211,6 +211,10 @@ static uint32_t picvr_variant_key(const picvr_context *ctx, int proc, int plain,
        where no light is served; PICVR_DISTANCE_AUTO measures in both of its kinds */
     int forced_on = ctx->config.distance_sampling == PICVR_DISTANCE_FORCED || forced_kind;
     uint32_t forced = ctx->scene.use_forced && mis_mode && forced_on ? PICVR_KEY_FORCED | PICVR_KEY_EQUIANGULAR : 0u;
+    /* PICVR_DISTANCE_AUTO's second kind where the forced point serves no light with the
+       default transmittance: ray marching (host/lights.c, auto_rm), the forced point
+       serving the background where it lights the scene */
+    if (forced_kind && ctx->scene.auto_rm) residual = PICVR_KEY_RAY_MARCHING;
     if (ctx->sched.dauto.on) forced |= PICVR_KEY_MEASURE;
     uint32_t qmc = mis_mode ? PICVR_KEY_QMC : 0u;
     uint32_t env = ctx->scene.use_env ? PICVR_KEY_ENV_MAP : 0u;

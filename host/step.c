@@ -19,9 +19,11 @@ static picvr_status picvr_prepare_render(picvr_context *ctx) {
     picvr_status s = picvr_upload_scene(ctx);   /* first: it checks that the scene is ready */
     if (s) return s;
     /* PICVR_DISTANCE_AUTO measures where the two kinds differ: a light the forced point
-       serves (scene.use_forced) and plain rendering (the cache's rounds use MIS) */
+       serves (scene.use_forced) or ray marching as the second kind (scene.auto_rm), and
+       plain rendering (the cache's rounds use MIS) */
     picvr_dauto *a = &ctx->sched.dauto;
-    int on = ctx->config.distance_sampling == PICVR_DISTANCE_AUTO && ctx->scene.use_forced && !ctx->cache.on;
+    int on = ctx->config.distance_sampling == PICVR_DISTANCE_AUTO && (ctx->scene.use_forced || ctx->scene.auto_rm) &&
+             !ctx->cache.on;
     if (on != a->on) picvr_dauto_forget(a);
     a->on = on;
     return picvr_select_variants(ctx);

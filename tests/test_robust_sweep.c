@@ -973,7 +973,9 @@ void test_sweep_ray_marching_extremes(void **state) {
 /* PICVR_DISTANCE_AUTO at the extremes of its measure (render.glsl, measure_spread: the
    spread scaled by the image's mean, clamped per sample): a thin cube (optical depth
    1e-6, the image nearly black, scale about 10^6) and a dense one (1e5) under a light
-   1e6 away of intensity 4e13, rendered through picvr_step (the rounds that measure and
+   1e6 away of intensity 4e13 (the forced point's kind), and under a light just above
+   the cube (served by equiangular sampling: the ray-marching kind), rendered through
+   picvr_step (the rounds that measure and
    probe), against the closed form with the tolerances above; the stats' forced share
    and efficiency finite (sweep_render_ex). */
 void test_sweep_auto_extremes(void **state) {
@@ -981,6 +983,9 @@ void test_sweep_auto_extremes(void **state) {
     static const point_sweep_case cases[] = {
         {"auto, tau 1e-6, light 1e6 away", 1e-6, {0.0, 1e6, 0.0}, 4e13, 3e-3},
         {"auto, tau 1e5, light 1e6 away", 1e5, {0.0, 1e6, 0.0}, 4e13, 3e-3},
+        /* served by equiangular sampling: the second kind is ray marching (auto_rm) */
+        {"auto, tau 1e-6, light just above", 1e-6, {0.0, 9.5, 0.0}, 40.0, 3e-3},
+        {"auto, tau 1e5, light just above", 1e5, {0.0, 9.5, 0.0}, 40.0, 3e-3},
     };
     int ok = 1;
     point_sweep(cases, sizeof cases / sizeof cases[0], PICVR_DISTANCE_AUTO, PICVR_TRANSMITTANCE_DEFAULT, 90, &ok);

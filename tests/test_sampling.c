@@ -699,6 +699,82 @@ void test_sampling_auto_closed_form_and_choice(void **state) {
         fail_msg("depth 0.1: the forced point's efficiency %.3g, share %.3f", thin.forced_efficiency, thin.forced_share);
 }
 
+/* PICVR_DISTANCE_AUTO where the forced point serves no light with the default estimator
+   (the light served by equiangular sampling): its second kind is ray-marched
+   transmittance (host/lights.c, auto_rm).  The thin cube under the point light just
+   outside its top face (test_sampling_point_light_thin_closed_form's scene): both kinds
+   are measured through picvr_step (forced_efficiency > 0 within 60 s), and the image,
+   whichever kinds rendered it, matches the closed form (z = 5, sys_rel 3e-3, the
+   ray-marched estimates checked against their empirical spread, M = 0).  With ratio
+   tracking chosen by the application nothing is measured: one renderer. */
+static picvr_context *auto_point_context(picvr_transmittance_estimator te, uint32_t seed, point_lights *pl) {
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = seed;
+    cfg.distance_sampling = PICVR_DISTANCE_AUTO;
+    cfg.transmittance = te;
+    cfg.scheduler.priorities = PICVR_SWITCH_OFF;
+    picvr_context *ctx = tu_create_config(&cfg);
+    tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
+    tu_upload(ctx, &vol);
+    memset(pl, 0, sizeof *pl);
+    pl->n = 1;
+    tu_point_scene *ps = &pl->s[0];
+    tu_vol_box(&vol, ps->bmin, ps->bmax);
+    ps->sigma = 0.02;
+    ps->albedo = 0.8;
+    ps->I = 40.0;
+    picvr_light l;
+    memset(&l, 0, sizeof l);
+    l.type = PICVR_LIGHT_POINT;
+    const double p[3] = {3.0, 9.5, 2.0};
+    for (int i = 0; i < 3; i++) { l.position[i] = (float)p[i]; ps->p[i] = p[i]; l.color[i] = 1.0f; }
+    l.intensity = (float)ps->I;
+    tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, (float)ps->sigma);
+    TU_OK(picvr_set_lights(ctx, &l, 1, NULL));
+    tu_vol_free(&vol);
+    return ctx;
+}
+
+void test_sampling_auto_ray_marching_kind(void **state) {
+    (void)state;
+    point_lights pl;
+    picvr_context *ctx = auto_point_context(PICVR_TRANSMITTANCE_DEFAULT, 69, &pl);
+    const uint32_t W = 32, H = 32, N = 64;
+    tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 36, W, H);
+    double *expv = tu_expected_image(&cam, 4, point_lights_ray, &pl);
+    picvr_stats st;
+    do {
+        TU_OK(picvr_step(ctx, 100.0));
+        st = tu_stats_finite(ctx);
+    } while (!(st.forced_efficiency > 0.0) && st.elapsed_ms < 60000.0);
+    double measured_ms = st.elapsed_ms;
+    do {
+        TU_OK(picvr_step(ctx, 100.0));
+        st = tu_stats_finite(ctx);
+    } while (st.iterations_min < N || st.elapsed_ms < measured_ms + 1000.0);
+    float *img = tu_read(ctx, W, H);
+    tu_assert_image_valid(img, W, H, "auto, ray-marching kind");
+    int ok = tu_check_mean("auto, ray-marching kind: image", img, expv, W, 1, 0, 0, W, H, st.iterations_min, 0.0, 5.0, 3e-3);
+    ok &= tu_check_mean("auto, ray-marching kind: alpha", img, expv, W, 3, 0, 0, W, H, st.iterations_min, 1.0, 5.0, 1e-4);
+    print_message("    ray-marching kind: efficiency %.3g, share %.3f, %u samples per pixel in %.0f ms\n",
+                  st.forced_efficiency, st.forced_share, st.iterations_min, st.elapsed_ms);
+    free(img);
+    free(expv);
+    tu_finish(ctx);
+    if (!(st.forced_efficiency > 0.0)) fail_msg("the ray-marching kind was never measured");
+    if (!ok) fail_msg("PICVR_DISTANCE_AUTO with the ray-marching kind differs from the closed form");
+
+    ctx = auto_point_context(PICVR_TRANSMITTANCE_RATIO, 70, &pl);
+    tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 36, W, H);
+    for (int i = 0; i < 10; i++) TU_OK(picvr_step(ctx, 50.0));
+    st = tu_stats_finite(ctx);
+    tu_finish(ctx);
+    if (st.forced_efficiency != 0.0 || st.forced_share != 0.0)
+        fail_msg("ratio tracking chosen by the application: a second kind was measured (%g, %g)", st.forced_efficiency,
+                 st.forced_share);
+}
+
 /* PICVR_DISTANCE_AUTO makes the forced kind's variant on a thread of its own while the
    steps go on (host/pipelines.c, picvr_probe_forced).  A context destroyed a few steps
    in, while the variant is most likely being made, waits for its thread and frees what

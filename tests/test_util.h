@@ -60,6 +60,7 @@
     X(test_sampling_point_light_forced_closed_form)                 \
     X(test_sampling_sun_forced_closed_form)                         \
     X(test_sampling_auto_closed_form_and_choice)                    \
+    X(test_sampling_auto_ray_marching_kind)                         \
     X(test_sampling_auto_variant_made_beside_steps)                    \
     X(test_sampling_residual_transmittance_heterogeneous)           \
     /* test_cache_math.c */                                         \
