@@ -636,12 +636,29 @@ void test_sampling_sun_forced_closed_form(void **state) {
         fail_msg("depth 0.1: the forced point's SE %.4f is not below half of delta tracking's %.4f", forced_thin, delta_thin);
 }
 
-/* The sun_case cube at optical depth tau_across rendered by PICVR_DISTANCE_AUTO through
-   picvr_step (its measuring rounds are timed ones) until both kinds are measured (the
-   forced kind's variant is made beside the steps, so its probes begin seconds in on
-   lavapipe; at most 60 s), then until every pixel has N = 64 samples and min_ms more
-   have passed; the image and alpha against the closed form as in sun_case.  Returns the
-   stats (forced_share, forced_efficiency). */
+/* picvr_step (its measuring rounds are timed ones) until both of PICVR_DISTANCE_AUTO's
+   kinds are measured (the second kind's variant is made beside the steps, so its probes
+   begin seconds in on lavapipe; at most 60 s; *measured says whether they were), then
+   until every pixel has n samples and extra_ms more have passed.  Returns the stats. */
+static picvr_stats auto_step_measured(picvr_context *ctx, uint32_t n, double extra_ms, int *measured) {
+    picvr_stats st;
+    do {
+        TU_OK(picvr_step(ctx, 100.0));
+        st = tu_stats_finite(ctx);
+    } while (!(st.forced_efficiency > 0.0) && st.elapsed_ms < 60000.0);
+    *measured = st.forced_efficiency > 0.0;
+    double measured_ms = st.elapsed_ms;
+    do {
+        TU_OK(picvr_step(ctx, 100.0));
+        st = tu_stats_finite(ctx);
+    } while (st.iterations_min < n || st.elapsed_ms < measured_ms + extra_ms);
+    return st;
+}
+
+/* The sun_case cube at optical depth tau_across rendered by PICVR_DISTANCE_AUTO
+   (auto_step_measured: both kinds measured, then N = 64 samples per pixel and min_ms
+   more); the image and alpha against the closed form as in sun_case.  Returns the stats
+   (forced_share, forced_efficiency). */
 static picvr_stats auto_sun_case(const char *name, double tau_across, double min_ms, uint32_t seed, int *ok) {
     picvr_config cfg;
     memset(&cfg, 0, sizeof cfg);
@@ -651,20 +668,12 @@ static picvr_stats auto_sun_case(const char *name, double tau_across, double min
     double *expv;
     picvr_context *ctx = sun_cube_context(&cfg, tau_across, &expv);
     const uint32_t W = SUN_W, H = SUN_H, N = 64;
-    picvr_stats st;
-    do {
-        TU_OK(picvr_step(ctx, 100.0));
-        st = tu_stats_finite(ctx);
-    } while (!(st.forced_efficiency > 0.0) && st.elapsed_ms < 60000.0);
-    if (!(st.forced_efficiency > 0.0)) {
-        print_message("    %s: the forced kind was not measured in %.0f ms\n", name, st.elapsed_ms);
+    int measured;
+    picvr_stats st = auto_step_measured(ctx, N, min_ms, &measured);
+    if (!measured) {
+        print_message("    %s: the forced kind was not measured within 60 s\n", name);
         *ok = 0;
     }
-    double measured_ms = st.elapsed_ms;
-    do {
-        TU_OK(picvr_step(ctx, 100.0));
-        st = tu_stats_finite(ctx);
-    } while (st.iterations_min < N || st.elapsed_ms < measured_ms + min_ms);
     float *img = tu_read(ctx, W, H);
     tu_assert_image_valid(img, W, H, name);
     char label[128];
@@ -743,16 +752,8 @@ void test_sampling_auto_ray_marching_kind(void **state) {
     const uint32_t W = 32, H = 32, N = 64;
     tu_cam cam = tu_set_camera(ctx, 0, 0, 30, 0, 0, 0, 36, W, H);
     double *expv = tu_expected_image(&cam, 4, point_lights_ray, &pl);
-    picvr_stats st;
-    do {
-        TU_OK(picvr_step(ctx, 100.0));
-        st = tu_stats_finite(ctx);
-    } while (!(st.forced_efficiency > 0.0) && st.elapsed_ms < 60000.0);
-    double measured_ms = st.elapsed_ms;
-    do {
-        TU_OK(picvr_step(ctx, 100.0));
-        st = tu_stats_finite(ctx);
-    } while (st.iterations_min < N || st.elapsed_ms < measured_ms + 1000.0);
+    int measured;
+    picvr_stats st = auto_step_measured(ctx, N, 1000.0, &measured);
     float *img = tu_read(ctx, W, H);
     tu_assert_image_valid(img, W, H, "auto, ray-marching kind");
     int ok = tu_check_mean("auto, ray-marching kind: image", img, expv, W, 1, 0, 0, W, H, st.iterations_min, 0.0, 5.0, 3e-3);
@@ -762,7 +763,7 @@ void test_sampling_auto_ray_marching_kind(void **state) {
     free(img);
     free(expv);
     tu_finish(ctx);
-    if (!(st.forced_efficiency > 0.0)) fail_msg("the ray-marching kind was never measured");
+    if (!measured) fail_msg("the ray-marching kind was never measured");
     if (!ok) fail_msg("PICVR_DISTANCE_AUTO with the ray-marching kind differs from the closed form");
 
     ctx = auto_point_context(PICVR_TRANSMITTANCE_RATIO, 70, &pl);
@@ -803,16 +804,8 @@ void test_sampling_auto_variant_made_beside_steps(void **state) {
     clip.planes[0][1] = 1.0f;     /* y + 100 >= 0: the whole cube (y >= -8) is kept */
     clip.planes[0][3] = 100.0f;
     TU_OK(picvr_set_clip(ctx, &clip));
-    picvr_stats st;
-    do {
-        TU_OK(picvr_step(ctx, 100.0));
-        st = tu_stats_finite(ctx);
-    } while (!(st.forced_efficiency > 0.0) && st.elapsed_ms < 60000.0);
-    double measured_ms = st.elapsed_ms;
-    do {
-        TU_OK(picvr_step(ctx, 100.0));
-        st = tu_stats_finite(ctx);
-    } while (st.iterations_min < 64 || st.elapsed_ms < measured_ms + 500.0);
+    int measured;
+    picvr_stats st = auto_step_measured(ctx, 64, 500.0, &measured);
     float *img = tu_read(ctx, SUN_W, SUN_H);
     tu_assert_image_valid(img, SUN_W, SUN_H, "auto after a clip change");
     int ok = tu_check_mean("auto after a clip change: image", img, expv, SUN_W, 1, 0, 0, SUN_W, SUN_H,
@@ -824,7 +817,7 @@ void test_sampling_auto_variant_made_beside_steps(void **state) {
     free(img);
     free(expv);
     tu_finish(ctx);
-    if (!(st.forced_efficiency > 0.0)) fail_msg("the forced kind was never measured after the change");
+    if (!measured) fail_msg("the forced kind was never measured after the change");
     if (!ok) fail_msg("the image after a change during the variant's making differs from the closed form");
 }
 
