@@ -25,6 +25,7 @@
 #include "host/scattering.c"
 #include "host/spirv.c"
 #include "host/pipelines.c"
+#include "host/aux_kernel.c"
 #include "host/reproject.c"
 #include "host/camera.c"
 #include "host/majorant.c"

@@ -562,7 +562,7 @@ typedef struct picvr_pending_step {
 } picvr_pending_step;
 
 /* A kernel outside the procedures, with a descriptor set of its own (storage buffers
-   only) and 128 bytes of push constants, made at its first use (host/pipelines.c). */
+   only) and 128 bytes of push constants, made at its first use (host/aux_kernel.c). */
 typedef struct picvr_aux_kernel {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout layout;
