@@ -478,29 +478,20 @@ static void point_lights_ray(const double o[3], const double d[3], void *user, d
     }
 }
 
-/* One rendering of the point-light cube under n (1 or 2) point lights at light[k] with
-   the given samplers against the closed form; each light as bright at the volume as one
-   at distance 10 (a distant light is brighter by its distance squared).  Tolerance:
-   z = 5 with the empirical (8x8 block) standard error (the MIS samples have no simple
-   bound), plus sys_rel 3e-3 for the 4x4 jitter quadrature of the image (the 64-piece
-   angle quadrature is exact to ~1e-8). */
-static int point_case_n(const char *name, picvr_distance_sampling ds, picvr_transmittance_estimator te, double sigma,
-                        const double (*light)[3], int n, uint32_t seed) {
-    picvr_config cfg;
-    memset(&cfg, 0, sizeof cfg);
-    cfg.seed = seed;
-    cfg.distance_sampling = ds;
-    cfg.transmittance = te;
-    picvr_context *ctx = tu_create_config(&cfg);
+/* The point-light cube (16^3, extinction sigma, albedo 0.8) in a context of cfg under n
+   (1 or 2) point lights at light[k], each as bright at the volume as one at distance 10
+   (a distant light is brighter by its distance squared); *pl its closed form's lights. */
+static picvr_context *point_context(const picvr_config *cfg, double sigma, const double (*light)[3], int n,
+                                    point_lights *pl) {
+    picvr_context *ctx = tu_create_config(cfg);
     tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
     tu_upload(ctx, &vol);
-    point_lights pl;
-    memset(&pl, 0, sizeof pl);
-    pl.n = n;
+    memset(pl, 0, sizeof *pl);
+    pl->n = n;
     picvr_light l[2];
     memset(l, 0, sizeof l);
     for (int k = 0; k < n; k++) {
-        tu_point_scene *ps = &pl.s[k];
+        tu_point_scene *ps = &pl->s[k];
         tu_vol_box(&vol, ps->bmin, ps->bmax);
         ps->sigma = sigma;
         ps->albedo = 0.8;
@@ -512,9 +503,24 @@ static int point_case_n(const char *name, picvr_distance_sampling ds, picvr_tran
     }
     tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, (float)sigma);
     TU_OK(picvr_set_lights(ctx, l, (uint32_t)n, NULL));
-    int ok = render_and_check(ctx, name, 0, 0, 30, 36, point_lights_ray, &pl, 384, 0.0, 3e-3);
     tu_vol_free(&vol);
-    return ok;
+    return ctx;
+}
+
+/* One rendering of the point-light cube (point_context) with the given samplers against
+   the closed form.  Tolerance: z = 5 with the empirical (8x8 block) standard error (the
+   MIS samples have no simple bound), plus sys_rel 3e-3 for the 4x4 jitter quadrature of
+   the image (the 64-piece angle quadrature is exact to ~1e-8). */
+static int point_case_n(const char *name, picvr_distance_sampling ds, picvr_transmittance_estimator te, double sigma,
+                        const double (*light)[3], int n, uint32_t seed) {
+    picvr_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.seed = seed;
+    cfg.distance_sampling = ds;
+    cfg.transmittance = te;
+    point_lights pl;
+    picvr_context *ctx = point_context(&cfg, sigma, light, n, &pl);
+    return render_and_check(ctx, name, 0, 0, 30, 36, point_lights_ray, &pl, 384, 0.0, 3e-3);
 }
 
 static int point_case(const char *name, picvr_distance_sampling ds, picvr_transmittance_estimator te, double sigma,
@@ -723,26 +729,8 @@ static picvr_context *auto_point_context(picvr_transmittance_estimator te, uint3
     cfg.distance_sampling = PICVR_DISTANCE_AUTO;
     cfg.transmittance = te;
     cfg.scheduler.priorities = PICVR_SWITCH_OFF;
-    picvr_context *ctx = tu_create_config(&cfg);
-    tu_vol vol = tu_vol_new(16, 16, 16, 1.0f, 255);
-    tu_upload(ctx, &vol);
-    memset(pl, 0, sizeof *pl);
-    pl->n = 1;
-    tu_point_scene *ps = &pl->s[0];
-    tu_vol_box(&vol, ps->bmin, ps->bmax);
-    ps->sigma = 0.02;
-    ps->albedo = 0.8;
-    ps->I = 40.0;
-    picvr_light l;
-    memset(&l, 0, sizeof l);
-    l.type = PICVR_LIGHT_POINT;
-    const double p[3] = {3.0, 9.5, 2.0};
-    for (int i = 0; i < 3; i++) { l.position[i] = (float)p[i]; ps->p[i] = p[i]; l.color[i] = 1.0f; }
-    l.intensity = (float)ps->I;
-    tu_tf_const(ctx, 0.8f, 0.8f, 0.8f, 1.0f, (float)ps->sigma);
-    TU_OK(picvr_set_lights(ctx, &l, 1, NULL));
-    tu_vol_free(&vol);
-    return ctx;
+    const double light[1][3] = {{3.0, 9.5, 2.0}};
+    return point_context(&cfg, 0.02, light, 1, pl);
 }
 
 void test_sampling_auto_ray_marching_kind(void **state) {
