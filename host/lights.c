@@ -184,9 +184,8 @@ static void picvr_update_equiangular(picvr_context *ctx) {
     /* PICVR_DISTANCE_AUTO where the forced point would serve no light with the default
        transmittance (every light served by equiangular sampling, or only the background
        and map): its second kind is ray-marched transmittance instead, with the forced
-       point serving the background as it does with that estimator.  There its noise is
-       the transmittance estimates' (a served point light just outside a thin medium,
-       the map over one: 5.4-12x in variance x time, docs/sampling.md); the measured
+       point serving the background as it does with that estimator.  There the noise left
+       is the transmittance estimates' (docs/sampling.md measures it); the measured
        efficiency decides, as for the forced point.  With the default estimator (residual
        tracking) only: ratio tracking, which only an application chooses, is kept. */
     int auto_rm = ctx->config.distance_sampling == PICVR_DISTANCE_AUTO &&
