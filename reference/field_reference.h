@@ -419,43 +419,36 @@ int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, f
         l->point_count > FREF_MAX_POINTS)
         return -1;
     uint64_t cells = (uint64_t)g->n[0] * g->n[1] * g->n[2];
+    size_t points = (l->point_count ? l->point_count : 1) * cells;
     int moment = c->store == FREF_STORE_MOMENT;
-    double *T = (double *)calloc(cells, sizeof(double)), *phi = (double *)calloc(cells, sizeof(double));
-    double *F = moment ? (double *)calloc(3 * cells, sizeof(double)) : NULL;
+    int dm = c->delta_m && g->g != 0.0 && c->bounces > 1;   /* one event: nothing to scale */
+    /* everything at once, so that one path frees it all (free(NULL) is nothing) */
+    out->T_sun = (double *)calloc(cells, sizeof(double));
+    out->T_point = (double *)calloc(points, sizeof(double));
+    out->phi = (double *)calloc(cells, sizeof(double));
+    out->F = moment ? (double *)calloc(3 * cells, sizeof(double)) : NULL;
+    out->T_scaled = dm ? (double *)calloc(cells, sizeof(double)) : NULL;
+    out->T_point_scaled = dm ? (double *)calloc(points, sizeof(double)) : NULL;
     double *phi2 = (double *)calloc(cells, sizeof(double)), *F2 = moment ? (double *)calloc(3 * cells, sizeof(double)) : NULL;
     double *J = (double *)calloc(cells, sizeof(double)), *L = (double *)calloc(cells, sizeof(double));
-    if (!T || !phi || !phi2 || !J || !L || (moment && (!F || !F2))) {
-        free(T); free(phi); free(F); free(phi2); free(F2); free(J); free(L);
+    double *sigma2 = dm ? (double *)malloc(cells * sizeof(double)) : NULL;
+    double *albedo2 = dm ? (double *)malloc(cells * sizeof(double)) : NULL;
+    if (!out->T_sun || !out->T_point || !out->phi || (moment && (!out->F || !F2)) || !phi2 || !J || !L ||
+        (dm && (!out->T_scaled || !out->T_point_scaled || !sigma2 || !albedo2))) {
+        fref_free(out);
+        free(phi2); free(F2); free(J); free(L); free(sigma2); free(albedo2);
         return -1;
     }
-    double toward[3] = {-l->sun_dir[0], -l->sun_dir[1], -l->sun_dir[2]};
-    if (l->sun_irradiance > 0.0) fref_sweep(g, toward, NULL, 1.0, T, NULL, NULL, NULL);
     out->n[0] = g->n[0]; out->n[1] = g->n[1]; out->n[2] = g->n[2];
     out->store = c->store;
-    out->T_sun = T;
     out->multiple = c->bounces > 1;
-    out->T_point = (double *)calloc(l->point_count ? l->point_count * cells : 1, sizeof(double));
-    if (!out->T_point) {
-        free(T); free(phi); free(F); free(phi2); free(F2); free(J); free(L);
-        memset(out, 0, sizeof *out);
-        return -1;
-    }
+    double toward[3] = {-l->sun_dir[0], -l->sun_dir[1], -l->sun_dir[2]};
+    if (l->sun_irradiance > 0.0) fref_sweep(g, toward, NULL, 1.0, out->T_sun, NULL, NULL, NULL);
     fref_point_transmittance(g, l, out->T_point);
     /* delta-M: the sweeps' medium; rule: 1 - f a >= 1 - f > 0 for |g| < 1 */
     fref_grid scaled = *g;
-    double *sigma2 = NULL, *albedo2 = NULL;
-    if (c->delta_m && g->g != 0.0 && c->bounces > 1) {   /* one event: nothing to scale */
+    if (dm) {
         double f = g->g * g->g;
-        sigma2 = (double *)malloc(cells * sizeof(double));
-        albedo2 = (double *)malloc(cells * sizeof(double));
-        out->T_scaled = (double *)calloc(cells, sizeof(double));
-        out->T_point_scaled = (double *)calloc(l->point_count ? l->point_count * cells : 1, sizeof(double));
-        if (!sigma2 || !albedo2 || !out->T_scaled || !out->T_point_scaled) {
-            free(sigma2); free(albedo2); free(out->T_scaled); free(out->T_point_scaled); free(out->T_point); free(T);
-            free(phi); free(F); free(phi2); free(F2); free(J); free(L);
-            memset(out, 0, sizeof *out);
-            return -1;
-        }
         for (uint64_t i = 0; i < cells; i++) {
             double a = g->albedo[i];
             sigma2[i] = g->sigma_t[i] * (1.0 - f * a);
@@ -469,9 +462,7 @@ int fref_build(const fref_grid *g, const fref_lights *l, const fref_config *c, f
         g = &scaled;
     }
     /* pass 1: the background, attenuated */
-    fref_pass(g, l, c->half_directions, NULL, J, L, phi, F);
-    out->phi = phi;
-    out->F = F;
+    fref_pass(g, l, c->half_directions, NULL, J, L, out->phi, out->F);
     uint32_t it = 1, limit = c->bounces == FREF_BOUNCES_UNLIMITED ? c->max_iterations : c->bounces;
     double change = 0.0;
     while (it < limit) {
