@@ -359,6 +359,38 @@ typedef enum picvr_transmittance_estimator {
                                       thin media, where the shadow rays' noise dominates
                                       (docs/sampling.md) */
 } picvr_transmittance_estimator;
+/* What picvr_step renders (docs/field.md). */
+typedef enum picvr_render_mode {
+    PICVR_RENDER_DEFAULT = 0,      /* PICVR_RENDER_MC */
+    PICVR_RENDER_MC,               /* progressive Monte Carlo: unbiased, converging */
+    PICVR_RENDER_FIELD             /* the light field (paper 002 carried to volumes): light
+                                      propagated through a grid of cells along D global
+                                      directions, iterated for multiple scattering; each
+                                      step renders one deterministic, noise-free (biased)
+                                      image from it.  The field is rebuilt by the first
+                                      step after a change of the volume, transfer
+                                      function, lights, background, scattering or clipping
+                                      (stats.field_*); a camera move only renders again.
+                                      Sphere and rect lights act as points of their
+                                      far-field intensity.  Not with the cache */
+} picvr_render_mode;
+
+/* The light field.  Zero fields mean the defaults.  A context whose mode is not FIELD
+   allocates and compiles nothing for it. */
+typedef struct picvr_field_config {
+    picvr_render_mode mode;   /* DEFAULT: MC */
+    uint32_t grid_ratio;      /* voxels per cell along each axis, 1..8; 0: 4 */
+    uint32_t directions;      /* D global directions (D / 2 over a hemisphere, each used
+                                 both ways), even, 8..1024; 0: 64 */
+    uint32_t max_passes;      /* with unlimited bounces: passes (bounces) at most, 1..1024;
+                                 0: 64 */
+    float tolerance;          /* with unlimited bounces: passes stop when no cell's
+                                 fluence changes by more than this times the largest, in
+                                 (0, 1); 0: 1e-3 */
+    float step_voxels;        /* the image's ray-marching step in voxels (of the smallest
+                                 spacing), in [0.125, 64]; 0: 1 */
+} picvr_field_config;
+
 typedef struct picvr_config {
     const char *device_name;  /* substring of the device name; NULL: PICVR_DEVICE or auto */
     picvr_switch validation;  /* the Khronos validation layer with synchronization
@@ -390,6 +422,7 @@ typedef struct picvr_config {
                                  compiles (the same kernel, made several times faster
                                  on lavapipe: docs/performance.md); OFF: each kernel's
                                  whole SPIR-V, as embedded */
+    picvr_field_config field; /* the light field; zero: Monte Carlo (see above) */
 } picvr_config;
 
 typedef struct picvr_context picvr_context;
@@ -682,6 +715,17 @@ picvr_status picvr_read_rgba8(picvr_context *ctx, uint8_t *pixels, size_t size, 
    bottom; size is in bytes and must be >= width*height*16. */
 picvr_status picvr_read_rgba32f(picvr_context *ctx, float *pixels, size_t size);
 
+/* PICVR_RENDER_FIELD: the field of the last step, for an application that keeps its
+   own illumination volume (and for tests).  Its cells span the volume's box, x
+   fastest, dims[0] x dims[1] x dims[2] (written when dims is not NULL), each 16 floats
+   at its centre: its extinction sigma_t and albedo rgb (the classified medium, in the
+   volume's own frame: world units along its axes), then per channel r, g, b the
+   fluence phi of the scattered light and the background (W / m^2 when the lights are
+   in W) and its first moment F (xyz, the volume's axes).  size is in bytes and must be
+   >= 64 * the cells.  PICVR_ERROR_NOT_READY before the field's first step, or in
+   another mode. */
+picvr_status picvr_read_field(picvr_context *ctx, float *cells, size_t size, uint32_t dims[3]);
+
 /* The image on the device, for engines: picvr_write_image writes the current image
    into a VkImage the application owns, with no host copy.  It needs the application's
    Vulkan objects (picvr_config.vulkan); the image must be on that VkDevice, 2D, with one
@@ -826,6 +870,13 @@ typedef struct picvr_stats {
     uint32_t pipeline_variants;  /* pipeline variants the context holds: one per
                                     procedure it runs and scene it met, at most 8 per
                                     procedure (docs/api.md) */
+    uint32_t field_builds;       /* PICVR_RENDER_FIELD: fields built by this context */
+    uint32_t field_passes;       /* passes (scatter events) of the current field */
+    double field_change;         /* its last pass's largest change of a cell's fluence,
+                                    relative to the largest fluence */
+    double field_build_ms;       /* wall time of its build */
+    uint64_t field_bytes;        /* device memory of the field */
+    uint32_t field_cells[3];     /* its grid */
     uint32_t validation_enabled; /* 1 when the validation layer is active */
     uint32_t width, height;
     char device_name[256];

@@ -36,6 +36,7 @@
 #include "host/volume.c"
 #include "host/rounds.c"
 #include "host/step.c"
+#include "host/field.c"
 #include "host/readback.c"
 #include "host/gpu_image.c"
 #include "host/context.c"

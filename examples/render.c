@@ -143,6 +143,11 @@ static void print_help(FILE *f)
         "  --transmittance residual|ratio|ray-marching  residual ratio tracking\n"
         "                         (default), ratio tracking (the paper's) or unbiased\n"
         "                         ray marching (thin media: less noise, more cost)\n"
+        "  --render mc|field      progressive Monte Carlo (default), or the light field:\n"
+        "                         one deterministic, noise-free image (the seed changes\n"
+        "                         nothing; docs/field.md); not with --cache\n"
+        "  --field-ratio N        voxels per field cell along each axis, 1..8 (default 4)\n"
+        "  --field-directions D   the field's global directions, even, 8..1024 (default 64)\n"
         "  --shares CMIN,CMAX,UMIN,UMAX  device-time shares of cache-entry creation and\n"
         "                         update at hit rate 1 and 0 (paper §6; default\n"
         "                         0.05,0.15,0.01,0.02)\n"
@@ -205,7 +210,7 @@ static const pvc_option OPTIONS[] = {
     {"volume", 1}, {"dims", 1}, {"type", 1}, {"spacing", 1}, {"range", 1}, {"tf", 1},
     {"density", 1}, {"lights", 1}, {"size", 1}, {"time", 1}, {"iterations", 1},
     {"round", 1}, {"seed", 1}, {"cache", 1}, {"priorities", 1}, {"curvature", 1},
-    {"sampling", 1}, {"transmittance", 1},
+    {"sampling", 1}, {"transmittance", 1}, {"render", 1}, {"field-ratio", 1}, {"field-directions", 1},
     {"medium", 1}, {"samples", 1}, {"cache-param", 1}, {"shares", 1}, {"warm", 1},
     {"turns", 1}, {"debug-view", 1}, {"device", 1}, {"exposure", 1}, {"camera", 1},
     {"fov", 1}, {"out", 1}, {"out-float", 1}, {"log", 1}, {"json", 1}, {"bounces", 1},
@@ -385,6 +390,15 @@ static int apply_cache_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "priorities")) return pvc_parse_switch(value, &o->priorities);
     if (!strcmp(name, "sampling")) return pvc_parse_distance_sampling(value, &o->distance_sampling);
     if (!strcmp(name, "transmittance")) return pvc_parse_transmittance(value, &o->transmittance);
+    if (!strcmp(name, "render")) {
+        if (!strcmp(value, "mc")) o->render_mode = PICVR_RENDER_MC;
+        else if (!strcmp(value, "field")) o->render_mode = PICVR_RENDER_FIELD;
+        else return 0;
+        return 1;
+    }
+    if (!strcmp(name, "field-ratio")) return pvc_parse_u32(value, 1, 8, &o->field_ratio);
+    if (!strcmp(name, "field-directions"))
+        return pvc_parse_u32(value, 8, 1024, &o->field_directions) && o->field_directions % 2 == 0;
     if (!strcmp(name, "curvature")) return pvc_parse_switch(value, &o->curvature);
     if (!strcmp(name, "medium")) return pvc_parse_switch(value, &o->medium);
     if (!strcmp(name, "samples")) return pvc_parse_u32(value, 1, PICVR_CACHE_MAX_SAMPLES, &o->max_samples);
@@ -507,6 +521,14 @@ static int options_consistent(const render_options *o)
     }
     if (!o->frames && (o->have_frame_ms || o->have_orbit)) {
         pvc_fail("--frame-ms and --orbit apply to --frames N");
+        return 0;
+    }
+    if (o->render_mode == PICVR_RENDER_FIELD && o->cache != PICVR_CACHE_NONE && o->cache != PICVR_CACHE_DEFAULT) {
+        pvc_fail("--render field renders without the cache: leave --cache out");
+        return 0;
+    }
+    if (o->render_mode == PICVR_RENDER_FIELD && (o->have_time || o->iterations > 1)) {
+        pvc_fail("--render field makes one deterministic image: leave --time and --iterations out");
         return 0;
     }
     if (o->warm_ms > 0.0 && o->cache != PICVR_CACHE_OBJECT_SPACE && o->cache != PICVR_CACHE_SCREEN_SPACE) {
@@ -1086,6 +1108,9 @@ static void library_config(const render_options *o, progress *prog, picvr_config
     cfg->scheduler.temporal_reuse = o->reuse;
     cfg->distance_sampling = o->distance_sampling;
     cfg->transmittance = o->transmittance;
+    cfg->field.mode = o->render_mode;
+    cfg->field.grid_ratio = o->field_ratio;
+    cfg->field.directions = o->field_directions;
     cfg->cache.curvature_limit = o->curvature;
     cfg->cache.medium_model = o->medium;
     cfg->cache.max_samples = o->max_samples;
@@ -1160,6 +1185,7 @@ static int render(render_options *o, const picvr_io_layout *layout)
         prog.start_ms = prog.next_line_ms = pvc_now_ms();
         ok = ok && (o->frames ? render_frames_loop(&r, o, &frames)
                     : o->iterations ? render_iterations(&r, o->iterations, o->round_ms)
+                    : o->render_mode == PICVR_RENDER_FIELD ? render_iterations(&r, 1, o->round_ms)
                                     : render_for_time(&r, o->time_ms, o->round_ms));
         end_progress_line(&prog);
     }

@@ -51,6 +51,8 @@ typedef struct render_options {
     picvr_switch priorities;
     picvr_distance_sampling distance_sampling;   /* --sampling; 0: the library's default */
     picvr_transmittance_estimator transmittance; /* --transmittance */
+    picvr_render_mode render_mode; /* --render mc|field */
+    uint32_t field_ratio, field_directions; /* --field-ratio, --field-directions; 0: defaults */
     picvr_switch curvature;
     picvr_switch medium;
     uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */

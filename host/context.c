@@ -97,6 +97,8 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     picvr_status s = picvr_resolve_cache_config(&cfg.cache, &ctx->cache.cfg);
     if (!s) s = picvr_resolve_scheduler_config(&cfg.scheduler, &ctx->sched.cfg);
     ctx->cache.on = ctx->cache.cfg.mode != PICVR_CACHE_NONE;
+    if (!s) s = picvr_resolve_field_config(&cfg.field, ctx->cache.on, &ctx->config.field);
+    ctx->field.on = ctx->config.field.mode == PICVR_RENDER_FIELD;
     ctx->sched.auto_mode.on = ctx->cache.cfg.mode == PICVR_CACHE_AUTO;
     ctx->sched.use_priorities = ctx->sched.cfg.priorities == PICVR_SWITCH_ON;
     picvr_update_targets(&ctx->sched, ctx->cache.on);
@@ -163,6 +165,7 @@ void picvr_destroy(picvr_context *ctx) {
         picvr_results_destroy(ctx);
         picvr_target_destroy(ctx);
         picvr_aux_kernel_destroy(ctx, &ctx->reproject);
+        picvr_field_destroy(ctx);
         picvr_pipelines_destroy(ctx);
     }
     picvr_device_destroy(ctx);

@@ -40,6 +40,7 @@ static picvr_status picvr_clear_accumulation(picvr_context *ctx) {
    is returned. */
 static picvr_status picvr_light_state_changed(picvr_context *ctx, picvr_status s) {
     picvr_dauto_forget(&ctx->sched.dauto);
+    ctx->field.dirty = 1;   /* rebuilt by the next field step (host/field.c) */
     if (!s) s = picvr_cache_clear(ctx);
     if (!s) s = picvr_clear_accumulation(ctx);
     return s;

@@ -580,6 +580,33 @@ typedef struct picvr_target_state {
     picvr_buffer encoded;
 } picvr_target_state;
 
+/* The light field (host/field.c, shaders/field*.comp): made at the first step of a
+   context in PICVR_RENDER_FIELD, nothing before.  Its kernels take the main descriptor
+   set as set 0 and the field's buffers as set 1 (two sets: the passes alternate which
+   field buffer is read and which written). */
+enum { PICVR_FIELD_CLASSIFY, PICVR_FIELD_LIGHT, PICVR_FIELD_SCATTER, PICVR_FIELD_RENDER, PICVR_FIELD_KERNELS };
+#define PICVR_FIELD_BINDINGS 5u
+#define PICVR_FIELD_MAX_PASSES 1024u
+typedef struct picvr_field {
+    int on;                          /* config.field.mode == PICVR_RENDER_FIELD */
+    int dirty;                       /* the scene changed since the field was built */
+    int image_dirty;                 /* the image does not show the current field and camera */
+    VkDescriptorSetLayout set_layout;
+    VkPipelineLayout layout;
+    VkDescriptorPool pool;
+    VkDescriptorSet set[2];          /* set[i]: field[i] read, field[1 - i] written */
+    VkShaderModule module[PICVR_FIELD_KERNELS];
+    VkPipeline pipe[PICVR_FIELD_KERNELS];
+    uint32_t key;                    /* the rendering variant key the pipelines were made for */
+    picvr_buffer cells, light_t, field[2], change;
+    uint32_t n[3];                   /* cells per axis */
+    uint32_t lights;                 /* lights light_t holds room for */
+    uint32_t current;                /* the field buffer that holds the last pass */
+    int warm;                        /* field[current] holds a field of this grid */
+    uint32_t builds, passes;
+    double change_value, build_ms;
+} picvr_field;
+
 /* Image readback and statistics (host/readback.c). */
 typedef struct picvr_results {
     picvr_buffer readback;           /* one accumulation plane, host visible */
@@ -603,6 +630,7 @@ struct picvr_context {
     picvr_pending_step pending;
     picvr_target_state target;
     picvr_aux_kernel reproject;      /* temporal reuse's kernel (host/reproject.c) */
+    picvr_field field;               /* PICVR_RENDER_FIELD (host/field.c) */
 };
 
 /* Rule: between picvr_step_begin and picvr_step_end the command buffer, the fence and

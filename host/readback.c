@@ -160,6 +160,7 @@ picvr_status picvr_get_stats(picvr_context *ctx, picvr_stats *out) {
         double samples = st.iterations_mean * ctx->scene.camera.width * ctx->scene.camera.height;
         st.samples_per_second = ctx->image.elapsed_ms > 0.0 ? samples / (ctx->image.elapsed_ms * 1e-3) : 0.0;
         st.mean_path_length = samples > 0.0 ? (double)ctx->image.scatter_events / samples : 0.0;
+        picvr_field_stats(ctx, &st);
         ctx->results.stats = st;
         ctx->results.valid = 1;
     }

@@ -14,6 +14,7 @@ static picvr_status picvr_upload_scene(picvr_context *ctx) {
 }
 
 static picvr_status picvr_stats_pass(picvr_context *ctx, float rel_floor, double sums[4], uint64_t counts[4]);
+static picvr_status picvr_field_step(picvr_context *ctx);
 
 static picvr_status picvr_prepare_render(picvr_context *ctx) {
     picvr_status s = picvr_upload_scene(ctx);   /* first: it checks that the scene is ready */
@@ -221,6 +222,7 @@ static picvr_status picvr_check_budget(picvr_context *ctx, double milliseconds) 
 
 picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
     picvr_status s = picvr_check_budget(ctx, milliseconds);
+    if (!s && ctx->field.on) return picvr_field_step(ctx);   /* one image from the field */
     return s ? s : picvr_step_time(ctx, milliseconds);
 }
 
@@ -229,6 +231,11 @@ picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
    1/rounds_per_second long: a longer one only makes fewer, larger dispatches). */
 picvr_status picvr_step_begin(picvr_context *ctx, double milliseconds) {
     picvr_status s = picvr_check_budget(ctx, milliseconds);
+    if (!s && ctx->field.on) {   /* the field's image is made here; picvr_step_end finds it done */
+        if ((s = picvr_field_step(ctx))) return s;
+        ctx->pending.active = 1;
+        return PICVR_OK;
+    }
     if (s || (s = picvr_prepare_render(ctx))) return s;
     ctx->cache.requests_issued = 0;
     if ((s = picvr_dauto_prepare_round(ctx))) return s;
@@ -243,6 +250,7 @@ picvr_status picvr_step_begin(picvr_context *ctx, double milliseconds) {
 picvr_status picvr_step_end(picvr_context *ctx, uint64_t timeout_ns) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     if (!ctx->pending.active) return PICVR_ERROR_NO_STEP;
+    if (ctx->field.on) { ctx->pending.active = 0; return PICVR_OK; }
     picvr_status s = picvr_complete_round(ctx, timeout_ns, 0);
     if (s == PICVR_ERROR_TIMEOUT) return s;   /* still running: the step stays begun */
     ctx->pending.active = 0;
@@ -253,5 +261,6 @@ picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     PICVR_REFUSE_IF_BUSY(ctx);
     if (iterations == 0) return PICVR_OK;
+    if (ctx->field.on) return picvr_field_step(ctx);   /* deterministic: one image is every image */
     return picvr_step_passes(ctx, iterations);
 }

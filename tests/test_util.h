@@ -154,6 +154,10 @@
     X(test_dense_medium_surface_lit_thin_is_background)             \
     X(test_extreme_cameras_and_image_sizes_finite)                  \
     X(test_extreme_volumes_finite)                                  \
+    /* test_field.c */                                              \
+    X(test_field_empty_renders_background)                          \
+    X(test_field_sun_cube_closed_form)                              \
+    X(test_field_white_furnace)                                     \
     /* test_field_reference.c */                                    \
     X(test_field_reference_empty_renders_background)                \
     X(test_field_reference_sun_cube_closed_form)                    \
