@@ -148,6 +148,7 @@ static void print_help(FILE *f)
         "                         nothing; docs/field.md); not with --cache\n"
         "  --field-ratio N        voxels per field cell along each axis, 1..8 (default 4)\n"
         "  --field-directions D   the field's global directions, even, 8..1024 (default 64)\n"
+        "  --field-step S         the field image's ray-marching step in voxels (default 1)\n"
         "  --shares CMIN,CMAX,UMIN,UMAX  device-time shares of cache-entry creation and\n"
         "                         update at hit rate 1 and 0 (paper §6; default\n"
         "                         0.05,0.15,0.01,0.02)\n"
@@ -211,6 +212,7 @@ static const pvc_option OPTIONS[] = {
     {"density", 1}, {"lights", 1}, {"size", 1}, {"time", 1}, {"iterations", 1},
     {"round", 1}, {"seed", 1}, {"cache", 1}, {"priorities", 1}, {"curvature", 1},
     {"sampling", 1}, {"transmittance", 1}, {"render", 1}, {"field-ratio", 1}, {"field-directions", 1},
+    {"field-step", 1},
     {"medium", 1}, {"samples", 1}, {"cache-param", 1}, {"shares", 1}, {"warm", 1},
     {"turns", 1}, {"debug-view", 1}, {"device", 1}, {"exposure", 1}, {"camera", 1},
     {"fov", 1}, {"out", 1}, {"out-float", 1}, {"log", 1}, {"json", 1}, {"bounces", 1},
@@ -397,6 +399,8 @@ static int apply_cache_option(void *target, const char *name, const char *value)
         return 1;
     }
     if (!strcmp(name, "field-ratio")) return pvc_parse_u32(value, 1, 8, &o->field_ratio);
+    if (!strcmp(name, "field-step"))
+        return pvc_parse_float(value, &o->field_step) && o->field_step >= 0.125f && o->field_step <= 64.0f;
     if (!strcmp(name, "field-directions"))
         return pvc_parse_u32(value, 8, 1024, &o->field_directions) && o->field_directions % 2 == 0;
     if (!strcmp(name, "curvature")) return pvc_parse_switch(value, &o->curvature);
@@ -1111,6 +1115,7 @@ static void library_config(const render_options *o, progress *prog, picvr_config
     cfg->field.mode = o->render_mode;
     cfg->field.grid_ratio = o->field_ratio;
     cfg->field.directions = o->field_directions;
+    cfg->field.step_voxels = o->field_step;
     cfg->cache.curvature_limit = o->curvature;
     cfg->cache.medium_model = o->medium;
     cfg->cache.max_samples = o->max_samples;

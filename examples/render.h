@@ -53,6 +53,7 @@ typedef struct render_options {
     picvr_transmittance_estimator transmittance; /* --transmittance */
     picvr_render_mode render_mode; /* --render mc|field */
     uint32_t field_ratio, field_directions; /* --field-ratio, --field-directions; 0: defaults */
+    float field_step;          /* --field-step (voxels); 0: the default */
     picvr_switch curvature;
     picvr_switch medium;
     uint32_t max_samples;     /* --samples: the cache's Eq. 5 cap per point; 0: default */

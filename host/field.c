@@ -56,6 +56,7 @@ static void picvr_field_buffers_destroy(picvr_context *ctx) {
     picvr_buffer_destroy(ctx, &f->field[0]);
     picvr_buffer_destroy(ctx, &f->field[1]);
     picvr_buffer_destroy(ctx, &f->change);
+    picvr_buffer_destroy(ctx, &f->view);
     memset(f->n, 0, sizeof f->n);
     f->lights = 0;
 }
@@ -118,9 +119,10 @@ static picvr_status picvr_field_make_layouts(picvr_context *ctx) {
     ai.pSetLayouts = both;
     PICVR_VK_TRY(ctx, vkAllocateDescriptorSets(ctx->vk.device, &ai, f->set));
     const uint32_t *code[PICVR_FIELD_KERNELS] = {picvr_spv_field_classify, picvr_spv_field_light, picvr_spv_field_scatter,
-                                                 picvr_spv_field_render};
+                                                 picvr_spv_field_view, picvr_spv_field_render};
     size_t size_of[PICVR_FIELD_KERNELS] = {sizeof picvr_spv_field_classify, sizeof picvr_spv_field_light,
-                                           sizeof picvr_spv_field_scatter, sizeof picvr_spv_field_render};
+                                           sizeof picvr_spv_field_scatter, sizeof picvr_spv_field_view,
+                                           sizeof picvr_spv_field_render};
     picvr_status s = PICVR_OK;
     for (int k = 0; k < PICVR_FIELD_KERNELS && !s; k++) s = picvr_create_shader(ctx, code[k], size_of[k], &f->module[k]);
     return s;
@@ -161,12 +163,12 @@ static picvr_status picvr_field_make_buffers(picvr_context *ctx) {
     picvr_field_buffers_destroy(ctx);
     uint64_t cells = (uint64_t)n[0] * n[1] * n[2];
     VkDeviceSize sizes[PICVR_FIELD_BINDINGS] = {32 * cells, 16 * cells * lights, 48 * cells, 48 * cells,
-                                                8 * PICVR_FIELD_MAX_PASSES};
+                                                8 * PICVR_FIELD_MAX_PASSES, 16 * cells};
     for (uint32_t i = 0; i < PICVR_FIELD_BINDINGS; i++)
         if (sizes[i] > ctx->vk.props.limits.maxStorageBufferRange) return PICVR_ERROR_SIZE_OVERFLOW;
     VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                VK_BUFFER_USAGE_TRANSFER_SRC_BIT;   /* picvr_read_field copies from it */
-    picvr_buffer *bufs[PICVR_FIELD_BINDINGS] = {&f->cells, &f->light_t, &f->field[0], &f->field[1], &f->change};
+    picvr_buffer *bufs[PICVR_FIELD_BINDINGS] = {&f->cells, &f->light_t, &f->field[0], &f->field[1], &f->change, &f->view};
     picvr_status s = PICVR_OK;
     for (uint32_t i = 0; i < PICVR_FIELD_BINDINGS && !s; i++)
         s = picvr_buffer_create(ctx, bufs[i], sizes[i], usage, i == 4);   /* the change is read on the host */
@@ -177,7 +179,8 @@ static picvr_status picvr_field_make_buffers(picvr_context *ctx) {
     for (uint32_t set = 0; set < 2; set++) {
         VkDescriptorBufferInfo info[PICVR_FIELD_BINDINGS];
         VkWriteDescriptorSet w[PICVR_FIELD_BINDINGS];
-        picvr_buffer *order[PICVR_FIELD_BINDINGS] = {&f->cells, &f->light_t, &f->field[set], &f->field[1 - set], &f->change};
+        picvr_buffer *order[PICVR_FIELD_BINDINGS] = {&f->cells, &f->light_t, &f->field[set], &f->field[1 - set],
+                                                     &f->change, &f->view};
         for (uint32_t i = 0; i < PICVR_FIELD_BINDINGS; i++) {
             info[i].buffer = order[i]->buf;
             info[i].offset = 0;
@@ -322,6 +325,8 @@ static picvr_status picvr_field_render(picvr_context *ctx) {
     picvr_status s = picvr_cmd_begin(ctx);
     if (s) return s;
     picvr_barrier_all(ctx);
+    picvr_field_dispatch(ctx, PICVR_FIELD_VIEW, ctx->field.current, &p, p.n[3]);
+    picvr_barrier_all(ctx);
     picvr_field_dispatch(ctx, PICVR_FIELD_RENDER, ctx->field.current, &p,
                          (uint64_t)ctx->scene.camera.width * ctx->scene.camera.height);
     picvr_barrier_all(ctx);
@@ -354,7 +359,7 @@ static void picvr_field_stats(const picvr_context *ctx, picvr_stats *st) {
     st->field_passes = f->passes;
     st->field_change = f->change_value;
     st->field_build_ms = f->build_ms;
-    st->field_bytes = f->cells.size + f->light_t.size + f->field[0].size + f->field[1].size + f->change.size;
+    st->field_bytes = f->cells.size + f->light_t.size + f->field[0].size + f->field[1].size + f->change.size + f->view.size;
     memcpy(st->field_cells, f->n, sizeof f->n);
 }
 

@@ -584,8 +584,9 @@ typedef struct picvr_target_state {
    context in PICVR_RENDER_FIELD, nothing before.  Its kernels take the main descriptor
    set as set 0 and the field's buffers as set 1 (two sets: the passes alternate which
    field buffer is read and which written). */
-enum { PICVR_FIELD_CLASSIFY, PICVR_FIELD_LIGHT, PICVR_FIELD_SCATTER, PICVR_FIELD_RENDER, PICVR_FIELD_KERNELS };
-#define PICVR_FIELD_BINDINGS 5u
+enum { PICVR_FIELD_CLASSIFY, PICVR_FIELD_LIGHT, PICVR_FIELD_SCATTER, PICVR_FIELD_VIEW, PICVR_FIELD_RENDER,
+       PICVR_FIELD_KERNELS };
+#define PICVR_FIELD_BINDINGS 6u
 #define PICVR_FIELD_MAX_PASSES 1024u
 typedef struct picvr_field {
     int on;                          /* config.field.mode == PICVR_RENDER_FIELD */
@@ -598,7 +599,7 @@ typedef struct picvr_field {
     VkShaderModule module[PICVR_FIELD_KERNELS];
     VkPipeline pipe[PICVR_FIELD_KERNELS];
     uint32_t key;                    /* the rendering variant key the pipelines were made for */
-    picvr_buffer cells, light_t, field[2], change;
+    picvr_buffer cells, light_t, field[2], change, view;
     uint32_t n[3];                   /* cells per axis */
     uint32_t lights;                 /* lights light_t holds room for */
     uint32_t current;                /* the field buffer that holds the last pass */

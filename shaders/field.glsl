@@ -41,6 +41,8 @@ layout(set = 1, binding = 3, std430) buffer FieldOut { vec4 field_out[]; };
 // Per pass: the largest change of any cell's phi and the largest phi (float bits; both
 // >= 0, so their bits order as the floats do).
 layout(set = 1, binding = 4, std430) buffer FieldChange { uint field_change[]; };
+// Per cell the logarithm of the light it scatters toward the camera (field_view.comp).
+layout(set = 1, binding = 5, std430) buffer FieldView { vec4 field_view[]; };
 
 // Push constants of every field kernel (host/field.c, picvr_field_push).
 layout(push_constant) uniform FieldPush {

@@ -4,13 +4,11 @@
 // deterministic ray through the pixel's centre marched front to back through the full-
 // resolution volume, with the majorant grid's empty bricks skipped and the march ended
 // where the transmittance falls below FIELD_T_MIN.  Each step of length ds at its middle
-// x (sigma_t, albedo and g of the classified volume there) adds T (1 - e^-tau) a L_s and
+// x (sigma_t and albedo of the classified volume there) adds T (1 - e^-tau) a L_s and
 // multiplies T by e^-tau, tau = sigma_t ds; L_s is the radiance scattered toward the
-// camera: each light's irradiance at x (as a point or a delta sun, field.glsl) times its
-// transmittance interpolated from the cells' centres (trilinear) times the phase
-// function, plus the scattered field's two bands (phi + 3 g1 F . o) / 4 pi, interpolated
-// the same way.  The background (or an area light the ray meets) is added times the
-// final T.  The pixel's accumulation holds the result as its one sample.
+// camera, made per cell by field_view.comp and interpolated (trilinear, in its
+// logarithm).  The background (or an area light the ray meets) is added times the final
+// T.  The pixel's accumulation holds the result as its one sample.
 layout(local_size_x = 256) in;
 #include "field.glsl"
 #include "clip.glsl"
@@ -18,69 +16,40 @@ layout(local_size_x = 256) in;
 #include "majorant.glsl"
 #include "background.glsl"
 #include "lights.glsl"
-#include "phase.glsl"
+
+// A step's optical depth against its brick's majorant at most this (the step then lies
+// between the configured one and eight times it).  Each step takes L_s at its middle:
+// per step, not at points further apart, so that neighbouring rays (one SIMD group on a
+// CPU device, one warp on a GPU) run the same code at the same time.
+#define FIELD_TAU_STEP 0.25
 
 layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  // rgb, coverage
 layout(set = 0, binding = 5, std430) buffer AccumComp { vec4 accum_comp[]; };  // Kahan terms
 layout(set = 0, binding = 6, std430) buffer AccumStat { vec4 accum_stat[]; };  // lum mean, M2, n, bad
 
-// Trilinear weights over the cells' centres around x.  Within half a cell of the grid's
-// faces, beyond the outer centres: the outer values held (clamped), or with `extend`
-// the line through the last two centres continued (an axis of one cell holds its value).
-struct FieldLerp { uint c[8]; float w[8]; };
-
-FieldLerp field_lerp(vec3 x, bool extend) {
-    FieldLerp r;
+// The radiance scattered at x toward the camera per unit of scattering: the cells'
+// logarithms (field_view.comp) interpolated trilinearly between their centres, and
+// within half a cell of the grid's faces extended along the line through the last two
+// (an axis of one cell holds its value).  Rule: the result stays within a factor of 2
+// of the eight it is made from (its logarithm within [lowest - ln 2, highest + ln 2]),
+// so that extending next to a dark or a bright cell cannot blow up.
+vec3 field_view_at(vec3 x) {
     vec3 p = (x - scene.box_min) / fp.cell.xyz - 0.5;
     ivec3 hi = ivec3(fp.n.xyz) - 1;
     ivec3 i0 = clamp(ivec3(floor(p)), ivec3(0), max(hi - 1, ivec3(0)));
     ivec3 i1 = min(i0 + 1, hi);
-    vec3 f = extend ? clamp(p - vec3(i0), -0.5, 1.5) : clamp(p - vec3(i0), 0.0, 1.0);
-    for (uint k = 0u; k < 8u; k++) {
-        bvec3 up = bvec3((k & 1u) != 0u, (k & 2u) != 0u, (k & 4u) != 0u);
-        ivec3 q = ivec3(up.x ? i1.x : i0.x, up.y ? i1.y : i0.y, up.z ? i1.z : i0.z);
-        vec3 wt = mix(1.0 - f, f, vec3(up));
-        r.c[k] = field_index(q);
-        r.w[k] = wt.x * wt.y * wt.z;
-    }
-    return r;
-}
-
-// The first lobe's g for data value v (the table interpolated as phase.glsl does).
-float field_g_at(float v) {
-    if (!USE_HG) return 0.0;
-    float f = v * (TF_SIZE - 1.0);
-    uint i = min(uint(f), uint(TF_SIZE) - 2u);
-    return mix(tf_g[i], tf_g[i + 1u], clamp(f - float(i), 0.0, 1.0));
-}
-
-// The radiance scattered at x toward the camera (o = -rd) per unit of scattering.
-vec3 field_view(vec3 x, vec3 rd, float g) {
-    FieldLerp lp = field_lerp(x, false), le = field_lerp(x, true);
-    bool scaled = (fp.flags & (FIELD_DELTA_M | FIELD_MULTIPLE)) == (FIELD_DELTA_M | FIELD_MULTIPLE);
-    vec3 s = vec3(0.0);
-    for (uint i = 0u; i < scene.light_count; i++) {
-        vec3 toward;
-        float dist;
-        vec3 e = field_light_irradiance(i, x, toward, dist);
-        vec4 tau = vec4(0.0);
-        for (uint k = 0u; k < 8u; k++) tau += le.w[k] * light_t[i * fp.n.w + le.c[k]];
-        tau = max(tau, vec4(0.0));   // rule: an extrapolated optical depth is at least 0
-        float c = dot(toward, rd);   // the light travels along -toward, then along -rd
-        float p = USE_HG ? cm_phase_eval(g, scene.back_g, scene.back_weight, c) : INV_4PI;
-        s += e * exp(-(scaled ? tau.yzw : vec3(tau.x))) * p;
-    }
-    vec4 r = vec4(0.0), gr = vec4(0.0), b = vec4(0.0);
-    for (uint k = 0u; k < 8u; k++) {
-        r += lp.w[k] * field_in[3u * lp.c[k]];
-        gr += lp.w[k] * field_in[3u * lp.c[k] + 1u];
-        b += lp.w[k] * field_in[3u * lp.c[k] + 2u];
-    }
-    float wb = USE_HG ? clamp(scene.back_weight, 0.0, 1.0) : 0.0;
-    float g1 = USE_HG ? (1.0 - wb) * cm_hg_g(g) + wb * cm_hg_g(scene.back_g) : 0.0;
-    vec3 o = -rd;
-    vec3 band = vec3(r.x, gr.x, b.x) + 3.0 * g1 * vec3(dot(r.yzw, o), dot(gr.yzw, o), dot(b.yzw, o));
-    return s + max(band, vec3(0.0)) * INV_4PI;   // rule: two bands clamped at 0
+    vec3 f = clamp(p - vec3(i0), -0.5, 1.5);
+    uint y0 = uint(i0.y) * fp.n.x, y1 = uint(i1.y) * fp.n.x;
+    uint z0 = uint(i0.z) * fp.n.x * fp.n.y, z1 = uint(i1.z) * fp.n.x * fp.n.y;
+    uint x0 = uint(i0.x), x1 = uint(i1.x);
+    vec3 v000 = field_view[x0 + y0 + z0].xyz, v100 = field_view[x1 + y0 + z0].xyz;
+    vec3 v010 = field_view[x0 + y1 + z0].xyz, v110 = field_view[x1 + y1 + z0].xyz;
+    vec3 v001 = field_view[x0 + y0 + z1].xyz, v101 = field_view[x1 + y0 + z1].xyz;
+    vec3 v011 = field_view[x0 + y1 + z1].xyz, v111 = field_view[x1 + y1 + z1].xyz;
+    vec3 lo = min(min(min(v000, v100), min(v010, v110)), min(min(v001, v101), min(v011, v111)));
+    vec3 top = max(max(max(v000, v100), max(v010, v110)), max(max(v001, v101), max(v011, v111)));
+    vec3 v = mix(mix(mix(v000, v100, f.x), mix(v010, v110, f.x), f.y), mix(mix(v001, v101, f.x), mix(v011, v111, f.x), f.y), f.z);
+    return exp(clamp(v, lo - 0.6931472, top + 0.6931472));
 }
 
 void main() {
@@ -105,17 +74,33 @@ void main() {
         // iterations); the host sizes the step so that a ray across the box needs fewer.
         while (t < t1 && T > FIELD_T_MIN && steps < 60000u) {
             float te = min(dda_exit(d), t1);
-            if (cell_majorant(d) > 0.0 && te > t) {
-                uint n = uint(ceil((te - t) / fp.step));
+            float sigma_max = cell_majorant(d);
+            if (sigma_max == 0.0) {   // empty: jump over the empty bricks around (majorant.glsl)
+                float jump = empty_skip(d, rd);
+                if (jump > 0.0) {
+                    t += jump;
+                    steps++;
+                    if (t >= t1) break;
+                    d = coarse_start(ro, rd, t);
+                    continue;
+                }
+            }
+            if (sigma_max > 0.0 && te > t) {
+                // steps of optical depth at most FIELD_TAU_STEP against the brick's
+                // majorant, between the configured step and eight times it
+                float want = clamp(FIELD_TAU_STEP / sigma_max, fp.step, 8.0 * fp.step);
+                uint n = uint(ceil((te - t) / want));
                 float ds = (te - t) / float(max(n, 1u));
                 for (uint k = 0u; k < n && T > FIELD_T_MIN && steps < 60000u; k++, steps++) {
-                    vec3 x = ro + rd * (t + (float(k) + 0.5) * ds);
+                    float tm = t + (float(k) + 0.5) * ds;
+                    vec3 x = ro + rd * tm;
                     float v = data_value(x);
                     vec4 tf = transfer(v);
                     float tau = scene.density * tf.a * ds;
                     if (!(tau > 0.0)) continue;
+                    vec3 ls = field_view_at(x);
                     float e = exp(-tau);
-                    L += T * (1.0 - e) * tf.rgb * field_view(x, rd, field_g_at(v));
+                    L += T * (1.0 - e) * tf.rgb * ls;
                     T *= e;
                 }
             }

@@ -62,14 +62,15 @@ void test_field_empty_renders_background(void **state) {
 
 /* Single scattering of a homogeneous cube under a sun along an axis, against the
    closed form (tu_sun_ray).  The derived bound: the sun's optical depth is held per
-   cell at its centre and interpolated (extrapolated within half a cell of the faces);
-   lit along an axis it is linear in the depth, so the interpolation is exact at any
-   grid ratio.  What remains is the camera ray's midpoint rule: a step of length ds
-   takes the sun's light at its middle, and the sun's transmittance changes along it at
-   a rate of at most sigma, so its relative error is at most (sigma ds)^2 / 24 = 4e-4
-   at sigma ds = 0.1 (one voxel), plus float rounding (~1e-6 per step over ~30 steps).
-   The check: every pixel within 1e-3 of the closed form, relative to the image's
-   largest value. */
+   cell at its centre and the light toward the camera is interpolated in its logarithm
+   (extended within half a cell of the faces); lit along an axis that logarithm is
+   linear in the depth (the isotropic phase function is constant), so the interpolation
+   is exact at any grid ratio.  What remains is the camera ray's midpoint rule: a step
+   takes the light at its middle, the sun's transmittance changes along the step at a
+   rate of at most sigma (|cos| <= 1), and a step's optical depth is at most 0.25
+   (FIELD_TAU_STEP against the brick's majorant), so its relative error is at most
+   0.25^2 / 24 = 2.6e-3; float rounding adds ~1e-6 per step over ~30 steps.  The check:
+   every pixel within 3e-3 of the closed form, relative to the image's largest value. */
 void test_field_sun_cube_closed_form(void **state) {
     (void)state;
     const uint32_t ratios[2] = {1, 4};
@@ -88,9 +89,9 @@ void test_field_sun_cube_closed_form(void **state) {
         assert_true(top > 0.0);
         for (size_t p = 0; p < 48 * 40; p++)
             for (int c = 0; c < 3; c++) worst = fmax(worst, fabs(img[4 * p + c] - want[4 * p + c]) / top);
-        print_message("field sun cube, grid ratio %u: largest error %.2e of the image's peak (bound 1e-3)\n",
+        print_message("field sun cube, grid ratio %u: largest error %.2e of the image's peak (bound 3e-3)\n",
                       ratios[r], worst);
-        assert_true(worst <= 1e-3);
+        assert_true(worst <= 3e-3);
         free(want);
         free(img);
         tu_finish(ctx);
