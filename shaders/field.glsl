@@ -41,8 +41,10 @@ layout(set = 1, binding = 3, std430) buffer FieldOut { vec4 field_out[]; };
 // Per pass: the largest change of any cell's phi and the largest phi (float bits; both
 // >= 0, so their bits order as the floats do).
 layout(set = 1, binding = 4, std430) buffer FieldChange { uint field_change[]; };
-// Per cell the logarithm of the light it scatters toward the camera (field_view.comp).
+// Per cell the logarithm of the light it scatters toward the camera, per channel, and
+// of the light it would scatter unshadowed (field_view.comp).
 layout(set = 1, binding = 5, std430) buffer FieldView { vec4 field_view[]; };
+#define FIELD_LN_FLOOR -100.0
 
 // Push constants of every field kernel (host/field.c, picvr_field_push).
 layout(push_constant) uniform FieldPush {

@@ -27,13 +27,29 @@ layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  /
 layout(set = 0, binding = 5, std430) buffer AccumComp { vec4 accum_comp[]; };  // Kahan terms
 layout(set = 0, binding = 6, std430) buffer AccumStat { vec4 accum_stat[]; };  // lum mean, M2, n, bad
 
-// The radiance scattered at x toward the camera per unit of scattering: the cells'
-// logarithms (field_view.comp) interpolated trilinearly between their centres, and
+// What a step of optical depth tau sends toward the camera per unit of its albedo and of
+// the transmittance before it, the light toward the camera being L_a = e^ln_a at its
+// near end and L_b = e^ln_b at its far end, taken as exponential between them (exact
+// where its logarithm is linear: a homogeneous region under a light, however dense):
+//   int_0^1 tau e^(-tau u) L_a (L_b / L_a)^u du = tau (L_a - L_b e^-tau) / (tau + ln_a - ln_b).
+// Rule: where the denominator is within 1e-3 of 0, its series L_a tau (1 - x / 2), x the
+// denominator (no 0 / 0).
+vec3 field_step_light(float tau, vec3 ln_a, vec3 ln_b) {
+    vec3 x = tau + ln_a - ln_b;
+    vec3 la = exp(ln_a), lb = exp(ln_b);
+    vec3 exact = tau * (la - lb * exp(-tau)) / mix(x, vec3(1.0), lessThan(abs(x), vec3(1e-3)));
+    vec3 series = la * tau * (1.0 - 0.5 * x);
+    return max(mix(exact, series, lessThan(abs(x), vec3(1e-3))), vec3(0.0));
+}
+
+// The logarithm of the radiance scattered at x toward the camera per unit of
+// scattering: the cells' logarithms (field_view.comp) interpolated trilinearly between their centres, and
 // within half a cell of the grid's faces extended along the line through the last two
-// (an axis of one cell holds its value).  Rule: the result stays within a factor of 2
-// of the eight it is made from (its logarithm within [lowest - ln 2, highest + ln 2]),
-// so that extending next to a dark or a bright cell cannot blow up.
-vec3 field_view_at(vec3 x) {
+// (an axis of one cell holds its value): exact where the logarithm is linear, as in a
+// homogeneous region lit along an axis, however dense.  Rule: the result stays at or
+// below the largest of the eight corners' unshadowed light, so that extending next to a
+// dark cell cannot blow up.
+vec3 field_ln_view_at(vec3 x) {
     vec3 p = (x - scene.box_min) / fp.cell.xyz - 0.5;
     ivec3 hi = ivec3(fp.n.xyz) - 1;
     ivec3 i0 = clamp(ivec3(floor(p)), ivec3(0), max(hi - 1, ivec3(0)));
@@ -42,14 +58,13 @@ vec3 field_view_at(vec3 x) {
     uint y0 = uint(i0.y) * fp.n.x, y1 = uint(i1.y) * fp.n.x;
     uint z0 = uint(i0.z) * fp.n.x * fp.n.y, z1 = uint(i1.z) * fp.n.x * fp.n.y;
     uint x0 = uint(i0.x), x1 = uint(i1.x);
-    vec3 v000 = field_view[x0 + y0 + z0].xyz, v100 = field_view[x1 + y0 + z0].xyz;
-    vec3 v010 = field_view[x0 + y1 + z0].xyz, v110 = field_view[x1 + y1 + z0].xyz;
-    vec3 v001 = field_view[x0 + y0 + z1].xyz, v101 = field_view[x1 + y0 + z1].xyz;
-    vec3 v011 = field_view[x0 + y1 + z1].xyz, v111 = field_view[x1 + y1 + z1].xyz;
-    vec3 lo = min(min(min(v000, v100), min(v010, v110)), min(min(v001, v101), min(v011, v111)));
-    vec3 top = max(max(max(v000, v100), max(v010, v110)), max(max(v001, v101), max(v011, v111)));
-    vec3 v = mix(mix(mix(v000, v100, f.x), mix(v010, v110, f.x), f.y), mix(mix(v001, v101, f.x), mix(v011, v111, f.x), f.y), f.z);
-    return exp(clamp(v, lo - 0.6931472, top + 0.6931472));
+    vec4 v000 = field_view[x0 + y0 + z0], v100 = field_view[x1 + y0 + z0];
+    vec4 v010 = field_view[x0 + y1 + z0], v110 = field_view[x1 + y1 + z0];
+    vec4 v001 = field_view[x0 + y0 + z1], v101 = field_view[x1 + y0 + z1];
+    vec4 v011 = field_view[x0 + y1 + z1], v111 = field_view[x1 + y1 + z1];
+    vec4 v = mix(mix(mix(v000, v100, f.x), mix(v010, v110, f.x), f.y), mix(mix(v001, v101, f.x), mix(v011, v111, f.x), f.y), f.z);
+    float top = max(max(max(v000.w, v100.w), max(v010.w, v110.w)), max(max(v001.w, v101.w), max(v011.w, v111.w)));
+    return min(v.xyz, vec3(top));
 }
 
 void main() {
@@ -72,6 +87,8 @@ void main() {
         uint steps = 0u;
         // Rule: at most 60000 steps per ray (llvmpipe's bound on an invocation's loop
         // iterations); the host sizes the step so that a ray across the box needs fewer.
+        float t_known = -1.0;   // where ln_known, the light toward the camera, was taken
+        vec3 ln_known = vec3(0.0);
         while (t < t1 && T > FIELD_T_MIN && steps < 60000u) {
             float te = min(dda_exit(d), t1);
             float sigma_max = cell_majorant(d);
@@ -92,16 +109,19 @@ void main() {
                 uint n = uint(ceil((te - t) / want));
                 float ds = (te - t) / float(max(n, 1u));
                 for (uint k = 0u; k < n && T > FIELD_T_MIN && steps < 60000u; k++, steps++) {
-                    float tm = t + (float(k) + 0.5) * ds;
-                    vec3 x = ro + rd * tm;
-                    float v = data_value(x);
-                    vec4 tf = transfer(v);
+                    float ta = t + float(k) * ds;
+                    vec3 x = ro + rd * (ta + 0.5 * ds);
+                    vec4 tf = transfer(data_value(x));
                     float tau = scene.density * tf.a * ds;
                     if (!(tau > 0.0)) continue;
-                    vec3 ls = field_view_at(x);
-                    float e = exp(-tau);
-                    L += T * (1.0 - e) * tf.rgb * ls;
-                    T *= e;
+                    // the light toward the camera at the step's ends (the far end of the
+                    // step before is this one's near end)
+                    vec3 ln_a = abs(ta - t_known) <= 1e-4 * ds ? ln_known : field_ln_view_at(ro + rd * ta);
+                    vec3 ln_b = field_ln_view_at(ro + rd * (ta + ds));
+                    t_known = ta + ds;
+                    ln_known = ln_b;
+                    L += T * tf.rgb * field_step_light(tau, ln_a, ln_b);
+                    T *= exp(-tau);
                 }
             }
             t = te;

@@ -58,7 +58,9 @@ vec3 field_gather(vec3 x, vec3 w, bool source, bool dm) {
         vec3 e = exp(-sigma * len);
         vec3 J = vec3(0.0);
         if (source && m.x > 0.0) J = albedo * field_source(j, field_centre(field_cell_of(j)), w, dm);
-        L += T * (1.0 - e) * J;
+        // 1 - e^-tau without cancellation (sampling_math.glsl)
+        vec3 absorbed = vec3(cm_forced_norm(sigma.x * len), cm_forced_norm(sigma.y * len), cm_forced_norm(sigma.z * len));
+        L += T * absorbed * J;
         T *= e;
         // Rule: below FIELD_T_CUT of transmittance the rest of the line is taken as
         // radiating the last cell's source J (what an optically thick remainder tends

@@ -158,6 +158,11 @@
     X(test_field_empty_renders_background)                          \
     X(test_field_sun_cube_closed_form)                              \
     X(test_field_white_furnace)                                     \
+    X(test_field_energy_one_pass)                                   \
+    X(test_field_approaches_monte_carlo)                            \
+    X(test_field_deterministic)                                     \
+    X(test_field_config_errors)                                     \
+    X(test_field_stiff_sweep)                                       \
     /* test_field_reference.c */                                    \
     X(test_field_reference_empty_renders_background)                \
     X(test_field_reference_sun_cube_closed_form)                    \
