@@ -109,6 +109,14 @@
  * Accumulation restarts (iterations back to 0) whenever the camera, volume,
  *   transfer function, lights or clipping change, and on picvr_reset(); with
  *   scheduler.temporal_reuse a camera move keeps it, reprojected, instead.
+ * The light field (config.field.mode PICVR_RENDER_FIELD, docs/field.md): instead of
+ *   Monte Carlo, each step renders one deterministic, noise-free image in real time
+ *   from light propagated through a grid of cells (a grid ratio of voxels per cell)
+ *   along D global directions and iterated for multiple scattering (paper 002 carried
+ *   to volumes).  It is biased, and converges toward the path-traced image as the grid
+ *   and D are refined.  The first step after a change of what the light depends on
+ *   rebuilds the field; a camera move only renders again.  picvr_read_field returns
+ *   the cells.
  * Threading: a context is not thread-safe; use one per thread or lock around it.
  * Engines (README "In an engine", docs/engines.md): the application's VkDevice goes in
  *   (config.vulkan), scheduler.frames gives every pixel a sample in every step,
@@ -379,9 +387,9 @@ typedef enum picvr_render_mode {
    allocates and compiles nothing for it. */
 typedef struct picvr_field_config {
     picvr_render_mode mode;   /* DEFAULT: MC */
-    uint32_t grid_ratio;      /* voxels per cell along each axis, 1..8; 0: 4 */
+    uint32_t grid_ratio;      /* voxels per cell along each axis, 1..8; 0: 8 */
     uint32_t directions;      /* D global directions (D / 2 over a hemisphere, each used
-                                 both ways), even, 8..1024; 0: 64 */
+                                 both ways), even, 8..1024; 0: 32 */
     uint32_t max_passes;      /* with unlimited bounces: passes (bounces) at most, 1..1024;
                                  0: 64 */
     float tolerance;          /* with unlimited bounces: passes stop when no cell's

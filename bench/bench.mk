@@ -3,7 +3,8 @@
 # DATA and deps).  Every benchmark measures ratios run side by side on the same machine
 # (docs/performance.md); none is part of `make test`, which builds picvr-bench-error only
 # for its --self-test.  `make help` lists the targets.
-.PHONY: bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-sampling-paper bench-paths bench-frames
+.PHONY: bench-speed bench-scheduler bench-long-run bench-hit-rate bench-sampling bench-sampling-paper bench-paths bench-frames \
+        bench-field
 
 # ---- programs ---------------------------------------------------------------------------
 # The programs read raw and NRRD files alone: IO_RAW_SRC, without niftilib, GDCM and OpenVDB.
@@ -51,6 +52,14 @@ bench-sampling-paper: deps $(B)/picvr-bench-sampling
 
 # The engine's case: orbiting real-time frames of the cloud, temporal reuse off and on,
 # true error at three frames (docs/engines.md; ~6 min on lavapipe).
+# The light field (docs/field.md): per grid ratio and D, build and rebuild times (a sun
+# move, a transfer-function change), frame times at three sizes and the error against
+# a converged Monte-Carlo image, on the cloud under sun-sky (unlimited bounces) and the
+# bonsai and the aneurism (~20 min on the 2-core machine).
+bench-field: deps $(B)/picvr-bench-sampling
+	$(B)/picvr-bench-sampling --data $(DATA) --scenes cloud-sky,bonsai,aneurism --size 320x180 \
+	    --field 8:32,8:64,4:32,4:64 --time 60000 --ref-time 90000 --ref-chunks 3 --out bench/results/field
+
 bench-frames: deps $(B)/picvr-bench-sampling
 	$(B)/picvr-bench-sampling --data $(DATA) --scenes cloud-sky --size 320x180 --frames 30 --frame-ms 16 \
 	  --orbit 1 --checkpoints 3 --ref-time 90000 --ref-chunks 3 --out bench/results/frames

@@ -8,8 +8,8 @@ static picvr_status picvr_resolve_field_config(const picvr_field_config *in, int
     picvr_field_config c = *in;
     if ((unsigned)c.mode > PICVR_RENDER_FIELD) return PICVR_ERROR_INVALID_ARGUMENT;
     if (!c.mode) c.mode = PICVR_RENDER_MC;
-    if (!c.grid_ratio) c.grid_ratio = 4;
-    if (!c.directions) c.directions = 64;
+    if (!c.grid_ratio) c.grid_ratio = 8;
+    if (!c.directions) c.directions = 32;
     if (!c.max_passes) c.max_passes = 64;
     if (c.tolerance == 0.0f) c.tolerance = 1e-3f;
     if (c.step_voxels == 0.0f) c.step_voxels = 1.0f;

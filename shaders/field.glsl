@@ -66,9 +66,9 @@ layout(push_constant) uniform FieldPush {
 #define FIELD_LAST 8u        // the pass's last dispatch: it records the change
 #define FIELD_MULTIPLE 16u   // more than one scatter event: the camera's view of the
                              // lights takes the scaled transmittance (the reference's rule)
-// A camera ray stops where its transmittance falls below this: the light it leaves out
-// is at most this fraction of what lies behind.
-#define FIELD_T_MIN 1e-4
+// A camera ray stops where its transmittance falls below this, the rest of the medium
+// taken as radiating the last step's light (field_render.comp).
+#define FIELD_T_MIN 1e-3
 
 ivec3 field_cell_of(uint c) {
     return ivec3(c % fp.n.x, (c / fp.n.x) % fp.n.y, c / (fp.n.x * fp.n.y));

@@ -3,7 +3,8 @@
 // field_render.comp - the field's image (field.glsl): one thread per pixel, a
 // deterministic ray through the pixel's centre marched front to back through the full-
 // resolution volume, with the majorant grid's empty bricks skipped and the march ended
-// where the transmittance falls below FIELD_T_MIN.  Each step of length ds at its middle
+// where the transmittance falls below FIELD_T_MIN (the rest taken as radiating the last
+// step's light).  Each step of length ds at its middle
 // x (sigma_t and albedo of the classified volume there) adds T (1 - e^-tau) a L_s and
 // multiplies T by e^-tau, tau = sigma_t ds; L_s is the radiance scattered toward the
 // camera, made per cell by field_view.comp and interpolated (trilinear, in its
@@ -80,6 +81,7 @@ void main() {
     int hit = nearest_area_light(ro, rd, 1e30, t_hit);
     vec3 L = vec3(0.0);
     float T = 1.0, t0, t1;
+    vec3 tail = vec3(0.0);   // the last step's albedo times the light at its far end
     if (box_interval(ro, rd, t0, t1)) {
         if (hit >= 0) t1 = min(t1, t_hit);
         Dda d = coarse_start(ro, rd, t0);
@@ -122,6 +124,7 @@ void main() {
                     ln_known = ln_b;
                     L += T * tf.rgb * field_step_light(tau, ln_a, ln_b);
                     T *= exp(-tau);
+                    tail = tf.rgb * exp(ln_b);
                 }
             }
             t = te;
@@ -129,7 +132,15 @@ void main() {
             if (!dda_advance(d)) break;
         }
     }
-    L += T * (hit >= 0 ? area_light_radiance(uint(hit), rd) : background_radiance(rd));
+    if (T <= FIELD_T_MIN) {
+        // Rule: a ray that ends in the medium takes the rest of it as radiating the last
+        // step's light (what an opaque remainder tends to; exact in the white furnace),
+        // and nothing from behind it.
+        L += T * tail;
+        T = 0.0;
+    } else {
+        L += T * (hit >= 0 ? area_light_radiance(uint(hit), rd) : background_radiance(rd));
+    }
     // Rule: a non-finite pixel (only from input overflowing float) is 0 and counted bad.
     bool bad = any(isnan(L)) || any(isinf(L));
     if (bad) L = vec3(0.0);

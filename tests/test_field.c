@@ -385,8 +385,9 @@ void test_field_config_errors(void **state) {
 /* The stiff sweep: optical depth per cell from 1e-6 to 1e5, everything clipped, the
    volume 1e6 from the origin: every image finite and non-negative, alpha in [0, 1],
    every stat finite.  Closed forms where they apply: single scattering of the cube
-   (tu_sun_ray, as above: the model is exact there, bound 1e-4 of the peak) at optical
-   depths 1e-6 and 1 per cell; at 1e5 per cell the cube is a half-space lit from above,
+   (tu_sun_ray, as above: the model is exact there, 1e-4 of the peak, plus the part of a
+   ray past T = 1e-3, taken as radiating its last step's light: at most 1e-3 of the
+   peak; so 1.1e-3) at optical depths 1e-6 and 1 per cell; at 1e5 per cell the cube is a half-space lit from above,
    L = a E / (4 pi) / (1 + mu_v) on its top face (mu_v the view cosine), which the model
    keeps exactly too (the logarithm's slope extends the centres' light to the face, and
    a step integrates it as exponential), but in float: the centres' logarithms, near
@@ -417,7 +418,7 @@ void test_field_stiff_sweep(void **state) {
             }
             print_message("field stiff sweep, tau %g per cell, %s: %u passes, largest %.3g, error %.2e of the peak\n",
                           taus[i], unlimited ? "unlimited" : "single", st.field_passes, most, worst);
-            if (!unlimited && taus[i] < 1e3) assert_true(worst <= 1e-4);
+            if (!unlimited && taus[i] < 1e3) assert_true(worst <= 1.1e-3);
             if (!unlimited && taus[i] > 1e3) {   /* the half-space's top face */
                 double worst_top = 0.0;
                 int seen = 0;
