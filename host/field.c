@@ -147,6 +147,21 @@ static picvr_status picvr_field_make_pipelines(picvr_context *ctx) {
     return PICVR_OK;
 }
 
+/* Scatter events per path, the camera's included (PICVR_FIELD_MAX_PASSES: unlimited). */
+static uint32_t picvr_field_bounces(const picvr_context *ctx) {
+    uint32_t b = ctx->scene.scattering.max_bounces;
+    if (b == PICVR_BOUNCES_UNLIMITED) return PICVR_FIELD_MAX_PASSES;
+    return b >= PICVR_FIELD_MAX_PASSES - 1 ? PICVR_FIELD_MAX_PASSES : b + 1;
+}
+
+/* Whether the scene needs the scattered field at all: more than one scatter event, or
+   a background that lights the medium.  Without it (single scattering of the lights
+   alone) the passes are left out and the field's buffers are placeholders. */
+static int picvr_field_scattered(const picvr_context *ctx) {
+    const float *bg = ctx->scene.gpu.background;
+    return picvr_field_bounces(ctx) > 1 || ctx->scene.use_env || bg[0] > 0.0f || bg[1] > 0.0f || bg[2] > 0.0f;
+}
+
 /* Cells per axis: the volume's voxels over the grid ratio, rounded up. */
 static void picvr_field_grid(const picvr_context *ctx, uint32_t n[3]) {
     uint32_t r = ctx->config.field.grid_ratio;
@@ -159,10 +174,12 @@ static picvr_status picvr_field_make_buffers(picvr_context *ctx) {
     uint32_t n[3];
     picvr_field_grid(ctx, n);
     uint32_t lights = ctx->scene.light_count ? ctx->scene.light_count : 1u;
-    if (f->cells.buf && !memcmp(n, f->n, sizeof n) && f->lights == lights) return PICVR_OK;
+    int scattered = picvr_field_scattered(ctx);
+    if (f->cells.buf && !memcmp(n, f->n, sizeof n) && f->lights == lights && f->scattered == scattered) return PICVR_OK;
     picvr_field_buffers_destroy(ctx);
     uint64_t cells = (uint64_t)n[0] * n[1] * n[2];
-    VkDeviceSize sizes[PICVR_FIELD_BINDINGS] = {32 * cells, 16 * cells * lights, 48 * cells, 48 * cells,
+    VkDeviceSize field = scattered ? 48 * cells : 16;   /* a placeholder when no pass runs */
+    VkDeviceSize sizes[PICVR_FIELD_BINDINGS] = {32 * cells, 16 * cells * lights, field, field,
                                                 8 * PICVR_FIELD_MAX_PASSES, 16 * cells};
     for (uint32_t i = 0; i < PICVR_FIELD_BINDINGS; i++)
         if (sizes[i] > ctx->vk.props.limits.maxStorageBufferRange) return PICVR_ERROR_SIZE_OVERFLOW;
@@ -175,6 +192,7 @@ static picvr_status picvr_field_make_buffers(picvr_context *ctx) {
     if (s) { picvr_field_buffers_destroy(ctx); return s; }
     memcpy(f->n, n, sizeof n);
     f->lights = lights;
+    f->scattered = scattered;
     f->warm = 0;
     for (uint32_t set = 0; set < 2; set++) {
         VkDescriptorBufferInfo info[PICVR_FIELD_BINDINGS];
@@ -230,13 +248,6 @@ static void picvr_field_dispatch(picvr_context *ctx, int kernel, uint32_t set, c
     if (groups) vkCmdDispatch(ctx->vk.cmd, gx, gy, 1);
 }
 
-/* Scatter events per path, the camera's included (PICVR_FIELD_MAX_PASSES: unlimited). */
-static uint32_t picvr_field_bounces(const picvr_context *ctx) {
-    uint32_t b = ctx->scene.scattering.max_bounces;
-    if (b == PICVR_BOUNCES_UNLIMITED) return PICVR_FIELD_MAX_PASSES;
-    return b >= PICVR_FIELD_MAX_PASSES - 1 ? PICVR_FIELD_MAX_PASSES : b + 1;
-}
-
 /* Records pass `pass`, reading field[cur] (flags without PICVR_FIELD_SOURCE: the
    background alone): its directions in as many dispatches as keep each invocation's
    loop within PICVR_FIELD_LOOP_BUDGET. */
@@ -281,6 +292,16 @@ static picvr_status picvr_field_build(picvr_context *ctx) {
     picvr_field_dispatch(ctx, PICVR_FIELD_LIGHT, 0, &p,
                          (uint64_t)p.n[3] * (ctx->scene.light_count ? ctx->scene.light_count : 1u));
     picvr_barrier_all(ctx);
+    if (!f->scattered) {   /* the lights' single scattering alone: no pass */
+        if ((s = picvr_cmd_submit_wait(ctx))) return s;
+        f->current = 0;
+        f->passes = 0;
+        f->change_value = 0.0;
+        f->builds++;
+        f->build_ms = picvr_clock_ms() - start;
+        f->dirty = 0;
+        return PICVR_OK;
+    }
     uint32_t limit = picvr_field_bounces(ctx), unlimited = limit == PICVR_FIELD_MAX_PASSES;
     if (unlimited) limit = ctx->config.field.max_passes;
     /* Unlimited bounces converge to the same field from any start: a field of the same
@@ -321,7 +342,8 @@ static picvr_status picvr_field_build(picvr_context *ctx) {
 static picvr_status picvr_field_render(picvr_context *ctx) {
     double start = picvr_clock_ms();
     picvr_field_push p = picvr_field_push_base(ctx);
-    p.flags = (picvr_field_delta_m(ctx) ? PICVR_FIELD_DELTA_M : 0u) | (picvr_field_bounces(ctx) > 1 ? PICVR_FIELD_MULTIPLE : 0u);
+    p.flags = (picvr_field_delta_m(ctx) ? PICVR_FIELD_DELTA_M : 0u) | (picvr_field_bounces(ctx) > 1 ? PICVR_FIELD_MULTIPLE : 0u) |
+              (ctx->field.scattered ? PICVR_FIELD_SOURCE : 0u);   /* SOURCE here: the field holds scattered light */
     picvr_status s = picvr_cmd_begin(ctx);
     if (s) return s;
     picvr_barrier_all(ctx);
@@ -380,7 +402,8 @@ picvr_status picvr_read_field(picvr_context *ctx, float *out, size_t size, uint3
         picvr_barrier_all(ctx);
         VkBufferCopy medium = {0, 0, 32 * cells}, field = {0, 32 * cells, 48 * cells};
         vkCmdCopyBuffer(ctx->vk.cmd, f->cells.buf, host.buf, 1, &medium);
-        vkCmdCopyBuffer(ctx->vk.cmd, f->field[f->current].buf, host.buf, 1, &field);
+        if (f->scattered) vkCmdCopyBuffer(ctx->vk.cmd, f->field[f->current].buf, host.buf, 1, &field);
+        else vkCmdFillBuffer(ctx->vk.cmd, host.buf, 32 * cells, 48 * cells, 0);   /* no scattered light */
         picvr_barrier_all(ctx);
         s = picvr_cmd_submit_wait(ctx);
     }

@@ -604,6 +604,8 @@ typedef struct picvr_field {
     uint32_t lights;                 /* lights light_t holds room for */
     uint32_t current;                /* the field buffer that holds the last pass */
     int warm;                        /* field[current] holds a field of this grid */
+    int scattered;                   /* the scene needs the passes (host/field.c,
+                                        picvr_field_scattered); else field[] are placeholders */
     uint32_t builds, passes;
     double change_value, build_ms;
 } picvr_field;

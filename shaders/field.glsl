@@ -60,7 +60,8 @@ layout(push_constant) uniform FieldPush {
     uint unused;
 } fp;
 
-#define FIELD_SOURCE 1u      // the sweep has the previous pass as its source
+#define FIELD_SOURCE 1u      // field_scatter: the previous pass is the source; field_view:
+                             // the field holds scattered light (else it is a placeholder)
 #define FIELD_DELTA_M 2u     // the sweeps run in the delta-M scaled medium
 #define FIELD_ADD 4u         // add to field_out (a later dispatch of the same pass)
 #define FIELD_LAST 8u        // the pass's last dispatch: it records the change

@@ -49,10 +49,13 @@ void main() {
             if (a[k] > 0.0) ln_ls[k] = field_log_add(ln_ls[k], log(a[k]) - t[k]);
         unshadowed += max(a.x, max(a.y, a.z));
     }
-    vec4 r = field_in[3u * c], gr = field_in[3u * c + 1u], b = field_in[3u * c + 2u];
-    float g1 = USE_HG ? ph.y : 0.0;
-    vec3 band = vec3(r.x, gr.x, b.x) + 3.0 * g1 * vec3(dot(r.yzw, o), dot(gr.yzw, o), dot(b.yzw, o));
-    band = max(band, vec3(0.0)) * INV_4PI;   // rule: two bands clamped at 0
+    vec3 band = vec3(0.0);
+    if ((fp.flags & FIELD_SOURCE) != 0u) {   // the field holds scattered light (else: a placeholder)
+        vec4 r = field_in[3u * c], gr = field_in[3u * c + 1u], b = field_in[3u * c + 2u];
+        float g1 = USE_HG ? ph.y : 0.0;
+        band = vec3(r.x, gr.x, b.x) + 3.0 * g1 * vec3(dot(r.yzw, o), dot(gr.yzw, o), dot(b.yzw, o));
+        band = max(band, vec3(0.0)) * INV_4PI;   // rule: two bands clamped at 0
+    }
     for (int k = 0; k < 3; k++)
         if (band[k] > 0.0) ln_ls[k] = field_log_add(ln_ls[k], log(band[k]));
     unshadowed += max(band.x, max(band.y, band.z));

@@ -371,7 +371,29 @@ void test_field_config_errors(void **state) {
     picvr_stats st = tu_stats_finite(ctx);
     assert_true(st.field_builds == 1 && st.field_bytes > 0 && st.field_passes >= 1);
     tu_finish(ctx);
-    /* leave out what a scene does not need: a Monte-Carlo context has no field */
+    /* leave out what a scene does not need: single scattering of the lights alone (no
+       background light) runs no pass and holds no scattered field; a background brings
+       them back */
+    ctx = field_context(0, 0, 0.0f, 0);
+    {
+        tu_sun_scene sun;
+        const double l_in[3] = {0.0, 1.0, 0.0};
+        tu_sun_cube(ctx, 16, 0.1f, 0.8f, l_in, 3.0f, 0.0f, &sun);
+        tu_set_camera(ctx, 20, 14, 26, 0, 0, 0, 40, 16, 16);
+        TU_OK(picvr_step(ctx, 1.0));
+        picvr_stats dark = tu_stats_finite(ctx);
+        tu_sun(ctx, 0, 1, 0, 1, 1, 1, 3.0f, 0.5f);   /* the same sun and a grey background */
+        TU_OK(picvr_step(ctx, 1.0));
+        picvr_stats lit = tu_stats_finite(ctx);
+        print_message("field leave-out: %u passes and %llu bytes without background light, %u and %llu with it\n",
+                      dark.field_passes, (unsigned long long)dark.field_bytes, lit.field_passes,
+                      (unsigned long long)lit.field_bytes);
+        assert_true(dark.field_passes == 0 && lit.field_passes == 1 && dark.field_bytes < lit.field_bytes);
+        float cells_dark[16 * 8];
+        TU_OK(picvr_read_field(ctx, cells_dark, sizeof cells_dark, dims));
+    }
+    tu_finish(ctx);
+    /* a Monte-Carlo context has no field */
     ctx = tu_create(0);
     small_cloud(ctx, &vol);
     TU_OK(picvr_step_iterations(ctx, 1));
