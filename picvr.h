@@ -396,7 +396,7 @@ typedef struct picvr_field_config {
                                  fluence changes by more than this times the largest, in
                                  (0, 1); 0: 1e-3 */
     float step_voxels;        /* the image's ray-marching step in voxels (of the smallest
-                                 spacing), in [0.125, 64]; 0: 1 */
+                                 spacing), in [0.125, 64]; 0: 2 */
 } picvr_field_config;
 
 typedef struct picvr_config {

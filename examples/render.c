@@ -148,7 +148,7 @@ static void print_help(FILE *f)
         "                         nothing; docs/field.md); not with --cache\n"
         "  --field-ratio N        voxels per field cell along each axis, 1..8 (default 8)\n"
         "  --field-directions D   the field's global directions, even, 8..1024 (default 32)\n"
-        "  --field-step S         the field image's ray-marching step in voxels (default 1)\n"
+        "  --field-step S         the field image's ray-marching step in voxels (default 2)\n"
         "  --shares CMIN,CMAX,UMIN,UMAX  device-time shares of cache-entry creation and\n"
         "                         update at hit rate 1 and 0 (paper §6; default\n"
         "                         0.05,0.15,0.01,0.02)\n"

@@ -12,7 +12,7 @@ static picvr_status picvr_resolve_field_config(const picvr_field_config *in, int
     if (!c.directions) c.directions = 32;
     if (!c.max_passes) c.max_passes = 64;
     if (c.tolerance == 0.0f) c.tolerance = 1e-3f;
-    if (c.step_voxels == 0.0f) c.step_voxels = 1.0f;
+    if (c.step_voxels == 0.0f) c.step_voxels = 2.0f;
     if (!isfinite(c.tolerance) || !isfinite(c.step_voxels)) return PICVR_ERROR_NON_FINITE;
     if (c.grid_ratio > 8 || c.directions < 8 || c.directions > 1024 || (c.directions & 1u) ||
         c.max_passes > PICVR_FIELD_MAX_PASSES || !(c.tolerance > 0.0f && c.tolerance < 1.0f) ||

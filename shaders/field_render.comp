@@ -19,10 +19,10 @@ layout(local_size_x = 256) in;
 #include "lights.glsl"
 
 // A step's optical depth against its brick's majorant at most this (the step then lies
-// between the configured one and eight times it).  Each step takes L_s at its middle:
+// between the configured one and four times it).  Each step takes L_s at its middle:
 // per step, not at points further apart, so that neighbouring rays (one SIMD group on a
 // CPU device, one warp on a GPU) run the same code at the same time.
-#define FIELD_TAU_STEP 0.25
+#define FIELD_TAU_STEP 0.5
 
 layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  // rgb, coverage
 layout(set = 0, binding = 5, std430) buffer AccumComp { vec4 accum_comp[]; };  // Kahan terms
@@ -106,8 +106,8 @@ void main() {
             }
             if (sigma_max > 0.0 && te > t) {
                 // steps of optical depth at most FIELD_TAU_STEP against the brick's
-                // majorant, between the configured step and eight times it
-                float want = clamp(FIELD_TAU_STEP / sigma_max, fp.step, 8.0 * fp.step);
+                // majorant, between the configured step and four times it
+                float want = clamp(FIELD_TAU_STEP / sigma_max, fp.step, 4.0 * fp.step);
                 uint n = uint(ceil((te - t) / want));
                 float ds = (te - t) / float(max(n, 1u));
                 for (uint k = 0u; k < n && T > FIELD_T_MIN && steps < 60000u; k++, steps++) {
