@@ -371,7 +371,7 @@ typedef enum picvr_transmittance_estimator {
 typedef enum picvr_render_mode {
     PICVR_RENDER_DEFAULT = 0,      /* PICVR_RENDER_MC */
     PICVR_RENDER_MC,               /* progressive Monte Carlo: unbiased, converging */
-    PICVR_RENDER_FIELD             /* the light field (paper 002 carried to volumes): light
+    PICVR_RENDER_FIELD,            /* the light field (paper 002 carried to volumes): light
                                       propagated through a grid of cells along D global
                                       directions, iterated for multiple scattering; each
                                       step renders one deterministic, noise-free (biased)
@@ -379,8 +379,20 @@ typedef enum picvr_render_mode {
                                       step after a change of the volume, transfer
                                       function, lights, background, scattering or clipping
                                       (stats.field_*); a camera move only renders again.
-                                      Sphere and rect lights act as points of their
-                                      far-field intensity.  Not with the cache */
+                                      picvr_step_begin makes the image before it returns
+                                      (picvr_step_end then finds it done).  Sphere and
+                                      rect lights act as points of their far-field
+                                      intensity.  Not with the cache */
+    PICVR_RENDER_FIELD_MC          /* from instant to exact: a step after a change (of the
+                                      camera too, and picvr_reset) renders the field's
+                                      image, as FIELD does; the steps after it, while
+                                      nothing changes, add Monte-Carlo samples to it,
+                                      the field counting as field.prior_samples samples
+                                      of each pixel.  So a moving camera shows the field
+                                      every frame, and a still one converges to the
+                                      unbiased image from where the field left it (the
+                                      field's share, prior / (prior + n) after n
+                                      samples, falls as 1 / n).  Not with the cache */
 } picvr_render_mode;
 
 /* The light field.  Zero fields mean the defaults.  A context whose mode is not FIELD
@@ -397,6 +409,9 @@ typedef struct picvr_field_config {
                                  (0, 1); 0: 1e-3 */
     float step_voxels;        /* the image's ray-marching step in voxels (of the smallest
                                  spacing), in [0.125, 64]; 0: 2 */
+    uint32_t prior_samples;   /* PICVR_RENDER_FIELD_MC: the samples per pixel the field
+                                 image counts as when Monte Carlo goes on from it,
+                                 1..1024; 0: 8 */
 } picvr_field_config;
 
 typedef struct picvr_config {

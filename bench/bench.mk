@@ -58,7 +58,7 @@ bench-sampling-paper: deps $(B)/picvr-bench-sampling
 # bonsai and the aneurism (~20 min on the 2-core machine).
 bench-field: deps $(B)/picvr-bench-sampling
 	$(B)/picvr-bench-sampling --data $(DATA) --scenes cloud-sky,bonsai,aneurism --size 320x180 \
-	    --field 8:32,8:64,4:32,4:64 --time 60000 --ref-time 90000 --ref-chunks 3 --out bench/results/field
+	    --field 8:32,8:64,4:32 --time 60000 --ref-time 90000 --ref-chunks 6 --out bench/results/field
 
 bench-frames: deps $(B)/picvr-bench-sampling
 	$(B)/picvr-bench-sampling --data $(DATA) --scenes cloud-sky --size 320x180 --frames 30 --frame-ms 16 \

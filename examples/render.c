@@ -143,9 +143,10 @@ static void print_help(FILE *f)
         "  --transmittance residual|ratio|ray-marching  residual ratio tracking\n"
         "                         (default), ratio tracking (the paper's) or unbiased\n"
         "                         ray marching (thin media: less noise, more cost)\n"
-        "  --render mc|field      progressive Monte Carlo (default), or the light field:\n"
-        "                         one deterministic, noise-free image (the seed changes\n"
-        "                         nothing; docs/field.md); not with --cache\n"
+        "  --render mc|field|field-mc  progressive Monte Carlo (default); the light\n"
+        "                         field: one deterministic, noise-free image (the seed\n"
+        "                         changes nothing; docs/field.md); or the field's image,\n"
+        "                         then Monte Carlo from it; the last two not with --cache\n"
         "  --field-ratio N        voxels per field cell along each axis, 1..8 (default 8)\n"
         "  --field-directions D   the field's global directions, even, 8..1024 (default 32)\n"
         "  --field-step S         the field image's ray-marching step in voxels (default 2)\n"
@@ -395,6 +396,7 @@ static int apply_cache_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "render")) {
         if (!strcmp(value, "mc")) o->render_mode = PICVR_RENDER_MC;
         else if (!strcmp(value, "field")) o->render_mode = PICVR_RENDER_FIELD;
+        else if (!strcmp(value, "field-mc")) o->render_mode = PICVR_RENDER_FIELD_MC;
         else return 0;
         return 1;
     }
@@ -527,7 +529,7 @@ static int options_consistent(const render_options *o)
         pvc_fail("--frame-ms and --orbit apply to --frames N");
         return 0;
     }
-    if (o->render_mode == PICVR_RENDER_FIELD && o->cache != PICVR_CACHE_NONE && o->cache != PICVR_CACHE_DEFAULT) {
+    if (o->render_mode >= PICVR_RENDER_FIELD && o->cache != PICVR_CACHE_NONE && o->cache != PICVR_CACHE_DEFAULT) {
         pvc_fail("--render field renders without the cache: leave --cache out");
         return 0;
     }

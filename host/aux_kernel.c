@@ -16,11 +16,9 @@ static void picvr_aux_kernel_destroy(picvr_context *ctx, picvr_aux_kernel *k) {
 
 #define PICVR_AUX_BINDINGS 16u
 
-/* Makes kernel k from SPIR-V `code` (size bytes) with `bindings` (at most
-   PICVR_AUX_BINDINGS) storage buffers, once; a failure leaves nothing behind. */
-static picvr_status picvr_aux_kernel_make(picvr_context *ctx, picvr_aux_kernel *k, uint32_t bindings,
-                                          const uint32_t *code, size_t size) {
-    if (k->pipe) return PICVR_OK;
+/* A descriptor set layout of `bindings` (at most PICVR_AUX_BINDINGS) storage buffers,
+   bindings 0..n-1, for compute. */
+static picvr_status picvr_storage_set_layout(picvr_context *ctx, uint32_t bindings, VkDescriptorSetLayout *out) {
     if (bindings > PICVR_AUX_BINDINGS) return PICVR_ERROR_INVALID_ARGUMENT;
     VkDescriptorSetLayoutBinding b[PICVR_AUX_BINDINGS];
     memset(b, 0, sizeof b);
@@ -34,6 +32,15 @@ static picvr_status picvr_aux_kernel_make(picvr_context *ctx, picvr_aux_kernel *
     PICVR_VK_INIT(li, VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
     li.bindingCount = bindings;
     li.pBindings = b;
+    return picvr_vk_status(ctx, vkCreateDescriptorSetLayout(ctx->vk.device, &li, NULL, out), "vkCreateDescriptorSetLayout");
+}
+
+/* Makes kernel k from SPIR-V `code` (size bytes) with `bindings` (at most
+   PICVR_AUX_BINDINGS) storage buffers, once; a failure leaves nothing behind. */
+static picvr_status picvr_aux_kernel_make(picvr_context *ctx, picvr_aux_kernel *k, uint32_t bindings,
+                                          const uint32_t *code, size_t size) {
+    if (k->pipe) return PICVR_OK;
+    if (bindings > PICVR_AUX_BINDINGS) return PICVR_ERROR_INVALID_ARGUMENT;
     VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 128};   /* every device's minimum */
     VkPipelineLayoutCreateInfo pl;
     PICVR_VK_INIT(pl, VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
@@ -51,8 +58,7 @@ static picvr_status picvr_aux_kernel_make(picvr_context *ctx, picvr_aux_kernel *
     PICVR_VK_INIT(ai, VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &k->set_layout;
-    picvr_status s = picvr_vk_status(ctx, vkCreateDescriptorSetLayout(ctx->vk.device, &li, NULL, &k->set_layout),
-                                     "vkCreateDescriptorSetLayout");
+    picvr_status s = picvr_storage_set_layout(ctx, bindings, &k->set_layout);
     if (!s) s = picvr_vk_status(ctx, vkCreatePipelineLayout(ctx->vk.device, &pl, NULL, &k->layout), "vkCreatePipelineLayout");
     if (!s) s = picvr_vk_status(ctx, vkCreateDescriptorPool(ctx->vk.device, &pi, NULL, &k->pool), "vkCreateDescriptorPool");
     ai.descriptorPool = k->pool;

@@ -98,7 +98,8 @@ picvr_status picvr_create(const picvr_config *cfg_in, picvr_context **out) {
     if (!s) s = picvr_resolve_scheduler_config(&cfg.scheduler, &ctx->sched.cfg);
     ctx->cache.on = ctx->cache.cfg.mode != PICVR_CACHE_NONE;
     if (!s) s = picvr_resolve_field_config(&cfg.field, ctx->cache.on, &ctx->config.field);
-    ctx->field.on = ctx->config.field.mode == PICVR_RENDER_FIELD;
+    ctx->field.on = ctx->config.field.mode >= PICVR_RENDER_FIELD;
+    ctx->field.mc = ctx->config.field.mode == PICVR_RENDER_FIELD_MC;
     ctx->sched.auto_mode.on = ctx->cache.cfg.mode == PICVR_CACHE_AUTO;
     ctx->sched.use_priorities = ctx->sched.cfg.priorities == PICVR_SWITCH_ON;
     picvr_update_targets(&ctx->sched, ctx->cache.on);

@@ -6,20 +6,21 @@
 
 static picvr_status picvr_resolve_field_config(const picvr_field_config *in, int cache_on, picvr_field_config *out) {
     picvr_field_config c = *in;
-    if ((unsigned)c.mode > PICVR_RENDER_FIELD) return PICVR_ERROR_INVALID_ARGUMENT;
+    if ((unsigned)c.mode > PICVR_RENDER_FIELD_MC) return PICVR_ERROR_INVALID_ARGUMENT;
     if (!c.mode) c.mode = PICVR_RENDER_MC;
     if (!c.grid_ratio) c.grid_ratio = 8;
     if (!c.directions) c.directions = 32;
     if (!c.max_passes) c.max_passes = 64;
     if (c.tolerance == 0.0f) c.tolerance = 1e-3f;
     if (c.step_voxels == 0.0f) c.step_voxels = 2.0f;
+    if (!c.prior_samples) c.prior_samples = 8;
     if (!isfinite(c.tolerance) || !isfinite(c.step_voxels)) return PICVR_ERROR_NON_FINITE;
     if (c.grid_ratio > 8 || c.directions < 8 || c.directions > 1024 || (c.directions & 1u) ||
         c.max_passes > PICVR_FIELD_MAX_PASSES || !(c.tolerance > 0.0f && c.tolerance < 1.0f) ||
-        !(c.step_voxels >= 0.125f && c.step_voxels <= 64.0f))
+        !(c.step_voxels >= 0.125f && c.step_voxels <= 64.0f) || c.prior_samples > 1024)
         return PICVR_ERROR_INVALID_ARGUMENT;
     /* the field renders without the cache's procedures */
-    if (c.mode == PICVR_RENDER_FIELD && cache_on) return PICVR_ERROR_INVALID_ARGUMENT;
+    if (c.mode >= PICVR_RENDER_FIELD && cache_on) return PICVR_ERROR_INVALID_ARGUMENT;
     *out = c;
     return PICVR_OK;
 }
@@ -30,7 +31,7 @@ typedef struct picvr_field_push {
     float cell[4];
     uint32_t half_dirs, dir_begin, dir_end, flags, pass_index, samples;
     float step;
-    uint32_t unused;
+    uint32_t prior;   /* field_render: the samples the image counts as in each pixel */
 } picvr_field_push;
 
 #define PICVR_FIELD_SOURCE 1u
@@ -82,19 +83,8 @@ static void picvr_field_destroy(picvr_context *ctx) {
 static picvr_status picvr_field_make_layouts(picvr_context *ctx) {
     picvr_field *f = &ctx->field;
     if (f->layout) return PICVR_OK;
-    VkDescriptorSetLayoutBinding b[PICVR_FIELD_BINDINGS];
-    memset(b, 0, sizeof b);
-    for (uint32_t i = 0; i < PICVR_FIELD_BINDINGS; i++) {
-        b[i].binding = i;
-        b[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-        b[i].descriptorCount = 1;
-        b[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
-    }
-    VkDescriptorSetLayoutCreateInfo li;
-    PICVR_VK_INIT(li, VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
-    li.bindingCount = PICVR_FIELD_BINDINGS;
-    li.pBindings = b;
-    PICVR_VK_TRY(ctx, vkCreateDescriptorSetLayout(ctx->vk.device, &li, NULL, &f->set_layout));
+    picvr_status s0 = picvr_storage_set_layout(ctx, PICVR_FIELD_BINDINGS, &f->set_layout);
+    if (s0) return s0;
     VkDescriptorSetLayout sets[2] = {ctx->pipes.set_layout, f->set_layout};
     VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(picvr_field_push)};
     VkPipelineLayoutCreateInfo pl;
@@ -347,6 +337,7 @@ static picvr_status picvr_field_render(picvr_context *ctx) {
     picvr_status s = picvr_cmd_begin(ctx);
     if (s) return s;
     picvr_barrier_all(ctx);
+    p.prior = ctx->field.mc ? ctx->config.field.prior_samples : 1u;
     picvr_field_dispatch(ctx, PICVR_FIELD_VIEW, ctx->field.current, &p, p.n[3]);
     picvr_barrier_all(ctx);
     picvr_field_dispatch(ctx, PICVR_FIELD_RENDER, ctx->field.current, &p,
@@ -360,7 +351,15 @@ static picvr_status picvr_field_render(picvr_context *ctx) {
     im->depth_valid = 0;                   /* no scatter depths: a camera move clears */
     im->elapsed_ms = picvr_clock_ms() - start;
     ctx->results.valid = 0;
+    ctx->field.view_changed = 0;
     return PICVR_OK;
+}
+
+/* PICVR_RENDER_FIELD_MC: whether this step shows the field (something changed since the
+   image was made, or there is none) rather than adding Monte-Carlo samples to it. */
+static int picvr_field_frame_due(const picvr_context *ctx) {
+    const picvr_field *f = &ctx->field;
+    return !f->mc || f->dirty || f->view_changed || !f->builds || !ctx->image.has_samples;
 }
 
 /* A step in PICVR_RENDER_FIELD: the kernels and buffers at first use, the field rebuilt

@@ -13,6 +13,7 @@ static void picvr_invalidate_accumulation(picvr_context *ctx) {
     ctx->image.priority_used = 0;
     ctx->image.elapsed_ms = 0.0;
     ctx->results.valid = 0;
+    ctx->field.view_changed = 1;   /* PICVR_RENDER_FIELD_MC shows the field again */
 }
 
 static int picvr_reuse_on(const picvr_context *ctx) { return ctx->sched.cfg.temporal_reuse == PICVR_SWITCH_ON; }

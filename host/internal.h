@@ -556,6 +556,7 @@ typedef struct picvr_round_plan {
    submitted and the context's command buffer and fence belong to it. */
 typedef struct picvr_pending_step {
     int active;
+    int field;                       /* the field's image, made by picvr_step_begin itself */
     picvr_round_plan plan;
     uint32_t created;                /* entries its creation may add */
     double t0;                       /* picvr_clock_ms at submission */
@@ -589,7 +590,10 @@ enum { PICVR_FIELD_CLASSIFY, PICVR_FIELD_LIGHT, PICVR_FIELD_SCATTER, PICVR_FIELD
 #define PICVR_FIELD_BINDINGS 6u
 #define PICVR_FIELD_MAX_PASSES 1024u
 typedef struct picvr_field {
-    int on;                          /* config.field.mode == PICVR_RENDER_FIELD */
+    int on;                          /* config.field.mode is PICVR_RENDER_FIELD or _FIELD_MC */
+    int mc;                          /* PICVR_RENDER_FIELD_MC: Monte Carlo goes on from it */
+    int view_changed;                /* the accumulation was cleared or moved since the field
+                                        image was made (host/image.c) */
     int dirty;                       /* the scene changed since the field was built */
     int image_dirty;                 /* the image does not show the current field and camera */
     VkDescriptorSetLayout set_layout;

@@ -15,6 +15,7 @@ static picvr_status picvr_upload_scene(picvr_context *ctx) {
 
 static picvr_status picvr_stats_pass(picvr_context *ctx, float rel_floor, double sums[4], uint64_t counts[4]);
 static picvr_status picvr_field_step(picvr_context *ctx);
+static int picvr_field_frame_due(const picvr_context *ctx);
 
 static picvr_status picvr_prepare_render(picvr_context *ctx) {
     picvr_status s = picvr_upload_scene(ctx);   /* first: it checks that the scene is ready */
@@ -222,7 +223,8 @@ static picvr_status picvr_check_budget(picvr_context *ctx, double milliseconds) 
 
 picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
     picvr_status s = picvr_check_budget(ctx, milliseconds);
-    if (!s && ctx->field.on) return picvr_field_step(ctx);   /* one image from the field */
+    /* the field's image; PICVR_RENDER_FIELD_MC adds Monte Carlo to it while nothing changes */
+    if (!s && ctx->field.on && picvr_field_frame_due(ctx)) return picvr_field_step(ctx);
     return s ? s : picvr_step_time(ctx, milliseconds);
 }
 
@@ -231,9 +233,10 @@ picvr_status picvr_step(picvr_context *ctx, double milliseconds) {
    1/rounds_per_second long: a longer one only makes fewer, larger dispatches). */
 picvr_status picvr_step_begin(picvr_context *ctx, double milliseconds) {
     picvr_status s = picvr_check_budget(ctx, milliseconds);
-    if (!s && ctx->field.on) {   /* the field's image is made here; picvr_step_end finds it done */
+    if (!s && ctx->field.on && picvr_field_frame_due(ctx)) {   /* made here; picvr_step_end finds it done */
         if ((s = picvr_field_step(ctx))) return s;
         ctx->pending.active = 1;
+        ctx->pending.field = 1;
         return PICVR_OK;
     }
     if (s || (s = picvr_prepare_render(ctx))) return s;
@@ -250,7 +253,7 @@ picvr_status picvr_step_begin(picvr_context *ctx, double milliseconds) {
 picvr_status picvr_step_end(picvr_context *ctx, uint64_t timeout_ns) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     if (!ctx->pending.active) return PICVR_ERROR_NO_STEP;
-    if (ctx->field.on) { ctx->pending.active = 0; return PICVR_OK; }
+    if (ctx->pending.field) { ctx->pending.active = ctx->pending.field = 0; return PICVR_OK; }
     picvr_status s = picvr_complete_round(ctx, timeout_ns, 0);
     if (s == PICVR_ERROR_TIMEOUT) return s;   /* still running: the step stays begun */
     ctx->pending.active = 0;
@@ -261,6 +264,11 @@ picvr_status picvr_step_iterations(picvr_context *ctx, uint32_t iterations) {
     if (!ctx) return PICVR_ERROR_NULL_POINTER;
     PICVR_REFUSE_IF_BUSY(ctx);
     if (iterations == 0) return PICVR_OK;
-    if (ctx->field.on) return picvr_field_step(ctx);   /* deterministic: one image is every image */
+    if (ctx->field.on && picvr_field_frame_due(ctx)) {
+        picvr_status s = picvr_field_step(ctx);
+        /* PICVR_RENDER_FIELD: deterministic, one image is every image; _FIELD_MC: then the
+           passes, from it */
+        if (s || !ctx->field.mc) return s;
+    }
     return picvr_step_passes(ctx, iterations);
 }

@@ -57,7 +57,7 @@ layout(push_constant) uniform FieldPush {
     uint pass_index;   // field_scatter: the slot of field_change it writes
     uint samples;      // field_classify: sample points per axis and cell
     float step;        // field_render: the ray-marching step (the volume's frame)
-    uint unused;
+    uint prior;        // field_render: the samples the image counts as in each pixel
 } fp;
 
 #define FIELD_SOURCE 1u      // field_scatter: the previous pass is the source; field_view:

@@ -9,7 +9,7 @@
 // multiplies T by e^-tau, tau = sigma_t ds; L_s is the radiance scattered toward the
 // camera, made per cell by field_view.comp and interpolated (trilinear, in its
 // logarithm).  The background (or an area light the ray meets) is added times the final
-// T.  The pixel's accumulation holds the result as its one sample.
+// T.  The pixel's accumulation holds the result as fp.prior samples of it.
 layout(local_size_x = 256) in;
 #include "field.glsl"
 #include "clip.glsl"
@@ -146,5 +146,8 @@ void main() {
     if (bad) L = vec3(0.0);
     accum_mean[idx] = vec4(L, clamp(1.0 - T, 0.0, 1.0));
     accum_comp[idx] = vec4(0.0);
-    accum_stat[idx] = vec4(dot(L, vec3(0.2126, 0.7152, 0.0722)), 0.0, uintBitsToFloat(1u), uintBitsToFloat(bad ? 1u : 0u));
+    // the image counts as fp.prior samples (PICVR_RENDER_FIELD_MC: Monte Carlo's samples are
+    // then averaged in with it; else 1)
+    accum_stat[idx] = vec4(dot(L, vec3(0.2126, 0.7152, 0.0722)), 0.0, uintBitsToFloat(max(fp.prior, 1u)),
+                           uintBitsToFloat(bad ? 1u : 0u));
 }

@@ -163,6 +163,7 @@
     X(test_field_deterministic)                                     \
     X(test_field_config_errors)                                     \
     X(test_field_stiff_sweep)                                       \
+    X(test_field_hands_over_to_monte_carlo)                         \
     /* test_field_reference.c */                                    \
     X(test_field_reference_empty_renders_background)                \
     X(test_field_reference_sun_cube_closed_form)                    \
