@@ -92,6 +92,7 @@ struct viewer_options {
     picvr_cache_mode cache = PICVR_CACHE_NONE;
     picvr_switch priorities = PICVR_SWITCH_DEFAULT;
     picvr_switch reuse = PICVR_SWITCH_ON;   /* a moving camera keeps its samples */
+    picvr_render_mode render = PICVR_RENDER_MC; /* --render: mc, field, field-mc */
     const char *device = nullptr;
     bool validation = false;
     double max_spp = 65536.0;                /* refinement stops (idles) past this */
@@ -126,6 +127,9 @@ static void print_help(FILE *f)
         "                         (default on; off: round robin, every pixel alike)\n"
         "  --reuse on|off         temporal reuse: a moved camera keeps its samples,\n"
         "                         reprojected (default on)\n"
+        "  --render mc|field|field-mc  Monte Carlo (default); the light field alone; or the\n"
+        "                         field while anything moves and Monte Carlo from it while\n"
+        "                         all is still (docs/field.md; C then does nothing)\n"
         "viewer\n"
         "  --size WxH             window and image size (default 1280x720 on a GPU,\n"
         "                         512x384 on a CPU device)\n"
@@ -156,7 +160,7 @@ static const pvc_option OPTIONS[] = {
     {"volume", 1}, {"dims", 1}, {"type", 1}, {"spacing", 1}, {"range", 1}, {"tf", 1},
     {"density", 1}, {"lights", 1}, {"env", 1}, {"env-rotate", 1}, {"env-intensity", 1},
     {"bounces", 1}, {"g", 1}, {"phase-back", 1}, {"camera", 1}, {"fov", 1}, {"exposure", 1},
-    {"seed", 1}, {"cache", 1}, {"priorities", 1}, {"reuse", 1}, {"size", 1}, {"frame-ms", 1}, {"orbit", 1}, {"max-spp", 1}, {"device", 1},
+    {"seed", 1}, {"cache", 1}, {"priorities", 1}, {"reuse", 1}, {"render", 1}, {"size", 1}, {"frame-ms", 1}, {"orbit", 1}, {"max-spp", 1}, {"device", 1},
     {"frames", 1}, {"screenshot", 1}, {nullptr, 0}};
 
 static bool known_name(const char *value, const char *(*name)(size_t))
@@ -216,6 +220,13 @@ static int apply_scene_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "cache")) return pvc_parse_cache_mode(value, &o->cache);
     if (!strcmp(name, "priorities")) return pvc_parse_switch(value, &o->priorities);
     if (!strcmp(name, "reuse")) return pvc_parse_switch(value, &o->reuse);
+    if (!strcmp(name, "render")) {
+        if (!strcmp(value, "mc")) o->render = PICVR_RENDER_MC;
+        else if (!strcmp(value, "field")) o->render = PICVR_RENDER_FIELD;
+        else if (!strcmp(value, "field-mc")) o->render = PICVR_RENDER_FIELD_MC;
+        else return 0;
+        return 1;
+    }
     return -1;
 }
 
@@ -778,6 +789,7 @@ static bool create_context(viewer &v, picvr_cache_mode cache)
     cfg.scheduler.frames = PICVR_SWITCH_ON;  /* every frame a whole image: no holes */
     cfg.scheduler.priorities = v.opt.priorities;
     cfg.scheduler.temporal_reuse = v.opt.reuse;
+    cfg.field.mode = v.opt.render;
     if (!check(picvr_create(&cfg, &v.ctx), "picvr_create")) return false;
     v.cache = cache;
     picvr_volume_desc desc;
@@ -1047,7 +1059,7 @@ static size_t cycle(size_t index, int step, size_t n)
 static bool apply_keys(viewer &v)
 {
     bool changed = false;
-    if (v.key_cache % 2) {  /* a context of the other mode on the same device; the scene as it is */
+    if (v.key_cache % 2 && v.opt.render == PICVR_RENDER_MC) {  /* a context of the other mode on the same device; the scene as it is */
         picvr_cache_mode next = v.cache == PICVR_CACHE_NONE ? PICVR_CACHE_OBJECT_SPACE : PICVR_CACHE_NONE;
         picvr_destroy(v.ctx);
         v.ctx = nullptr;

@@ -33,7 +33,9 @@
 #       here); 0.25 levels cover the rounding to 8 bits and of spp_mean.
 #    To show that the check can fail, the viewer's image with R and B swapped, and upside
 #    down, must each fail it.
-# Prints what it measured; exit status 1 on a failure.  About 25 s on 2 cores (lavapipe).
+# 3. The light field (--render field-mc): moving, the field's image byte for byte; still,
+#    Monte Carlo from it, within the noise (as in 2).
+# Prints what it measured; exit status 1 on a failure.  About 50 s on 2 cores (lavapipe).
 # The volume: the repository's cloud (data/).
 set -u
 B=${1:-build}
@@ -208,4 +210,24 @@ render ref --iterations "$REF_SPP" --seed 1
 render control --iterations "$K" --seed 2
 python3 "$T/compare.py" noise "$T/still.png" "$T/ref.png" "$T/control.png" "$REF_SPP" "$K" ||
     fail "the viewer's image differs from picvr-render's beyond the noise"
-echo "check_viewer: ok: the viewer shows picvr-render's images (moving: the same bytes; still: within the noise)"
+# 3. the light field, from instant to exact (--render field-mc).  Moving: every frame is
+#    the field's image, byte for byte picvr-render --render field's of the same camera
+#    path.  Still: Monte Carlo goes on from the field, which counts as 8 samples per
+#    pixel (field.prior_samples), so after spp_mean samples in all the image is
+#    (8 field + (spp - 8) samples) / spp: the variance of a sample times (spp - 8) / spp^2,
+#    that of an image of spp^2 / (spp - 8) samples, which the control therefore has (the
+#    same noise, so the same darkening by the tone curve); the field's share 8 / spp of
+#    its own few per cent of bias moves the means by a fraction of a level.
+viewer field_orbit --render field-mc --orbit 3 --frame-ms 0 --frames "$ORBIT_FRAMES"
+render field_orbit_ref --render field --frames "$ORBIT_FRAMES" --orbit 3 --frame-ms 0
+python3 "$T/compare.py" same "$T/field_orbit.png" "$T/field_orbit_ref.png" ||
+    fail "the viewer's moving frame is not the field's image"
+viewer field_still --render field-mc --priorities off --frames "$FRAMES"
+spp=$(sed -n 's/.* spp_mean=\([0-9.]*\) .*/\1/p' "$T/field_still.out")
+[ -n "$spp" ] || fail "no spp_mean in picvr-viewer's output"
+K=$(python3 -c "s = $spp; print(max(1, round(s * s / max(s - 8, 1))))")
+render field_control --iterations "$K" --seed 3
+python3 "$T/compare.py" noise "$T/field_still.png" "$T/ref.png" "$T/field_control.png" "$REF_SPP" "$K" ||
+    fail "the viewer's image from the field differs from Monte Carlo's beyond the noise"
+echo "check_viewer: ok: the viewer shows picvr-render's images (moving: the same bytes; still: within the noise;"
+echo "check_viewer: ok: the field: moving, its image; still, Monte Carlo from it)"
