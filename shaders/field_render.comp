@@ -2,14 +2,15 @@
 #extension GL_GOOGLE_include_directive : require
 // field_render.comp - the field's image (field.glsl): one thread per pixel, a
 // deterministic ray through the pixel's centre marched front to back through the full-
-// resolution volume, with the majorant grid's empty bricks skipped and the march ended
+// resolution volume, with the majorant grid's empty bricks jumped and the march ended
 // where the transmittance falls below FIELD_T_MIN (the rest taken as radiating the last
-// step's light).  Each step of length ds at its middle
-// x (sigma_t and albedo of the classified volume there) adds T (1 - e^-tau) a L_s and
-// multiplies T by e^-tau, tau = sigma_t ds; L_s is the radiance scattered toward the
-// camera, made per cell by field_view.comp and interpolated (trilinear, in its
-// logarithm).  The background (or an area light the ray meets) is added times the final
-// T.  The pixel's accumulation holds the result as fp.prior samples of it.
+// step's light).  A step of optical depth tau (sigma_t and albedo of the classified
+// volume at its middle) adds T a times the light it sends toward the camera, the light
+// L_s toward the camera taken at both ends of the step and integrated as exponential
+// between them (field_step_light), and multiplies T by e^-tau.  L_s is made per cell by
+// field_view.comp and interpolated trilinearly in its logarithm.  The background (or an
+// area light the ray meets) is added times the final T.  The pixel's accumulation holds
+// the result as fp.prior samples of it.
 layout(local_size_x = 256) in;
 #include "field.glsl"
 #include "clip.glsl"
@@ -19,9 +20,9 @@ layout(local_size_x = 256) in;
 #include "lights.glsl"
 
 // A step's optical depth against its brick's majorant at most this (the step then lies
-// between the configured one and four times it).  Each step takes L_s at its middle:
-// per step, not at points further apart, so that neighbouring rays (one SIMD group on a
-// CPU device, one warp on a GPU) run the same code at the same time.
+// between the configured one and four times it).  Every step takes L_s, not points
+// further apart, so that neighbouring rays (one SIMD group on a CPU device, one warp on
+// a GPU) run the same code at the same time.
 #define FIELD_TAU_STEP 0.5
 
 layout(set = 0, binding = 4, std430) buffer AccumMean { vec4 accum_mean[]; };  // rgb, coverage
@@ -44,8 +45,9 @@ vec3 field_step_light(float tau, vec3 ln_a, vec3 ln_b) {
 }
 
 // The logarithm of the radiance scattered at x toward the camera per unit of
-// scattering: the cells' logarithms (field_view.comp) interpolated trilinearly between their centres, and
-// within half a cell of the grid's faces extended along the line through the last two
+// scattering: the cells' logarithms (field_view.comp) interpolated trilinearly between
+// their centres, and within half a cell of the grid's faces extended along the line
+// through the last two
 // (an axis of one cell holds its value): exact where the logarithm is linear, as in a
 // homogeneous region lit along an axis, however dense.  Rule: the result stays at or
 // below the largest of the eight corners' unshadowed light, so that extending next to a
