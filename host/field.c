@@ -328,7 +328,8 @@ static picvr_status picvr_field_build(picvr_context *ctx) {
     return PICVR_OK;
 }
 
-/* One image from the field into the accumulation: each pixel's one sample. */
+/* One image from the field into the accumulation: one sample per pixel, or with
+   PICVR_RENDER_FIELD_MC field.prior_samples of them (Monte Carlo goes on from it). */
 static picvr_status picvr_field_render(picvr_context *ctx) {
     double start = picvr_clock_ms();
     picvr_field_push p = picvr_field_push_base(ctx);
@@ -345,7 +346,7 @@ static picvr_status picvr_field_render(picvr_context *ctx) {
     picvr_barrier_all(ctx);
     if ((s = picvr_cmd_submit_wait(ctx))) return s;
     picvr_image_state *im = &ctx->image;
-    im->block_samples = im->block_total;   /* one sample per pixel: one iteration */
+    im->block_samples = im->block_total;   /* one pass over the image: one iteration */
     im->first_pass_blocks = im->block_total;
     im->has_samples = 1;
     im->depth_valid = 0;                   /* no scatter depths: a camera move clears */
@@ -362,7 +363,8 @@ static int picvr_field_frame_due(const picvr_context *ctx) {
     return !f->mc || f->dirty || f->view_changed || !f->builds || !ctx->image.has_samples;
 }
 
-/* A step in PICVR_RENDER_FIELD: the kernels and buffers at first use, the field rebuilt
+/* A step that shows the field (every step of PICVR_RENDER_FIELD, those after a change
+   in PICVR_RENDER_FIELD_MC): the kernels and buffers at first use, the field rebuilt
    after a change, and one image. */
 static picvr_status picvr_field_step(picvr_context *ctx) {
     picvr_status s = picvr_upload_scene(ctx);   /* first: it checks that the scene is ready */
