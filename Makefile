@@ -308,7 +308,8 @@ ASAN_TESTS := test_status_strings*,test_device_type_reported,test_create_destroy
   test_cache_off_by_default*,test_pipelines_made_for_the_scene,\
   test_cache_moments_only_with_bounces,test_cache_pool_full_is_reported_and_safe,test_cache_invalidation_and_camera*,\
   test_sweep_volume_shapes_and_spacing,test_sweep_float32_huge_range*,test_sweep_cameras_and_image_sizes,\
-  test_sweep_transfer_function_step*,test_sweep_lights_inside*,test_sampling_auto_variant_made_beside_steps
+  test_sweep_transfer_function_step*,test_sweep_lights_inside*,test_sampling_auto_variant_made_beside_steps,\
+  test_field_config_errors,test_field_deterministic,test_field_empty_renders_background
 MRI := /usr/share/mricron/templates/ch2.nii.gz
 test-asan: deps-robust $(BA)/picvr-tests $(BA)/picvr-render
 	cd $(BA) && $(ASAN_ENV) PICVR_VALIDATION=1 PICVR_TEST_FILTER='$(ASAN_TESTS)' PICVR_DATA=$(abspath $(DATA)) ./picvr-tests
