@@ -250,8 +250,24 @@ for key in '"pixels_unsampled": 0' '"count": 4' '"orbit_degrees": 30' '"pixels_u
     if grep -q -e "$key" "$T/frames.json"; then pass=$((pass + 1)); else
         fail=$((fail + 1)); echo "check_cli: FAIL: --json lacks $key"; fi
 done
+# The light field: its options refused out of range; --render field deterministic (two
+# seeds, the same PNG, byte for byte); field-mc renders for a time.
+expect 2 "bad value for --render" $F --render fields
+expect 2 "bad value for --field-ratio" $F --render field --field-ratio 9
+expect 2 "bad value for --field-directions" $F --render field --field-directions 33
+expect 2 "bad value for --field-step" $F --render field --field-step 0.1
+expect 2 "leave --time and --iterations out" $F --render field --time 100
+expect 2 "renders without the cache" $F --render field --cache object
+expect 0 "mean_luminance" $F --render field --bounces unlimited --seed 1 --out "$T/field1.png"
+expect 0 "mean_luminance" $F --render field --bounces unlimited --seed 9 --out "$T/field9.png" --json "$T/field.json"
+if cmp -s "$T/field1.png" "$T/field9.png"; then pass=$((pass + 1)); else
+    fail=$((fail + 1)); echo "check_cli: FAIL: --render field differs between seeds"; fi
+if grep -q '"field_builds": 1' "$T/field.json"; then pass=$((pass + 1)); else
+    fail=$((fail + 1)); echo "check_cli: FAIL: --json lacks field_builds 1"; fi
+expect 0 "mean_luminance" $F --render field-mc --bounces unlimited --time 200
 for key in '--bounces N|unlimited' '--g G' '--phase-back G,W' '--env FILE' '--env-rotate DEG' \
-           '--env-intensity X' 'sun-sky' 'cloud-iso' '--frames N' '--frame-ms MS' '--orbit DEG' '--reuse on|off'; do
+           '--env-intensity X' 'sun-sky' 'cloud-iso' '--frames N' '--frame-ms MS' '--orbit DEG' '--reuse on|off' \
+           '--render mc|field|field-mc' '--field-ratio N' '--field-directions D' '--field-step S'; do
     expect 0 "$key" --help
 done
 
