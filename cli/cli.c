@@ -280,6 +280,14 @@ int pvc_parse_transmittance(const char *text, picvr_transmittance_estimator *out
     return 0;
 }
 
+int pvc_parse_render_mode(const char *text, picvr_render_mode *out)
+{
+    static const char *const names[] = {"default", "mc", "field", "field-mc"};
+    for (int i = PICVR_RENDER_MC; i <= PICVR_RENDER_FIELD_MC; i++)
+        if (!strcmp(text, names[i])) { *out = (picvr_render_mode)i; return 1; }
+    return 0;
+}
+
 int pvc_in_list(const char *list, const char *name)
 {
     if (!list) return 1;

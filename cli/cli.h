@@ -136,6 +136,8 @@ const char *pvc_distance_sampling_name(picvr_distance_sampling d);
 const char *pvc_transmittance_name(picvr_transmittance_estimator t);
 int pvc_parse_distance_sampling(const char *text, picvr_distance_sampling *out);
 int pvc_parse_transmittance(const char *text, picvr_transmittance_estimator *out);
+/* "mc", "field" or "field-mc" (picvr_field_config.mode). */
+int pvc_parse_render_mode(const char *text, picvr_render_mode *out);
 
 /* Whether name is one of the comma-separated list's items (a NULL list holds all). */
 int pvc_in_list(const char *list, const char *name);

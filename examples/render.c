@@ -393,13 +393,7 @@ static int apply_cache_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "priorities")) return pvc_parse_switch(value, &o->priorities);
     if (!strcmp(name, "sampling")) return pvc_parse_distance_sampling(value, &o->distance_sampling);
     if (!strcmp(name, "transmittance")) return pvc_parse_transmittance(value, &o->transmittance);
-    if (!strcmp(name, "render")) {
-        if (!strcmp(value, "mc")) o->render_mode = PICVR_RENDER_MC;
-        else if (!strcmp(value, "field")) o->render_mode = PICVR_RENDER_FIELD;
-        else if (!strcmp(value, "field-mc")) o->render_mode = PICVR_RENDER_FIELD_MC;
-        else return 0;
-        return 1;
-    }
+    if (!strcmp(name, "render")) return pvc_parse_render_mode(value, &o->render_mode);
     if (!strcmp(name, "field-ratio")) return pvc_parse_u32(value, 1, 8, &o->field_ratio);
     if (!strcmp(name, "field-step"))
         return pvc_parse_float(value, &o->field_step) && o->field_step >= 0.125f && o->field_step <= 64.0f;

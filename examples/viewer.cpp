@@ -220,13 +220,7 @@ static int apply_scene_option(void *target, const char *name, const char *value)
     if (!strcmp(name, "cache")) return pvc_parse_cache_mode(value, &o->cache);
     if (!strcmp(name, "priorities")) return pvc_parse_switch(value, &o->priorities);
     if (!strcmp(name, "reuse")) return pvc_parse_switch(value, &o->reuse);
-    if (!strcmp(name, "render")) {
-        if (!strcmp(value, "mc")) o->render = PICVR_RENDER_MC;
-        else if (!strcmp(value, "field")) o->render = PICVR_RENDER_FIELD;
-        else if (!strcmp(value, "field-mc")) o->render = PICVR_RENDER_FIELD_MC;
-        else return 0;
-        return 1;
-    }
+    if (!strcmp(name, "render")) return pvc_parse_render_mode(value, &o->render);
     return -1;
 }
 
